@@ -1,0 +1,5 @@
+import sys
+
+from vcran.cli import main
+
+sys.exit(main())

@@ -1,0 +1,48 @@
+"""The ``vcran`` console command: one subcommand per module in :mod:`vcran.commands` (SPEC §8).
+
+Each command module exposes ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``.
+Command modules import their heavy dependencies inside ``run`` so that ``vcran --help`` and the fast
+commands start quickly; the CLI is the one place that wires scenario, environment and transport together.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+#: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
+COMMANDS: dict[str, str] = {
+    "run": "run",
+    "gen": "gen",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="vcran",
+        description="Headless, deterministic fleet simulator for FIWARE/OPIL robot fleets (VC-RAN).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, module_name in COMMANDS.items():
+        module = importlib.import_module(f"vcran.commands.{module_name}")
+        command = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(command)
+        command.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except KeyboardInterrupt:
+        print("vcran: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

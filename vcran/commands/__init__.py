@@ -1,0 +1,1 @@
+"""Subcommands of ``vcran`` (see :mod:`vcran.cli`)."""

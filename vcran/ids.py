@@ -1,0 +1,112 @@
+"""Task, motion, action and robot ids (`mars_common_msgs/Id`).
+
+On the wire an id is sixteen bytes plus a free-text description; two ids are the same id when their
+bytes are equal, whatever their descriptions say (SPEC §2). Scenario files name ids with plain strings, so
+this module also owns the one mapping from a name to bytes. That mapping is part of vcran's public
+contract: a recorded trace or a fleet manager's database may hold the uuids, so it must never change.
+
+The mapping (documented in docs/ids.md):
+
+* a name that is already a canonical uuid string (``8-4-4-4-12`` hex digits, any case) maps to exactly
+  those bytes and keeps the name as its description;
+* any other name maps to ``uuid5(VCRAN_NAMESPACE, name)`` with the name as its description, where
+  ``VCRAN_NAMESPACE = uuid5(NAMESPACE_URL, "https://github.com/vcran/vcran/ids")``.
+"""
+
+from __future__ import annotations
+
+import re
+import uuid as _uuid
+from dataclasses import dataclass
+
+VCRAN_NAMESPACE = _uuid.uuid5(_uuid.NAMESPACE_URL, "https://github.com/vcran/vcran/ids")
+
+#: The description OPIL's task planner puts on ids it does not use (see the reference cancel_order).
+NOT_SUPPORTED = "not supported"
+
+_CANONICAL = re.compile(r"^[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}$")
+
+
+class IdError(ValueError):
+    """An id that cannot exist on the wire: wrong length, a byte outside 0..255, a bad string."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Id:
+    """A `mars_common_msgs/Id`: equal and hashed by its uuid bytes only."""
+
+    uuid: bytes
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.uuid, bytes):
+            raise IdError(f"uuid must be bytes, got {type(self.uuid).__name__}")
+        if len(self.uuid) != 16:
+            raise IdError(f"uuid must have 16 bytes, got {len(self.uuid)}")
+        if not isinstance(self.description, str):
+            raise IdError(f"description must be a string, got {type(self.description).__name__}")
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Id):
+            return self.uuid == other.uuid
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self.uuid)
+
+    def __repr__(self) -> str:
+        if self.description:
+            return f"Id({self.canonical!r}, {self.description!r})"
+        return f"Id({self.canonical!r})"
+
+    @property
+    def canonical(self) -> str:
+        """The canonical lower-case uuid string, e.g. ``05030602-0907-0300-0608-010107040503``."""
+        return str(_uuid.UUID(bytes=self.uuid))
+
+    @property
+    def label(self) -> str:
+        """How events and summaries name the id: its description, else its canonical uuid (SPEC §8)."""
+        return self.description or self.canonical
+
+    @property
+    def is_nil(self) -> bool:
+        return self.uuid == bytes(16)
+
+    @property
+    def is_unused(self) -> bool:
+        """Nil, or marked "not supported" as OPIL's planner does for a whole-task cancel (R8)."""
+        return self.is_nil or self.description == NOT_SUPPORTED
+
+    @classmethod
+    def from_octets(cls, octets: list[int] | tuple[int, ...], description: str = "") -> Id:
+        """Build from the wire's ``uint8[16]`` list, checking every element."""
+        if len(octets) != 16:
+            raise IdError(f"uuid must have 16 elements, got {len(octets)}")
+        for i, b in enumerate(octets):
+            if isinstance(b, bool) or not isinstance(b, int) or not 0 <= b <= 255:
+                raise IdError(f"uuid[{i}] must be an integer 0..255, got {b!r}")
+        return cls(bytes(octets), description)
+
+    @classmethod
+    def parse(cls, text: str, description: str | None = None) -> Id:
+        """Parse a canonical uuid string; the description defaults to none."""
+        if not _CANONICAL.match(text):
+            raise IdError(f"not a canonical uuid string: {text!r}")
+        return cls(_uuid.UUID(text).bytes, "" if description is None else description)
+
+    @property
+    def octets(self) -> list[int]:
+        return list(self.uuid)
+
+
+NIL = Id(bytes(16))
+
+
+def id_for(name: str) -> Id:
+    """The stable id of a scenario name (module docstring); the name becomes the description."""
+    if not isinstance(name, str) or not name:
+        raise IdError(f"an id name must be a non-empty string, got {name!r}")
+    if _CANONICAL.match(name):
+        return Id(_uuid.UUID(name).bytes, name)
+    return Id(_uuid.uuid5(VCRAN_NAMESPACE, name).bytes, name)

@@ -1,0 +1,184 @@
+"""The one description of every message's fields, shared by validation, plain JSON and the NGSI codec.
+
+Messages are frozen dataclasses whose annotations name ROS field types (``Float64``, ``UInt8``, nested
+messages, tuples of messages). From those annotations this module derives, once per class, a tuple of
+:class:`FieldSpec`. Three consumers read it: :meth:`Message.__post_init__` (a message validates itself,
+h11-style, so no invalid message exists anywhere in vcran), :mod:`vcran.plain` (trace and ``vcran decode``
+JSON) and :mod:`vcran.codec` (the OPIL/FIROS NGSI encoding, which needs the ROS type names for its
+``dataType`` metadata). Keeping the field list in one place means a new field cannot be validated but
+forgotten on the wire, or the other way round.
+"""
+
+from __future__ import annotations
+
+import math
+import typing
+from dataclasses import dataclass, fields
+from functools import cache
+from typing import Annotated, Any, ClassVar
+
+from vcran.ids import Id, IdError
+
+# ROS primitive types. The metadata string is the ROS name used in OPIL's dataType metadata.
+Float64 = Annotated[float, "float64"]
+Float32 = Annotated[float, "float32"]
+Int32 = Annotated[int, "int32"]
+UInt32 = Annotated[int, "uint32"]
+UInt8 = Annotated[int, "uint8"]
+String = Annotated[str, "string"]
+Bool = Annotated[bool, "bool"]
+
+INT_RANGES: dict[str, tuple[int, int]] = {
+    "int32": (-(2**31), 2**31 - 1),
+    "uint32": (0, 2**32 - 1),
+    "uint8": (0, 255),
+}
+FLOAT32_MAX = 3.4028234663852886e38
+
+
+class MessageError(ValueError):
+    """A message field holds a value the message cannot have.
+
+    ``path`` is the dotted field path inside the message (``sequence.sequence_number``); the codec
+    prefixes it with the attribute and turns it into an NGSI path. ``problem`` says what is wrong.
+    """
+
+    def __init__(self, path: str, problem: str) -> None:
+        super().__init__(f"{path}: {problem}" if path else problem)
+        self.path = path
+        self.problem = problem
+
+    def within(self, outer: str) -> MessageError:
+        """The same error seen from the enclosing message, one field further out."""
+        return MessageError(f"{outer}.{self.path}" if self.path else outer, self.problem)
+
+
+@dataclass(frozen=True, slots=True)
+class FieldSpec:
+    """One field of a message: its name, kind and ROS type.
+
+    kind is ``prim`` (ros is the primitive name), ``id`` (a mars_common_msgs/Id), ``msg`` (cls is a
+    nested message) or ``array`` (a tuple of cls messages, or of primitives when cls is None).
+    """
+
+    name: str
+    kind: str
+    ros: str
+    cls: type | None = None
+
+
+class Message:
+    """Base of every message: validates its fields on construction (see module docstring)."""
+
+    __slots__ = ()
+    ROS_TYPE: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        for spec in specs(type(self)):
+            value = getattr(self, spec.name)
+            try:
+                checked = _check(spec, value)
+            except MessageError as exc:
+                raise exc.within(spec.name) from None
+            if checked is not value:
+                object.__setattr__(self, spec.name, checked)
+        self._check_semantics()
+
+    def _check_semantics(self) -> None:
+        """Cross-field rules of one message type; raise MessageError naming the field."""
+
+
+def _check(spec: FieldSpec, value: Any) -> Any:
+    if spec.kind == "prim":
+        return check_primitive(spec.ros, value)
+    if spec.kind == "id":
+        if not isinstance(value, Id):
+            raise MessageError("", f"expected an Id, got {type(value).__name__}")
+        return value
+    if spec.kind == "msg":
+        if not isinstance(value, spec.cls):  # type: ignore[arg-type]
+            raise MessageError("", f"expected {spec.cls.__name__}, got {type(value).__name__}")  # type: ignore[union-attr]
+        return value
+    # array
+    if isinstance(value, list):
+        value = tuple(value)
+    if not isinstance(value, tuple):
+        raise MessageError("", f"expected an array, got {type(value).__name__}")
+    for i, item in enumerate(value):
+        if spec.cls is not None and not isinstance(item, spec.cls):
+            raise MessageError(f"[{i}]", f"expected {spec.cls.__name__}, got {type(item).__name__}")
+    return value
+
+
+def check_primitive(ros: str, value: Any) -> Any:
+    """Check (and for floats, normalise) one primitive value; return what the message should hold."""
+    if ros in ("float64", "float32"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise MessageError("", f"expected a number, got {type(value).__name__}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise MessageError("", f"number must be finite, got {value!r}")
+        if ros == "float32" and abs(value) > FLOAT32_MAX:
+            raise MessageError("", f"number {value!r} does not fit a float32")
+        return value
+    if ros in INT_RANGES:
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise MessageError("", f"expected an integer, got {type(value).__name__} {value!r}")
+        lo, hi = INT_RANGES[ros]
+        if not lo <= value <= hi:
+            raise MessageError("", f"{value} is outside the {ros} range {lo}..{hi}")
+        return value
+    if ros == "string":
+        if not isinstance(value, str):
+            raise MessageError("", f"expected a string, got {type(value).__name__}")
+        return value
+    if ros == "bool":
+        if not isinstance(value, bool):
+            raise MessageError("", f"expected a boolean, got {type(value).__name__}")
+        return value
+    raise AssertionError(f"unknown primitive {ros}")
+
+
+@cache
+def specs(cls: type) -> tuple[FieldSpec, ...]:
+    """The field specs of a message class, derived once from its annotations."""
+    hints = typing.get_type_hints(cls, include_extras=True)
+    out = []
+    for f in fields(cls):
+        out.append(_spec(f.name, hints[f.name]))
+    return tuple(out)
+
+
+def _spec(name: str, hint: Any) -> FieldSpec:
+    if typing.get_origin(hint) is Annotated:
+        return FieldSpec(name, "prim", hint.__metadata__[0])
+    if hint is Id:
+        return FieldSpec(name, "id", "mars_common_msgs.Id", Id)
+    if typing.get_origin(hint) is tuple:
+        elem = typing.get_args(hint)[0]
+        if typing.get_origin(elem) is Annotated:
+            return FieldSpec(name, "array", elem.__metadata__[0] + "[]", None)
+        return FieldSpec(name, "array", elem.ROS_TYPE.replace(".", "/", 1) + "[]", elem)
+    if isinstance(hint, type) and issubclass(hint, Message):
+        return FieldSpec(name, "msg", hint.ROS_TYPE, hint)
+    raise TypeError(f"field {name}: unsupported annotation {hint!r}")
+
+
+__all__ = [
+    "Bool",
+    "FieldSpec",
+    "Float32",
+    "Float64",
+    "Id",
+    "IdError",
+    "Int32",
+    "Message",
+    "MessageError",
+    "String",
+    "UInt32",
+    "UInt8",
+    "check_primitive",
+    "specs",
+]
