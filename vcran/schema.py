@@ -160,6 +160,8 @@ def _spec(name: str, hint: Any) -> FieldSpec:
         elem = typing.get_args(hint)[0]
         if typing.get_origin(elem) is Annotated:
             return FieldSpec(name, "array", elem.__metadata__[0] + "[]", None)
+        if elem is Id:
+            return FieldSpec(name, "array", "mars_common_msgs/Id[]", Id)
         return FieldSpec(name, "array", elem.ROS_TYPE.replace(".", "/", 1) + "[]", elem)
     if isinstance(hint, type) and issubclass(hint, Message):
         return FieldSpec(name, "msg", hint.ROS_TYPE, hint)

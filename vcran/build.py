@@ -1,0 +1,97 @@
+"""Build inbound messages from names and numbers: what scenario scripts, tests and users write.
+
+Ids come from names through the stable mapping of :func:`vcran.ids.id_for`. Actions are named by kind
+(``"load"``, ``"unload"``, ``"dummy"``), encoded with OPIL's categories (10, 20, 5), which is what OPIL's
+task planner sends; a raw ``(category, action)`` pair can be given instead.
+"""
+
+from __future__ import annotations
+
+from vcran.ids import NIL, NOT_SUPPORTED, Id, id_for
+from vcran.messages import (
+    Accel,
+    ActionAssignment,
+    ActionKind,
+    CancelTask,
+    Header,
+    MotionAssignment,
+    PolygonStamped,
+    Pose2D,
+    RobotAction,
+    Sequence,
+    Time,
+    Twist,
+    Vector3,
+)
+
+#: The category each kind is sent with (OPIL ``RobotAction`` constants).
+CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20}
+
+
+def motion(
+    task: str | Id,
+    name: str | Id,
+    seq: int,
+    length: int,
+    x: float,
+    y: float,
+    theta: float = 0.0,
+    *,
+    use_orientation: bool = False,
+    is_waypoint: bool | None = None,
+    max_velocity: float = 0.0,
+    max_acceleration: float = 0.0,
+    area: list[tuple[float, float]] | None = None,
+    stamp: float = 0.0,
+) -> MotionAssignment:
+    """A motion assignment; ``is_waypoint`` defaults to "not the last point of the path"."""
+    return MotionAssignment(
+        header=Header(0, Time.from_seconds(stamp), ""),
+        point_id=_id(name),
+        task_id=_id(task),
+        motion_id=_id(name),
+        point=Pose2D(x, y, theta),
+        is_waypoint=(seq < length) if is_waypoint is None else is_waypoint,
+        use_orientation=use_orientation,
+        max_velocity=Twist(Vector3(max_velocity, 0.0, 0.0), Vector3()),
+        max_acceleration=Accel(Vector3(max_acceleration, 0.0, 0.0), Vector3()),
+        motion_area=PolygonStamped.from_xy(area or []),
+        sequence=Sequence(seq, length),
+    )
+
+
+def action(
+    task: str | Id,
+    name: str | Id,
+    seq: int,
+    length: int,
+    kind: str | ActionKind = ActionKind.DUMMY,
+    *,
+    category: int | None = None,
+    code: int | None = None,
+    description: str = "",
+) -> ActionAssignment:
+    """An action assignment by kind, or by raw ``category``/``code`` when either is given."""
+    if category is None and code is None:
+        category, code = CATEGORY_OF[ActionKind(kind)], 0
+    return ActionAssignment(
+        action_id=_id(name),
+        task_id=_id(task),
+        sequence=Sequence(seq, length),
+        robot_action=RobotAction(category or 0, code or 0, (), description),
+    )
+
+
+def cancel(task: str | Id, *, motion: str | Id | None = None, action: str | Id | None = None) -> CancelTask:
+    """A whole-task cancel as OPIL sends it (unused ids "not supported"), or a partial one if named."""
+    unused = Id(NIL.uuid[:-1] + b"\x01", NOT_SUPPORTED)
+    return CancelTask(
+        task_id=_id(task),
+        action_id=unused if action is None else _id(action),
+        motion_id=unused if motion is None else _id(motion),
+    )
+
+
+def _id(name: str | Id) -> Id:
+    return name if isinstance(name, Id) else id_for(name)
+

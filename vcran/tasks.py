@@ -1,0 +1,126 @@
+"""A task under assembly: its positions, and the sequence rules R2–R5 as small pure queries.
+
+RanLogic owns the state machine; this module owns "what has been received for a task and what does
+that allow". Positions are 1-based. Motions occupy ``1..m`` and actions ``m+1..length`` (R2); ``m`` is
+known once R3 holds, which is also the moment the whole path can go to the AGV.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from vcran.effects import Reason
+from vcran.ids import Id
+from vcran.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
+
+
+def assignment_id(a: Assignment) -> Id:
+    return a.motion_id if isinstance(a, MotionAssignment) else a.action_id
+
+
+def kind_of(a: Assignment) -> str:
+    return "motion" if isinstance(a, MotionAssignment) else "action"
+
+
+@dataclass(slots=True, eq=False)
+class Task:
+    """One task id's assignments and progress. Lives in the queue until it ends, then in the history."""
+
+    id: Id
+    first_seen: float
+    arrival: int
+    length: int
+    deadline: float
+    slots: dict[int, Assignment] = field(default_factory=dict)
+    #: (kind, assignment id) -> position, for duplicate and replacement lookups (R10).
+    where: dict[tuple[str, Id], int] = field(default_factory=dict)
+    #: Number of motions, fixed when the path is dispatched (R3); None before.
+    m: int | None = None
+    motions_done: int = 0
+    #: Position of the next action to dispatch, and whether one is running.
+    next_action: int = 0
+    action_running: bool = False
+    #: Why the task is ending while its running leg or action finishes (R8), if it is.
+    ending: Reason | None = None
+    #: The cancel that is ending it, kept for the history so that its re-reads stay silent (R10).
+    cancel: CancelTask | None = None
+
+    # --- R2 ---------------------------------------------------------------------------------------------
+
+    def position_problem(self, a: Assignment, replacing: int | None) -> tuple[str, str] | None:
+        """Why ``a`` cannot take its position (code, message), or None. ``replacing`` is ignored (R10)."""
+        pos, length = a.sequence.sequence_number, a.sequence.length
+        if length != self.length:
+            return "length_mismatch", f"sequence length {length} differs from the task's length {self.length} [R2]"
+        other = self.slots.get(pos)
+        if other is not None and pos != replacing:
+            return "position_taken", (
+                f"position {pos} already holds {kind_of(other)} {assignment_id(other).label} [R2]"
+            )
+        for p, b in self.slots.items():
+            if p == replacing:
+                continue
+            if isinstance(a, MotionAssignment) and isinstance(b, ActionAssignment) and p < pos:
+                return "kind_order", f"motion at position {pos} after action at position {p} [R2]"
+            if isinstance(a, ActionAssignment) and isinstance(b, MotionAssignment) and p > pos:
+                return "kind_order", f"action at position {pos} before motion at position {p} [R2]"
+        return None
+
+    def put(self, a: Assignment, replacing: int | None) -> None:
+        if replacing is not None:
+            del self.slots[replacing]
+        pos = a.sequence.sequence_number
+        self.slots[pos] = a
+        self.where[(kind_of(a), assignment_id(a))] = pos
+
+    def lookup(self, a: Assignment) -> int | None:
+        return self.where.get((kind_of(a), assignment_id(a)))
+
+    # --- R3, R4, R5 -------------------------------------------------------------------------------------
+
+    def motion_count(self) -> int | None:
+        """``m`` when R3 holds (positions 1..m are motions and m == length or m+1 is an action)."""
+        if self.m is not None:
+            return self.m
+        first_action = min((p for p, a in self.slots.items() if isinstance(a, ActionAssignment)), default=None)
+        motions = sum(1 for a in self.slots.values() if isinstance(a, MotionAssignment))
+        m = self.length if first_action is None else first_action - 1
+        return m if motions == m else None
+
+    def actions_complete(self) -> bool:
+        """R4, given that R3 holds: every position m+1..length is a received action."""
+        m = self.motion_count()
+        return m is not None and len(self.slots) == self.length
+
+    @property
+    def assembled(self) -> bool:
+        """R5: every position is received."""
+        return len(self.slots) == self.length
+
+    def path(self) -> tuple[MotionAssignment, ...]:
+        assert self.m is not None
+        return tuple(self.slots[p] for p in range(1, self.m + 1))  # type: ignore[misc]
+
+    def action_at(self, pos: int) -> ActionAssignment:
+        a = self.slots[pos]
+        assert isinstance(a, ActionAssignment)
+        return a
+
+    def dispatched(self, pos: int) -> bool:
+        """Whether the assignment at ``pos`` has gone to the AGV or AgvAction (R10 replacement limit)."""
+        if self.m is None:
+            return False
+        if pos <= self.m:
+            return True
+        return pos < self.next_action or (pos == self.next_action and self.action_running)
+
+
+@dataclass(slots=True, eq=False)
+class Ended:
+    """A finished task in the history (R9), or a tombstone left by a cancel for an unknown id (R8)."""
+
+    task: Task | None
+    reason: Reason | None  # None: completed
+    time: float
+    #: The last cancel received for this id, so that re-reads of it stay silent (R10).
+    cancel: CancelTask | None = None
