@@ -1,0 +1,39 @@
+"""A recording transport: a wrapper that writes every message to a trace, then passes it on (SPEC §6)."""
+
+from __future__ import annotations
+
+import simpy
+
+from transports.base import Deliver, Transport
+from vcran.trace import TraceWriter
+from vcran.wire import Frame, Inbound, Outbound
+
+
+class RecordingTransport(Transport):
+    def __init__(self, inner: Transport, writer: TraceWriter) -> None:
+        self.inner, self.writer = inner, writer
+        self._env: simpy.Environment | None = None
+
+    def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
+        self._env = env
+
+        def recorded(inbound: Inbound) -> None:
+            self.writer.inbound(env.now, inbound)
+            deliver(inbound)
+
+        self.inner.attach(env, recorded)
+
+    def send(self, out: Outbound) -> None:
+        if isinstance(out, Frame):
+            self.writer.frame(out)
+        else:
+            self.writer.publish(out)
+        self.inner.send(out)
+
+    @property
+    def exhausted(self) -> bool:
+        return self.inner.exhausted
+
+    def close(self) -> None:
+        self.writer.close()
+        self.inner.close()

@@ -1,0 +1,51 @@
+"""The scripted transport: the scenario's message script plays the fleet manager (the seed's JMeter file).
+
+Inbound messages enter at their script times, as fast as the simulation runs. Outbound messages are kept
+the way Orion keeps them: the latest value per robot and attribute (plus counts), so memory stays flat
+however long the run; the full outbound stream is the recording wrapper's business.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable
+
+import simpy
+
+from transports.base import Deliver, Transport
+from vcran.messages import Message
+from vcran.scenario import ScriptEntry
+from vcran.sim.timing import INBOUND, at
+from vcran.wire import Frame, Inbound, Outbound, Publish
+
+
+class ScriptedTransport(Transport):
+    def __init__(self, script: Iterable[ScriptEntry]) -> None:
+        self._script = sorted(script, key=lambda e: e.t)  # stable: equal times keep script order
+        self._delivered = 0
+        self.latest: dict[tuple[str, str], Message] = {}
+        self.last_frame: Frame | None = None
+        self.counts: Counter[str] = Counter()
+
+    def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
+        env.process(self._play(env, deliver))
+
+    def _play(self, env: simpy.Environment, deliver: Deliver):  # type: ignore[no-untyped-def]
+        for entry in self._script:
+            if entry.t > env.now:
+                yield at(env, entry.t, INBOUND)
+            deliver(Inbound(entry.robot, entry.attribute, entry.message, entry.raw))
+            self._delivered += 1
+
+    @property
+    def exhausted(self) -> bool:
+        return self._delivered == len(self._script)
+
+    def send(self, out: Outbound) -> None:
+        if isinstance(out, Frame):
+            self.last_frame = out
+            self.counts["current_motion"] += len(out.robots)
+        else:
+            assert isinstance(out, Publish)
+            self.latest[(out.robot, out.attribute)] = out.message
+            self.counts[out.attribute] += 1

@@ -1,0 +1,491 @@
+"""Scenario files (TOML): the fleet, the stations, the settings and the fleet manager's message script.
+
+The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
+an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
+the entry and the field, before anything runs. A scenario is plain data; the model builds the running
+objects from it, so one scenario can run any number of times (fuzzing, determinism tests).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from vcran import build
+from vcran.ids import IdError
+from vcran.messages import INBOUND, ActionKind, Message
+from vcran.orion_rules import FORBIDDEN_CHARS, identifier_error
+from vcran.schema import MessageError
+
+ACTION_KINDS = tuple(k.value for k in ActionKind)
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot run; the message names the file, the entry and the field."""
+
+
+@dataclass(frozen=True, slots=True)
+class Settings:
+    name: str = "scenario"
+    seed: int = 0
+    duration: float | None = None
+    until_idle: bool = False
+    task_timeout: float = 30.0
+    history_limit: int = 10_000
+    telemetry_period: float = 1.0
+    description_period: float = 60.0
+    entity_type: str = "ROBOT"
+    durations: dict[str, float] = field(default_factory=lambda: {"dummy": 1.0, "load": 5.0, "unload": 5.0})
+
+
+@dataclass(frozen=True, slots=True)
+class RobotConfig:
+    id: str
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    max_velocity: float = 1.0
+    max_acceleration: float = 0.0
+    max_deceleration: float = 0.0
+    max_angular_velocity: float = 0.0
+    footprint: tuple[tuple[float, float], ...] = ((0.27, 0.35), (-0.87, 0.35), (-0.87, -0.35), (0.27, -0.35))
+    actions: tuple[str, ...] = ACTION_KINDS
+    capacity: int = 1
+    carrying: int = 0
+    vendor: str = "vcran"
+
+
+@dataclass(frozen=True, slots=True)
+class StationConfig:
+    id: str
+    position: tuple[float, float]
+    reach: float = 1.0
+    area: tuple[tuple[float, float], ...] = ()
+    parts: int = 0
+    capacity: int = 1_000_000
+    produce_every: float = 0.0
+    produce_start: float | None = None
+    produce_limit: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class ScriptEntry:
+    """One message of the script: at ``t``, ``attribute`` of ``robot`` becomes ``message`` (or ``raw``)."""
+
+    t: float
+    robot: str
+    attribute: str
+    message: Message | None = None
+    #: An NGSI attribute as JSON, decoded by the RAN like a live one: how scripts exercise R12.
+    raw: Any = None
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    settings: Settings
+    robots: tuple[RobotConfig, ...]
+    stations: tuple[StationConfig, ...]
+    script: tuple[ScriptEntry, ...]
+    source: str = "<scenario>"
+
+    def fleet_dict(self) -> dict[str, Any]:
+        """Everything but the script, as JSON that :func:`parse` reads back: a trace header carries it."""
+        s = self.settings
+        return _drop_none({
+            "simulation": {
+                "name": s.name, "seed": s.seed, "duration": s.duration, "until_idle": s.until_idle,
+                "task_timeout": s.task_timeout, "history_limit": s.history_limit,
+                "telemetry_period": s.telemetry_period, "description_period": s.description_period,
+                "entity_type": s.entity_type, "action_durations": dict(s.durations),
+            },
+            "robots": [
+                {
+                    "id": r.id, "pose": list(r.pose), "max_velocity": r.max_velocity,
+                    "max_acceleration": r.max_acceleration, "max_deceleration": r.max_deceleration,
+                    "max_angular_velocity": r.max_angular_velocity, "footprint": [list(p) for p in r.footprint],
+                    "actions": list(r.actions), "capacity": r.capacity, "carrying": r.carrying, "vendor": r.vendor,
+                }
+                for r in self.robots
+            ],
+            "stations": [
+                {
+                    "id": st.id, "position": list(st.position), "reach": st.reach,
+                    "area": [list(p) for p in st.area], "parts": st.parts, "capacity": st.capacity,
+                    "produce_every": st.produce_every, "produce_start": st.produce_start,
+                    "produce_limit": st.produce_limit,
+                }
+                for st in self.stations
+            ],
+        })
+
+
+def _drop_none(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _drop_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, list):
+        return [_drop_none(v) for v in value]
+    return value
+
+
+def load(path: str | Path) -> Scenario:
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            data = tomllib.load(f)
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    return parse(data, str(path), default_name=path.stem)
+
+
+def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = "scenario") -> Scenario:
+    top = Table(data, source, "")
+    settings = _settings(top.table("simulation"), default_name)
+    robots = tuple(_robot(t) for t in top.tables("robots"))
+    if not robots:
+        raise ScenarioError(f"{source}: at least one [[robots]] entry is needed")
+    stations = tuple(_station(t) for t in top.tables("stations"))
+    script_tables = top.tables("script")
+    top.done()
+    _unique(source, "robots", [r.id for r in robots])
+    _unique(source, "stations", [s.id for s in stations])
+    known = {r.id for r in robots}
+    script: list[ScriptEntry] = []
+    for t in script_tables:
+        script.extend(_script_entry(t, known))
+    script.sort(key=lambda e: e.t)  # stable: equal times keep file order
+    if settings.duration is None and not settings.until_idle:
+        raise ScenarioError(f"{source}: [simulation]: set duration, or until_idle = true")
+    return Scenario(settings, robots, stations, tuple(script), source)
+
+
+# --- sections -------------------------------------------------------------------------------------------
+
+
+def _settings(t: Table, default_name: str) -> Settings:
+    durations = t.table("action_durations")
+    d = {k: durations.number(k, Settings().durations[k], minimum=0.0) for k in ACTION_KINDS}
+    durations.done()
+    s = Settings(
+        name=t.string("name", default_name),
+        seed=t.integer("seed", 0),
+        duration=t.number("duration", None, minimum=0.0),
+        until_idle=t.boolean("until_idle", False),
+        task_timeout=t.number("task_timeout", 30.0, positive=True),
+        history_limit=t.integer("history_limit", 10_000, minimum=1),
+        telemetry_period=t.number("telemetry_period", 1.0, positive=True),
+        description_period=t.number("description_period", 60.0, positive=True),
+        entity_type=t.string("entity_type", "ROBOT"),
+        durations=d,
+    )
+    problem = identifier_error("entity type", s.entity_type)
+    if problem:
+        t.fail("entity_type", problem)
+    t.done()
+    return s
+
+
+def _robot(t: Table) -> RobotConfig:
+    rid = t.string("id")
+    problem = identifier_error("entity id", rid)
+    if problem:
+        t.fail("id", f"{problem}: robot ids are Orion entity ids")
+    for other in ("agv_id", "ranlogic_id"):
+        value = t.string(other, rid)
+        if value != rid:
+            t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
+    accel = t.number("max_acceleration", 0.0, minimum=0.0)
+    actions = t.strings("actions", list(ACTION_KINDS))
+    for a in actions:
+        if a not in ACTION_KINDS:
+            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
+    r = RobotConfig(
+        id=rid,
+        pose=t.triple("pose", (0.0, 0.0, 0.0)),
+        max_velocity=t.number("max_velocity", 1.0, positive=True),
+        max_acceleration=accel,
+        max_deceleration=t.number("max_deceleration", accel, minimum=0.0),
+        max_angular_velocity=t.number("max_angular_velocity", 0.0, minimum=0.0),
+        footprint=tuple(footprint),
+        actions=tuple(actions),
+        capacity=t.integer("capacity", 1, minimum=0),
+        carrying=t.integer("carrying", 0, minimum=0),
+        vendor=t.text("vendor", "vcran"),
+    )
+    if r.carrying > r.capacity:
+        t.fail("carrying", f"{r.carrying} exceeds capacity {r.capacity}")
+    t.done()
+    return r
+
+
+def _station(t: Table) -> StationConfig:
+    area = t.points("area", [])
+    if area and len(area) < 3:
+        t.fail("area", "a polygon needs at least 3 points")
+    s = StationConfig(
+        id=t.string("id"),
+        position=t.pair("position"),
+        reach=t.number("reach", 1.0, positive=True),
+        area=tuple(area),
+        parts=t.integer("parts", 0, minimum=0),
+        capacity=t.integer("capacity", 1_000_000, minimum=0),
+        produce_every=t.number("produce_every", 0.0, minimum=0.0),
+        produce_start=t.number("produce_start", None, minimum=0.0),
+        produce_limit=t.integer("produce_limit", 0, minimum=0),
+    )
+    if s.parts > s.capacity:
+        t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
+    t.done()
+    return s
+
+
+def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry]:
+    time = t.number("t", minimum=0.0)
+    robot = t.string("robot")
+    if robot not in robots:
+        t.fail("robot", f"no robot {robot!r} in this scenario (R11); robots: {', '.join(sorted(robots))}")
+    kind = t.string("kind")
+    try:
+        entries = _EXPANDERS[kind](t, time, robot) if kind in _EXPANDERS else None
+    except (MessageError, IdError) as exc:
+        t.fail(kind, str(exc))
+    if entries is None:
+        t.fail("kind", f"unknown kind {kind!r}; known: {', '.join(_EXPANDERS)}")
+    t.done()
+    return entries
+
+
+def _motion(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    seq, length = t.sequence("seq")
+    x, y, theta = t.triple("point")
+    m = build.motion(
+        t.name("task"), t.name("id"), seq, length, x, y, theta,
+        use_orientation=t.boolean("use_orientation", False),
+        is_waypoint=t.boolean("is_waypoint", seq < length),
+        max_velocity=t.number("max_velocity", 0.0, minimum=0.0),
+        max_acceleration=t.number("max_acceleration", 0.0, minimum=0.0),
+        area=t.points("area", []),
+        stamp=time,
+    )
+    return [ScriptEntry(time, robot, "motion_assignment", m)]
+
+
+def _action(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    seq, length = t.sequence("seq")
+    category, code = t.integer("category", None), t.integer("code", None)
+    if category is not None or code is not None:
+        a = build.action(t.name("task"), t.name("id"), seq, length, category=category or 0, code=code or 0)
+    else:
+        kind = t.string("action")
+        if kind not in ACTION_KINDS:
+            t.fail("action", f"unknown action {kind!r}; known: {', '.join(ACTION_KINDS)} (or give category/code)")
+        a = build.action(t.name("task"), t.name("id"), seq, length, kind)
+    return [ScriptEntry(time, robot, "action_assignment", a)]
+
+
+def _cancel(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    motion, action = t.name("motion", None), t.name("action", None)
+    return [ScriptEntry(time, robot, "cancel_order", build.cancel(t.name("task"), motion=motion, action=action))]
+
+
+def _raw(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    attribute = t.string("attribute")
+    if attribute not in INBOUND:
+        t.fail("attribute", f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+    value = t.raw("value")
+    if isinstance(value, str):
+        try:
+            value = json.loads(value)
+        except json.JSONDecodeError as exc:
+            t.fail("value", f"not valid JSON: {exc}")
+    return [ScriptEntry(time, robot, attribute, raw=value)]
+
+
+def _task(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    """A whole task in one entry: its path's motions, then its actions, ``every`` seconds apart."""
+    task = t.name("task")
+    path = t.list_of("path", lambda i, v: _point(t, f"path[{i}]", v))
+    actions = t.strings("actions", [])
+    for a in actions:
+        if a not in ACTION_KINDS:
+            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    if not path and not actions:
+        t.fail("path", "a task needs at least one point or one action")
+    every = t.number("every", 0.0, minimum=0.0)
+    speed = t.number("max_velocity", 0.0, minimum=0.0)
+    length = len(path) + len(actions)
+    out = []
+    for i, (x, y, theta) in enumerate(path, start=1):
+        last_with_theta = i == len(path) and theta is not None
+        m = build.motion(task, f"{task}_m{i}", i, length, x, y, theta or 0.0,
+                         use_orientation=last_with_theta, max_velocity=speed, stamp=time + (i - 1) * every)
+        out.append(ScriptEntry(time + (i - 1) * every, robot, "motion_assignment", m))
+    for j, kind in enumerate(actions, start=1):
+        pos = len(path) + j
+        a = build.action(task, f"{task}_a{j}", pos, length, kind)
+        out.append(ScriptEntry(time + (pos - 1) * every, robot, "action_assignment", a))
+    return out
+
+
+def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
+    if not (isinstance(v, list) and len(v) in (2, 3) and all(_is_number(c) for c in v)):
+        t.fail(where, f"expected [x, y] or [x, y, theta], got {v!r}")
+    return float(v[0]), float(v[1]), (float(v[2]) if len(v) == 3 else None)
+
+
+_EXPANDERS = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task}
+
+
+def _unique(source: str, section: str, ids: list[str]) -> None:
+    seen: set[str] = set()
+    for i, x in enumerate(ids):
+        if x in seen:
+            raise ScenarioError(f"{source}: {section}[{i}]: field 'id': duplicate id {x!r}")
+        seen.add(x)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+_MISSING = object()
+
+
+class Table:
+    """Typed, strict reads from one TOML table; every failure names file, entry and field."""
+
+    def __init__(self, data: Any, source: str, where: str) -> None:
+        if not isinstance(data, dict):
+            raise ScenarioError(f"{source}: {where}: expected a table, got {type(data).__name__}")
+        self.data, self.source, self.where, self.used = data, source, where, set()
+
+    def fail(self, key: str, problem: str) -> Any:
+        where = f"{self.where}: " if self.where else ""
+        raise ScenarioError(f"{self.source}: {where}field {key!r}: {problem}")
+
+    def raw(self, key: str, default: Any = _MISSING) -> Any:
+        self.used.add(key)
+        if key in self.data:
+            return self.data[key]
+        if default is _MISSING:
+            self.fail(key, "missing")
+        return default
+
+    def done(self) -> None:
+        unknown = sorted(set(self.data) - self.used)
+        if unknown:
+            self.fail(unknown[0], "unknown key (a typo?)")
+
+    def table(self, key: str) -> Table:
+        return Table(self.raw(key, {}), self.source, self._sub(key))
+
+    def tables(self, key: str) -> list[Table]:
+        value = self.raw(key, [])
+        if not isinstance(value, list):
+            self.fail(key, f"expected an array of tables [[{key}]]")
+        return [Table(v, self.source, self._sub(f"{key}[{i}]")) for i, v in enumerate(value)]
+
+    def _sub(self, key: str) -> str:
+        return f"{self.where}.{key}" if self.where else key
+
+    def number(self, key: str, default: Any = _MISSING, *, minimum: float | None = None, positive: bool = False) -> Any:
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if not _is_number(v):
+            self.fail(key, f"expected a finite number, got {v!r}")
+        if positive and v <= 0:
+            self.fail(key, f"must be positive, got {v}")
+        if minimum is not None and v < minimum:
+            self.fail(key, f"must be at least {minimum}, got {v}")
+        return float(v)
+
+    def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> Any:
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if isinstance(v, bool) or not isinstance(v, int):
+            self.fail(key, f"expected an integer, got {v!r}")
+        if minimum is not None and v < minimum:
+            self.fail(key, f"must be at least {minimum}, got {v}")
+        return v
+
+    def boolean(self, key: str, default: Any = _MISSING) -> Any:
+        v = self.raw(key, default)
+        if not isinstance(v, bool):
+            self.fail(key, f"expected true or false, got {v!r}")
+        return v
+
+    def string(self, key: str, default: Any = _MISSING) -> Any:
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if not isinstance(v, str) or not v:
+            self.fail(key, f"expected a non-empty string, got {v!r}")
+        return v
+
+    def text(self, key: str, default: str) -> str:
+        """A string that will be published: Orion refuses some characters in values (SPEC §2)."""
+        return self._publishable(key, self.string(key, default))
+
+    def name(self, key: str, default: Any = _MISSING) -> Any:
+        """An id name (task, motion, action); an integer is its decimal string (task 100 = "100")."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if isinstance(v, int) and not isinstance(v, bool):
+            v = str(v)
+        if not isinstance(v, str) or not v:
+            self.fail(key, f"expected a non-empty string or an integer, got {v!r}")
+        return self._publishable(key, v)
+
+    def _publishable(self, key: str, v: str) -> str:
+        bad = sorted(set(v) & FORBIDDEN_CHARS)
+        if bad:
+            self.fail(key, f"contains {' '.join(bad)}, which Orion refuses in values")
+        return v
+
+    def strings(self, key: str, default: list[str]) -> list[str]:
+        v = self.raw(key, default)
+        if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
+            self.fail(key, f"expected a list of strings, got {v!r}")
+        return list(v)
+
+    def list_of(self, key: str, item: Any) -> list[Any]:
+        v = self.raw(key, [])
+        if not isinstance(v, list):
+            self.fail(key, f"expected a list, got {v!r}")
+        return [item(i, x) for i, x in enumerate(v)]
+
+    def pair(self, key: str, default: Any = _MISSING) -> tuple[float, float]:
+        v = self.raw(key, default)
+        if not (isinstance(v, (list, tuple)) and len(v) == 2 and all(_is_number(c) for c in v)):
+            self.fail(key, f"expected [x, y], got {v!r}")
+        return float(v[0]), float(v[1])
+
+    def triple(self, key: str, default: Any = _MISSING) -> tuple[float, float, float]:
+        v = self.raw(key, default)
+        if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(_is_number(c) for c in v)):
+            self.fail(key, f"expected [x, y, theta], got {v!r}")
+        return float(v[0]), float(v[1]), float(v[2])
+
+    def sequence(self, key: str) -> tuple[int, int]:
+        v = self.raw(key)
+        if not (isinstance(v, list) and len(v) == 2 and all(isinstance(c, int) and not isinstance(c, bool) for c in v)):
+            self.fail(key, f"expected [sequence_number, length], got {v!r}")
+        if not 1 <= v[0] <= v[1]:
+            self.fail(key, f"need 1 <= sequence_number <= length, got {v!r} (R2)")
+        return v[0], v[1]
+
+    def points(self, key: str, default: list[Any]) -> list[tuple[float, float]]:
+        v = self.raw(key, default)
+        ok = isinstance(v, list) and all(
+            isinstance(p, (list, tuple)) and len(p) == 2 and all(_is_number(c) for c in p) for p in v
+        )
+        if not ok:
+            self.fail(key, f"expected a list of [x, y] points, got {v!r}")
+        return [(float(p[0]), float(p[1])) for p in v]

@@ -1,0 +1,159 @@
+"""The model: builds the fleet from a scenario, wires it to a transport, runs it, sums it up.
+
+This is the one place where scenario, environment and transport meet inside the simulation (the CLI
+chooses which ones). The same code runs on ``simpy.Environment`` (scripted, replay: as fast as possible)
+and on ``simpy.rt.RealtimeEnvironment`` (live).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol
+
+import simpy
+
+from transports.base import Transport
+from vcran.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
+from vcran.messages import Message, MotionAssignment
+from vcran.motion import FleetKinematics
+from vcran.ranlogic import RanLogic
+from vcran.scenario import Scenario
+from vcran.sim.ran import Decode, Ran
+from vcran.sim.robot import RobotNode
+from vcran.sim.timing import END, PRODUCTION, at
+from vcran.stations import Station, area_problem
+from vcran.wire import Inbound
+
+
+class EventSink(Protocol):
+    def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None: ...
+
+
+def default_decode(attribute: str, raw: Any) -> Message:
+    from vcran.codec import decode_attribute  # imported on first raw payload only
+
+    return decode_attribute(attribute, raw)
+
+
+def motion_area_check(m: MotionAssignment) -> str | None:
+    """R12: a target outside a non-empty motion_area."""
+    points = m.motion_area.xy()
+    return area_problem(points, m.point.x, m.point.y) if points else None
+
+
+class Model:
+    def __init__(
+        self,
+        scenario: Scenario,
+        transport: Transport,
+        events: EventSink,
+        env: simpy.Environment | None = None,
+        decode: Decode = default_decode,
+    ) -> None:
+        self.scenario = scenario
+        self.env = env if env is not None else simpy.Environment()
+        self.transport = transport
+        self.events = events
+        s = scenario.settings
+        self.stations = [
+            Station(c.id, c.position[0], c.position[1], c.reach, c.parts, c.capacity, c.produce_every,
+                    c.produce_start if c.produce_start is not None else c.produce_every, c.produce_limit,
+                    c.area)
+            for c in scenario.stations
+        ]
+        self.fleet = FleetKinematics([r.pose for r in scenario.robots])
+        self.completed: dict[str, list[str]] = {r.id: [] for r in scenario.robots}
+        self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
+        self.fleet_errors = 0
+        self.robots: list[RobotNode] = []
+        for i, config in enumerate(scenario.robots):
+            logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
+                             area_check=motion_area_check)
+            self.robots.append(RobotNode(self.env, i, config, logic, self.fleet, self.stations, s.durations,
+                                         self._log, self._changed))
+        self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
+        self.finished = self.env.event()
+        self.env.process(self.ran.telemetry(s.telemetry_period, self._idle_stop))
+        self.env.process(self.ran.descriptions(s.description_period))
+        for station in self.stations:
+            if station.producing:
+                self.env.process(self._produce(station))
+        transport.attach(self.env, self.ran.deliver)
+
+    def run(self) -> float:
+        """Run to the scenario's end (duration, or idle); return the simulated end time."""
+        s = self.scenario.settings
+        if s.duration is not None:
+            at(self.env, s.duration, END).callbacks.append(self._finish)
+        self.env.run(until=self.finished)
+        return self.env.now
+
+    # --- wiring -----------------------------------------------------------------------------------------
+
+    def _log(self, robot: RobotNode, event: Event) -> None:
+        self.events.write(self.env.now, robot.id, event.NAME, event.fields())
+        if isinstance(event, TaskCompleted):
+            self.completed[robot.id].append(event.task.label)
+        elif isinstance(event, TaskCancelled):
+            self.cancelled[robot.id].append({"task": event.task.label, "reason": event.reason.value})
+        elif isinstance(event, ErrorReport):
+            self.ran.publish_error(robot, event)
+
+    def _changed(self, robot: RobotNode) -> None:
+        self.ran.changed(robot)
+
+    def _unknown_entity(self, inbound: Inbound) -> None:
+        """R11: an entity no RanLogic owns is reported and dropped."""
+        self.fleet_errors += 1
+        known = ", ".join(r.id for r in self.robots[:5]) + (", ..." if len(self.robots) > 5 else "")
+        self.events.write(self.env.now, inbound.entity, "rejected", {
+            "code": "unknown_robot", "severity": "error",
+            "message": f"{inbound.attribute} for entity {inbound.entity}, which no RanLogic owns; robots: {known} [R11]",
+        })
+
+    def _idle_stop(self) -> bool:
+        if not self.scenario.settings.until_idle or self.finished.triggered:
+            return self.finished.triggered
+        if self.transport.exhausted and all(r.logic.idle for r in self.robots):
+            # End after everything else of this instant (descriptions included): priority END.
+            at(self.env, self.env.now, END).callbacks.append(self._finish)
+            return True
+        return False
+
+    def _finish(self, _: object) -> None:
+        if not self.finished.triggered:
+            self.finished.succeed()
+
+    def _produce(self, station: Station):  # type: ignore[no-untyped-def]
+        k = 0
+        while True:
+            yield at(self.env, station.produce_start + k * station.produce_every, PRODUCTION)
+            station.produce()
+            k += 1
+
+    # --- results ----------------------------------------------------------------------------------------
+
+    def summary(self) -> dict[str, Any]:
+        """summary.json (SPEC §8): deterministic, no wall-clock figures."""
+        t = self.env.now
+        x, y, theta, _, _ = self.fleet.sample(t)
+        robots = {}
+        for r in self.robots:
+            robots[r.id] = {
+                "completed": self.completed[r.id],
+                "cancelled": self.cancelled[r.id],
+                "distance": self.fleet.distance(r.index, t),
+                "final_pose": {"x": float(x[r.index]), "y": float(y[r.index]), "theta": float(theta[r.index])},
+                "carrying": r.carrying,
+                "parts_moved": r.parts_moved,
+                "errors": r.logic.error_count,
+            }
+        return {
+            "scenario": self.scenario.settings.name,
+            "seed": self.scenario.settings.seed,
+            "sim_time": t,
+            "robots": robots,
+            "stations": {s.name: {"parts": s.parts, "produced": s.produced} for s in self.stations},
+            "errors": sum(r.logic.error_count for r in self.robots) + self.fleet_errors,
+        }
+
+

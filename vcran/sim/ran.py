@@ -1,0 +1,163 @@
+"""The RAN: routes inbound messages to robots by entity id, and publishes the fleet's state (seed §3.1).
+
+One RAN serves the whole fleet. Inbound, it decodes raw NGSI payloads (R12) and forwards each message
+to the RanLogic that owns the entity, or reports and drops it (R11). Outbound, one telemetry process
+samples every robot's pose in a single numpy sweep per tick (``current_motion`` as a :class:`Frame`) and
+publishes ``assignment_status`` and ``ran_status`` of the robots whose state changed since the last tick,
+so a tick costs O(changes), not O(robots) Python work. ``robot_description`` goes out at start and then
+every ``description_period``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Generator
+from typing import Any
+
+import simpy
+
+from transports.base import Transport
+from vcran.effects import ErrorReport
+from vcran.build import CATEGORY_OF
+from vcran.ids import id_for
+from vcran.messages import (
+    ActionKind,
+    AssignmentStatus,
+    Message,
+    RanError,
+    RobotAction,
+    RobotAgentProperties,
+    Time,
+)
+from vcran.sim.robot import Decoded, Malformed, RobotNode
+from vcran.sim.timing import TELEMETRY, at
+from vcran.wire import Frame, Inbound, Publish
+
+Decode = Callable[[str, Any], Message]
+
+
+class Ran:
+    def __init__(
+        self,
+        env: simpy.Environment,
+        robots: list[RobotNode],
+        transport: Transport,
+        decode: Decode,
+        reject_unknown: Callable[[Inbound], None],
+    ) -> None:
+        self.env, self.robots, self.transport = env, robots, transport
+        self._by_entity = {r.id: r for r in robots}
+        self._decode = decode
+        self._reject_unknown = reject_unknown
+        self.inbox = simpy.Store(env)
+        self._ids = tuple(r.id for r in robots)
+        self._dirty: list[RobotNode] = []
+        self._dirty_set: set[int] = set()
+        self._published: dict[tuple[int, str], Message] = {}
+        env.process(self._route())
+
+    # --- inbound ----------------------------------------------------------------------------------------
+
+    def deliver(self, inbound: Inbound) -> None:
+        """The transport's entry point: the message enters at ``env.now``."""
+        self.inbox.put(inbound)
+
+    def _route(self) -> Generator[simpy.events.Event, Any, None]:
+        while True:
+            inbound: Inbound = yield self.inbox.get()
+            robot = self._by_entity.get(inbound.entity)
+            if robot is None:
+                self._reject_unknown(inbound)
+                continue
+            if inbound.message is not None:
+                robot.inbox.put(Decoded(inbound.message))
+                continue
+            try:
+                message = self._decode(inbound.attribute, inbound.raw)
+            except ValueError as exc:  # the codec's error type is a ValueError
+                robot.inbox.put(Malformed(inbound.attribute, str(exc)))
+            else:
+                robot.inbox.put(Decoded(message))
+
+    # --- outbound ---------------------------------------------------------------------------------------
+
+    def changed(self, robot: RobotNode) -> None:
+        if robot.index not in self._dirty_set:
+            self._dirty_set.add(robot.index)
+            self._dirty.append(robot)
+
+    def publish_error(self, robot: RobotNode, error: ErrorReport) -> None:
+        message = RanError(
+            code=error.code, severity=error.severity, message=error.message, task_id=error.task,
+            motion_id=error.motion, action_id=error.action, stamp=Time.from_seconds(self.env.now),
+            count=error.count,
+        )
+        self.transport.send(Publish(self.env.now, robot.id, "ran_error", message))
+
+    def telemetry(self, period: float, stop_when_idle: Callable[[], bool]) -> Generator[simpy.events.Event, Any, None]:
+        """Every ``period``: the fleet's current_motion, then the changed statuses, in fleet order."""
+        fleet = self.robots[0].fleet if self.robots else None
+        k = 0
+        while True:
+            t = k * period
+            yield at(self.env, t, TELEMETRY)
+            if fleet is not None:
+                x, y, theta, v, w = fleet.sample(t)
+                self.transport.send(Frame(t, self._ids, x, y, theta, v, w))
+            if k == 0:  # everything is "changed" at start
+                for r in self.robots:
+                    self.changed(r)
+            dirty, self._dirty, self._dirty_set = sorted(self._dirty, key=lambda r: r.index), [], set()
+            for robot in dirty:
+                self._publish_if_new(t, robot, "assignment_status", self.assignment_status(robot))
+                self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status())
+            if stop_when_idle():
+                return
+            k += 1
+
+    def descriptions(self, period: float) -> Generator[simpy.events.Event, Any, None]:
+        j = 0
+        while True:
+            t = j * period
+            yield at(self.env, t, TELEMETRY)
+            for robot in self.robots:
+                self.transport.send(Publish(t, robot.id, "robot_description", description(robot)))
+            j += 1
+
+    def _publish_if_new(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
+        key = (robot.index, attribute)
+        if self._published.get(key) != message:
+            self._published[key] = message
+            self.transport.send(Publish(t, robot.id, attribute, message))
+
+    @staticmethod
+    def assignment_status(robot: RobotNode) -> AssignmentStatus:
+        logic = robot.logic
+        return AssignmentStatus(
+            current_task_id=logic.current_task,
+            current_motion_id=logic.current_motion,
+            current_action_id=logic.current_action,
+            last_finished_motion=logic.last_finished_motion,
+            last_finished_action=logic.last_finished_action,
+            footprint=robot.footprint,
+        )
+
+
+def description(robot: RobotNode) -> RobotAgentProperties:
+    """``robot_description`` from the robot's configuration (footprint, limits, capabilities)."""
+    c = robot.config
+    return RobotAgentProperties(
+        robot_id=id_for(c.id),
+        footprint=robot.footprint,
+        payload=float(c.capacity),
+        max_pos_x_vel=c.max_velocity,
+        max_neg_x_vel=c.max_velocity,
+        max_pos_x_acc=c.max_acceleration,
+        max_neg_x_acc=c.max_deceleration,
+        max_pos_ang_vel=c.max_angular_velocity,
+        max_neg_ang_vel=c.max_angular_velocity,
+        vendor=c.vendor,
+        action_capability=tuple(
+            RobotAction(CATEGORY_OF[ActionKind(a)], 0, (), a) for a in c.actions
+        ),
+    )
+

@@ -1,0 +1,55 @@
+"""Event priorities: the documented tie order within one simulated instant (SPEC §5, docs/determinism.md).
+
+SimPy orders events by ``(time, priority, insertion)``. vcran gives each kind of event its own priority so
+that what happens at one instant does not depend on when the event happened to be scheduled:
+
+1. inbound messages, in arrival order, with everything they cause (hand-offs between processes through
+   stores use SimPy's NORMAL priority, 1, so a cause's consequences finish before the next kind starts);
+2. station production;
+3. completions: an AGV reaching a point, AgvAction finishing an action;
+4. R7 deadlines (so a task assembled exactly at its deadline is on time);
+5. telemetry (it sees the state after everything else at that instant);
+6. the end of the run (so the last instant is complete, telemetry included).
+"""
+
+from __future__ import annotations
+
+from heapq import heappush
+
+import simpy
+from simpy.events import Event
+
+INBOUND = 1
+PRODUCTION = 2
+COMPLETION = 3
+DEADLINE = 4
+TELEMETRY = 5
+END = 6
+
+
+def after(env: simpy.Environment, delay: float, priority: int) -> Event:
+    """Like ``env.timeout(delay)`` but with an explicit priority (a Timeout is always NORMAL)."""
+    if delay < 0:
+        raise ValueError(f"negative delay {delay}")
+    event = Event(env)
+    event._ok = True
+    event._value = None
+    env.schedule(event, priority, delay)
+    return event
+
+
+def at(env: simpy.Environment, when: float, priority: int) -> Event:
+    """An event at the absolute simulated time ``when``, exactly.
+
+    ``env.timeout(when - env.now)`` would land on ``now + (when - now)``, which floating point does not
+    always round back to ``when`` (0.1 + (0.3 - 0.1) != 0.3); a trace records times, and replay must hit
+    them bit for bit. SimPy has no public absolute-time schedule, so this pushes onto the environment's
+    queue the same ``(time, priority, id, event)`` entry that ``Environment.schedule`` pushes.
+    """
+    if when < env.now:
+        raise ValueError(f"time {when} is in the past (now {env.now})")
+    event = Event(env)
+    event._ok = True
+    event._value = None
+    heappush(env._queue, (when, priority, next(env._eid), event))  # type: ignore[attr-defined]
+    return event
