@@ -37,7 +37,7 @@ from vcran.effects import (
 )
 from vcran.ids import NIL, Id
 from vcran.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment, RanStatus, TaskEnd, Time
-from vcran.tasks import Ended, Task, assignment_id, kind_of
+from vcran.tasks import Ended, Task, assignment_id, kind_of, same_content
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
 TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
@@ -224,7 +224,7 @@ class RanLogic:
                 self._reject(code, f"task {a.task_id.label} was already {what} [R9]", a)
             return
         pos = task.lookup(a)
-        if pos is not None and task.slots[pos] == a:
+        if pos is not None and same_content(task.slots[pos], a):
             return  # R10: an identical re-read (polling, notifications carrying every attribute)
         if task.ending is not None:
             self._reject("task_cancelled", f"task {task.id.label} is being cancelled [R8]", a)
@@ -265,7 +265,7 @@ class RanLogic:
         if task is None:
             return False
         pos = task.lookup(a)
-        return pos is not None and task.slots[pos] == a
+        return pos is not None and same_content(task.slots[pos], a)
 
     # --- cancel (R8) ------------------------------------------------------------------------------------
 

@@ -7,11 +7,19 @@ known once R3 holds, which is also the moment the whole path can go to the AGV.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from vcran.effects import Reason
 from vcran.ids import Id
 from vcran.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
+
+
+def same_content(a: Assignment, b: Assignment) -> bool:
+    """R10's "identical": equal in everything but the ROS header, whose seq and stamp change on every
+    re-send of the same assignment by a fleet manager (a polling re-read is identical anyway)."""
+    if isinstance(a, MotionAssignment) and isinstance(b, MotionAssignment):
+        return a == replace(b, header=a.header)
+    return a == b
 
 
 def assignment_id(a: Assignment) -> Id:

@@ -1,0 +1,53 @@
+"""Shared test helpers: run a scenario written inline as TOML and read its outputs back."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from transports.scripted import ScriptedTransport
+from vcran.runner import run_to
+from vcran.scenario import Scenario, parse
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = Path(__file__).resolve().parent / "data"
+
+
+@dataclass
+class Outputs:
+    dir: Path
+    summary: dict[str, Any]
+    events: list[dict[str, Any]]
+
+    def robot(self, rid: str = "robot_1") -> dict[str, Any]:
+        return self.summary["robots"][rid]
+
+    def of(self, name: str, robot: str | None = None) -> list[dict[str, Any]]:
+        return [e for e in self.events if e["event"] == name and (robot is None or e["robot"] == robot)]
+
+    def trace(self) -> list[dict[str, Any]]:
+        lines = (self.dir / "trace.jsonl").read_text().splitlines()
+        return [json.loads(line) for line in lines[1:]]
+
+
+def run_scenario(scenario: Scenario, out: Path) -> Outputs:
+    run_to(scenario, out, ScriptedTransport(scenario.script))
+    events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
+    return Outputs(out, json.loads((out / "summary.json").read_text()), events)
+
+
+@pytest.fixture
+def run_toml(tmp_path: Path):
+    """``run_toml(text)`` parses a TOML scenario, runs it into a fresh folder and returns its outputs."""
+    counter = iter(range(1_000_000))
+
+    def run(text: str) -> Outputs:
+        scenario = parse(tomllib.loads(text), "<test>")
+        return run_scenario(scenario, tmp_path / f"run{next(counter)}")
+
+    return run
