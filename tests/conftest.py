@@ -36,7 +36,7 @@ class Outputs:
 
 
 def run_scenario(scenario: Scenario, out: Path) -> Outputs:
-    run_to(scenario, out, ScriptedTransport(scenario.script))
+    run_to(scenario, out, ScriptedTransport(scenario.messages()))
     events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
     return Outputs(out, json.loads((out / "summary.json").read_text()), events)
 

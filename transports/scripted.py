@@ -8,7 +8,7 @@ however long the run; the full outbound stream is the recording wrapper's busine
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 import simpy
 
@@ -21,7 +21,9 @@ from vcran.wire import Frame, Inbound, Outbound, Publish
 
 class ScriptedTransport(Transport):
     def __init__(self, script: Iterable[ScriptEntry]) -> None:
-        self._script = sorted(script, key=lambda e: e.t)  # stable: equal times keep script order
+        """``script`` must be in time order (``Scenario.messages()`` is); it is consumed lazily."""
+        self._script: Iterator[ScriptEntry] = iter(script)
+        self._exhausted = False
         self._delivered = 0
         self.latest: dict[tuple[str, str], Message] = {}
         self.last_frame: Frame | None = None
@@ -36,10 +38,11 @@ class ScriptedTransport(Transport):
                 yield at(env, entry.t, INBOUND)
             deliver(Inbound(entry.robot, entry.attribute, entry.message, entry.raw))
             self._delivered += 1
+        self._exhausted = True
 
     @property
     def exhausted(self) -> bool:
-        return self._delivered == len(self._script)
+        return self._exhausted
 
     def send(self, out: Outbound) -> None:
         if isinstance(out, Frame):

@@ -7,6 +7,8 @@ task planner sends; a raw ``(category, action)`` pair can be given instead.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 from vcran.ids import NIL, NOT_SUPPORTED, Id, id_for
 from vcran.messages import (
     Accel,
@@ -50,14 +52,41 @@ def motion(
         point_id=_id(name),
         task_id=_id(task),
         motion_id=_id(name),
-        point=Pose2D(x, y, theta),
+        point=_pose(float(x), float(y), float(theta)),
         is_waypoint=(seq < length) if is_waypoint is None else is_waypoint,
         use_orientation=use_orientation,
-        max_velocity=Twist(Vector3(max_velocity, 0.0, 0.0), Vector3()),
-        max_acceleration=Accel(Vector3(max_acceleration, 0.0, 0.0), Vector3()),
-        motion_area=PolygonStamped.from_xy(area or []),
-        sequence=Sequence(seq, length),
+        max_velocity=_twist(float(max_velocity)),
+        max_acceleration=_accel(float(max_acceleration)),
+        motion_area=_area(tuple(area or ())),
+        sequence=_sequence(seq, length),
     )
+
+
+# Messages are immutable, so the parts a script repeats (a cycle's points, limits, areas) are shared:
+# building hours of generated assignments stays cheap.
+@lru_cache(maxsize=4096)
+def _pose(x: float, y: float, theta: float) -> Pose2D:
+    return Pose2D(x, y, theta)
+
+
+@lru_cache(maxsize=64)
+def _twist(linear: float) -> Twist:
+    return Twist(Vector3(linear, 0.0, 0.0), Vector3())
+
+
+@lru_cache(maxsize=64)
+def _accel(linear: float) -> Accel:
+    return Accel(Vector3(linear, 0.0, 0.0), Vector3())
+
+
+@lru_cache(maxsize=256)
+def _area(points: tuple[tuple[float, float], ...]) -> PolygonStamped:
+    return PolygonStamped.from_xy(points)
+
+
+@lru_cache(maxsize=1024)
+def _sequence(number: int, length: int) -> Sequence:
+    return Sequence(number, length)
 
 
 def action(
@@ -77,9 +106,14 @@ def action(
     return ActionAssignment(
         action_id=_id(name),
         task_id=_id(task),
-        sequence=Sequence(seq, length),
-        robot_action=RobotAction(category or 0, code or 0, (), description),
+        sequence=_sequence(seq, length),
+        robot_action=_robot_action(category or 0, code or 0, description),
     )
+
+
+@lru_cache(maxsize=256)
+def _robot_action(category: int, code: int, description: str) -> RobotAction:
+    return RobotAction(category, code, (), description)
 
 
 def cancel(task: str | Id, *, motion: str | Id | None = None, action: str | Id | None = None) -> CancelTask:

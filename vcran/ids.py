@@ -18,6 +18,7 @@ from __future__ import annotations
 import re
 import uuid as _uuid
 from dataclasses import dataclass
+from functools import lru_cache
 
 VCRAN_NAMESPACE = _uuid.uuid5(_uuid.NAMESPACE_URL, "https://github.com/vcran/vcran/ids")
 
@@ -62,7 +63,8 @@ class Id:
     @property
     def canonical(self) -> str:
         """The canonical lower-case uuid string, e.g. ``05030602-0907-0300-0608-010107040503``."""
-        return str(_uuid.UUID(bytes=self.uuid))
+        h = self.uuid.hex()
+        return f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:]}"
 
     @property
     def label(self) -> str:
@@ -103,6 +105,7 @@ class Id:
 NIL = Id(bytes(16))
 
 
+@lru_cache(maxsize=4096)
 def id_for(name: str) -> Id:
     """The stable id of a scenario name (module docstring); the name becomes the description."""
     if not isinstance(name, str) or not name:

@@ -62,17 +62,22 @@ class Leg:
     # Derived once in __post_init__ (frozen: set through object.__setattr__).
     distance: float = 0.0
     heading: float = 0.0
+    ux: float = 1.0  # cos(heading), sin(heading): computed once, in scalar libm (see module notes)
+    uy: float = 0.0
     turn1: float = 0.0  # signed angle of the first turn
+    rate1: float = 0.0  # signed angular speed of the first turn
     t_turn1: float = 0.0
     peak: float = 0.0  # highest speed reached
     t_acc: float = 0.0
     t_dec: float = 0.0
     t_drive: float = 0.0
     turn2: float = 0.0
+    rate2: float = 0.0
     t_turn2: float = 0.0
+    end_theta: float = 0.0
+    t_end: float = 0.0
 
     def __post_init__(self) -> None:
-        set_ = object.__setattr__
         dx, dy = self.x1 - self.x0, self.y1 - self.y0
         distance = math.hypot(dx, dy)
         heading = math.atan2(dy, dx) if distance > 0 else self.theta0
@@ -80,47 +85,41 @@ class Leg:
         lim = self.limits
         peak, t_acc, t_dec, t_drive = _profile(distance, lim.speed, lim.accel, lim.decel)
         turn2 = wrap(self.theta_goal - heading) if self.theta_goal is not None else 0.0
-        for name, value in (
-            ("distance", distance),
-            ("heading", heading),
-            ("turn1", turn1),
-            ("t_turn1", _turn_time(turn1, lim.turn_rate)),
-            ("peak", peak),
-            ("t_acc", t_acc),
-            ("t_dec", t_dec),
-            ("t_drive", t_drive),
-            ("turn2", turn2),
-            ("t_turn2", _turn_time(turn2, lim.turn_rate)),
-        ):
-            set_(self, name, value)
+        t_turn1, t_turn2 = _turn_time(turn1, lim.turn_rate), _turn_time(turn2, lim.turn_rate)
+        # Exactly the goal's theta when it has one, so a goal pose is reached bit for bit.
+        end_theta = wrap(self.theta_goal) if self.theta_goal is not None else heading
+        derived = {
+            "distance": distance, "heading": heading, "ux": math.cos(heading), "uy": math.sin(heading),
+            "turn1": turn1, "rate1": math.copysign(lim.turn_rate, turn1), "t_turn1": t_turn1,
+            "peak": peak, "t_acc": t_acc, "t_dec": t_dec, "t_drive": t_drive,
+            "turn2": turn2, "rate2": math.copysign(lim.turn_rate, turn2), "t_turn2": t_turn2,
+            "end_theta": end_theta, "t_end": self.t0 + (t_turn1 + t_drive + t_turn2),
+        }
+        for name, value in derived.items():
+            object.__setattr__(self, name, value)
 
     @property
     def duration(self) -> float:
         return self.t_turn1 + self.t_drive + self.t_turn2
 
-    @property
-    def end_theta(self) -> float:
-        """Exactly the goal's theta when it has one, so a goal pose is reached bit for bit."""
-        return wrap(self.theta_goal) if self.theta_goal is not None else self.heading
-
     def pose_at(self, t: float) -> tuple[float, float, float, float, float]:
-        """``(x, y, theta, linear speed, angular speed)`` at time ``t`` (clamped to the leg)."""
-        if t >= self.t0 + self.duration:
+        """``(x, y, theta, linear speed, angular speed)`` at ``t``, clamped to the leg.
+
+        The same operations, in the same order, as :func:`_sample_moving`, so that the scalar and the
+        vectorised paths agree to the last bit.
+        """
+        if t >= self.t_end:
             return self.x1, self.y1, self.end_theta, 0.0, 0.0
-        tau = max(t - self.t0, 0.0)
+        tau = t - self.t0
+        if tau < 0.0:
+            tau = 0.0
         if tau < self.t_turn1:
-            rate = math.copysign(self.limits.turn_rate, self.turn1)
-            return self.x0, self.y0, wrap(self.theta0 + rate * tau), 0.0, rate
-        tau -= self.t_turn1
-        if tau < self.t_drive:
-            s, v = _along(tau, self.distance, self.peak, self.t_acc, self.t_dec, self.t_drive)
-            ux, uy = math.cos(self.heading), math.sin(self.heading)
-            return self.x0 + ux * s, self.y0 + uy * s, self.heading, v, 0.0
-        tau -= self.t_drive
-        if tau < self.t_turn2:
-            rate = math.copysign(self.limits.turn_rate, self.turn2)
-            return self.x1, self.y1, wrap(self.heading + rate * tau), 0.0, rate
-        return self.x1, self.y1, self.end_theta, 0.0, 0.0
+            return self.x0, self.y0, wrap(self.theta0 + self.rate1 * tau), 0.0, self.rate1
+        d = tau - self.t_turn1
+        if d < self.t_drive:
+            s, v = _along(d, self.distance, self.peak, self.t_acc, self.t_dec, self.t_drive)
+            return self.x0 + self.ux * s, self.y0 + self.uy * s, self.heading, v, 0.0
+        return self.x1, self.y1, wrap(self.heading + self.rate2 * (d - self.t_drive)), 0.0, self.rate2
 
     def distance_at(self, t: float) -> float:
         tau = t - self.t0 - self.t_turn1
@@ -152,130 +151,113 @@ def _profile(distance: float, speed: float, accel: float, decel: float) -> tuple
     return peak, t_acc, t_dec, t_acc + cruise + t_dec
 
 
-def _along(tau: float, distance: float, peak: float, t_acc: float, t_dec: float, t_drive: float) -> tuple[float, float]:
-    if tau < t_acc:
-        return 0.5 * peak * tau * tau / t_acc, peak * tau / t_acc
-    if tau <= t_drive - t_dec:
-        return 0.5 * peak * t_acc + peak * (tau - t_acc), peak
-    rest = t_drive - tau
-    return distance - 0.5 * peak * rest * rest / t_dec, peak * rest / t_dec
+def _along(d: float, distance: float, peak: float, t_acc: float, t_dec: float, t_drive: float) -> tuple[float, float]:
+    """Distance covered and speed ``d`` seconds into a drive (trapezoid or triangle profile)."""
+    if d < t_acc:
+        s, v = 0.5 * peak * d * d / t_acc, peak * d / t_acc
+    elif d <= t_drive - t_dec:
+        s, v = 0.5 * peak * t_acc + peak * (d - t_acc), peak
+    else:
+        rest = t_drive - d
+        s, v = distance - 0.5 * peak * rest * rest / t_dec, peak * rest / t_dec
+    return min(max(s, 0.0), distance), v
 
 
-# Column layout of FleetKinematics.legs: one row per robot, the parameters of its current leg.
-_COLUMNS = (
-    "t0 x0 y0 theta0 x1 y1 end_theta distance heading turn1 t_turn1 rate1 peak t_acc t_dec t_drive turn2 "
-    "t_turn2 rate2 t_end"
-).split()
+#: Below this many moving robots a tick is sampled leg by leg in Python: numpy's per-call overhead
+#: would dominate. Both paths give bit-identical results (tests/test_motion.py).
+SCALAR_BELOW = 24
+
+# Columns of FleetKinematics.legs, one row per robot: the parameters of its current leg.
+_COLUMNS = "t0 x0 y0 theta0 x1 y1 end_theta distance heading ux uy rate1 t_turn1 peak t_acc t_dec t_drive rate2 t_end".split()
 C = {name: i for i, name in enumerate(_COLUMNS)}
 
 
 class FleetKinematics:
-    """Every robot's current leg as one row of a float64 array, sampled for all robots at once.
+    """Every robot's current leg, sampled for the whole fleet at once.
 
-    A robot at rest has a degenerate leg that ended at -inf at its pose. Rows are written by
-    :meth:`start` (the AGV process, once per leg) and read by :meth:`sample` (the telemetry sweep, once
-    per tick): O(robots) numpy work per tick, no Python loop over robots.
+    A robot at rest has no leg; ``rest`` holds its pose. :meth:`start` (the AGV process, once per leg)
+    and :meth:`finish` keep the arrays current; :meth:`sample` (the telemetry sweep, once per tick)
+    costs a few numpy calls for the whole fleet, or a short Python loop when few robots move.
     """
 
     def __init__(self, poses: list[tuple[float, float, float]]) -> None:
         n = len(poses)
         self.legs = np.zeros((n, len(_COLUMNS)), dtype=np.float64)
         self.legs[:, C["t_end"]] = -np.inf
+        #: x, y, theta, v, w of every robot at rest (v = w = 0); rows of moving robots are overwritten.
+        self.rest = np.zeros((n, 5), dtype=np.float64)
+        self.rest[:, :3] = np.asarray(poses, dtype=np.float64).reshape(n, 3)
         self.odometer = np.zeros(n, dtype=np.float64)  # distance of finished legs
-        for i, (x, y, theta) in enumerate(poses):
-            self.rest(i, x, y, theta)
+        self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
 
     def __len__(self) -> int:
-        return len(self.legs)
-
-    def rest(self, i: int, x: float, y: float, theta: float) -> None:
-        row = self.legs[i]
-        row[:] = 0.0
-        row[[C["x0"], C["x1"]]] = x
-        row[[C["y0"], C["y1"]]] = y
-        row[[C["theta0"], C["end_theta"], C["heading"]]] = theta
-        row[C["t_end"]] = -np.inf
+        return len(self.rest)
 
     def start(self, i: int, leg: Leg) -> None:
         row = self.legs[i]
-        rate = leg.limits.turn_rate
-        values = {
-            "t0": leg.t0, "x0": leg.x0, "y0": leg.y0, "theta0": leg.theta0, "x1": leg.x1, "y1": leg.y1,
-            "end_theta": leg.end_theta, "distance": leg.distance, "heading": leg.heading,
-            "turn1": leg.turn1, "t_turn1": leg.t_turn1, "rate1": math.copysign(rate, leg.turn1),
-            "peak": leg.peak, "t_acc": leg.t_acc, "t_dec": leg.t_dec, "t_drive": leg.t_drive,
-            "turn2": leg.turn2, "t_turn2": leg.t_turn2, "rate2": math.copysign(rate, leg.turn2),
-            "t_end": leg.t0 + leg.duration,
-        }
-        for name, value in values.items():
-            row[C[name]] = value
+        for name in _COLUMNS:
+            row[C[name]] = getattr(leg, name)
+        self.current[i] = leg
 
     def finish(self, i: int) -> None:
         """The leg of robot ``i`` is over: bank its distance and rest at its end pose."""
-        row = self.legs[i]
-        self.odometer[i] += row[C["distance"]]
-        self.rest(i, row[C["x1"]], row[C["y1"]], row[C["end_theta"]])
+        leg = self.current.pop(i)
+        self.odometer[i] += leg.distance
+        self.rest[i, :3] = (leg.x1, leg.y1, leg.end_theta)
+        self.legs[i, C["t_end"]] = -np.inf
 
     def distance(self, i: int, t: float) -> float:
         """Odometer of robot ``i`` at ``t``, including the driven part of its current leg."""
-        x, y, *_ = self.sample(t, np.array([i]))
-        row = self.legs[i]
-        partial = math.hypot(x[0] - row[C["x0"]], y[0] - row[C["y0"]]) if t < row[C["t_end"]] else 0.0
-        return float(self.odometer[i] + partial)
+        leg = self.current.get(i)
+        return float(self.odometer[i] + (leg.distance_at(t) if leg is not None else 0.0))
 
-    def sample(self, t: float, rows: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
-        """``(x, y, theta, v, w)`` arrays at time ``t`` for ``rows`` (default: every robot)."""
-        legs = self.legs if rows is None else self.legs[rows]
-        x = legs[:, C["x1"]].copy()
-        y = legs[:, C["y1"]].copy()
-        theta = legs[:, C["end_theta"]].copy()
-        v = np.zeros(len(legs))
-        w = np.zeros(len(legs))
-        moving = np.flatnonzero(t < legs[:, C["t_end"]])
-        if moving.size:
-            _sample_moving(legs[moving], t, moving, x, y, theta, v, w)
-        return x, y, theta, v, w
+    def sample(self, t: float) -> np.ndarray:
+        """A (robots, 5) array of ``x, y, theta, v, w`` at ``t`` (legs not started count as at rest)."""
+        out = self.rest.copy()
+        if len(self.current) < SCALAR_BELOW:
+            for i, leg in self.current.items():
+                out[i] = leg.pose_at(t)
+            return out
+        idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
+        out[idx] = _sample_moving(self.legs[idx], t)
+        return out
 
 
-def _sample_moving(
-    L: np.ndarray, t: float, idx: np.ndarray, x: np.ndarray, y: np.ndarray, theta: np.ndarray,
-    v: np.ndarray, w: np.ndarray,
-) -> None:
-    """Fill the outputs at ``idx`` for legs that have not ended; mirrors :meth:`Leg.pose_at`."""
-    tau = np.maximum(t - L[:, C["t0"]], 0.0)
-    t1, td = L[:, C["t_turn1"]], L[:, C["t_drive"]]
-    ta, tdec, peak, dist = L[:, C["t_acc"]], L[:, C["t_dec"]], L[:, C["peak"]], L[:, C["distance"]]
-    heading = L[:, C["heading"]]
+def _wrap_array(a: np.ndarray) -> np.ndarray:
+    """:func:`wrap` elementwise, with the same fmod steps (fmod is exact, so results agree)."""
+    r = np.fmod(a + math.pi, TAU)
+    r = np.where(r <= 0.0, r + TAU, r)
+    return r - math.pi
 
+
+def _sample_moving(L: np.ndarray, t: float) -> np.ndarray:
+    """Poses of legs that are under way at ``t``; mirrors :meth:`Leg.pose_at` operation by operation."""
+    col = lambda name: L[:, C[name]]  # noqa: E731
+    tau = np.maximum(t - col("t0"), 0.0)
+    t1, td, ta, tdec = col("t_turn1"), col("t_drive"), col("t_acc"), col("t_dec")
+    peak, dist = col("peak"), col("distance")
     turning1 = tau < t1
     d = tau - t1
     driving = ~turning1 & (d < td)
-    turning2 = ~turning1 & ~driving
-
-    safe_ta = np.where(ta > 0, ta, 1.0)
-    safe_td = np.where(tdec > 0, tdec, 1.0)
-    rest = td - d
-    s = np.where(
-        d < ta,
-        0.5 * peak * d * d / safe_ta,
-        np.where(d <= td - tdec, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / safe_td),
-    )
-    speed = np.where(d < ta, peak * d / safe_ta, np.where(d <= td - tdec, peak, peak * rest / safe_td))
-    s = np.clip(s, 0.0, dist)
-
-    cos_h, sin_h = np.cos(heading), np.sin(heading)
-    px = np.where(turning1, L[:, C["x0"]], np.where(driving, L[:, C["x0"]] + cos_h * s, L[:, C["x1"]]))
-    py = np.where(turning1, L[:, C["y0"]], np.where(driving, L[:, C["y0"]] + sin_h * s, L[:, C["y1"]]))
-    d2 = d - td
-    ang = np.where(
-        turning1,
-        L[:, C["theta0"]] + L[:, C["rate1"]] * tau,
-        np.where(driving, heading, heading + L[:, C["rate2"]] * d2),
-    )
-    ang = np.mod(ang + np.pi, 2 * np.pi) - np.pi
-    ang = np.where(ang == -np.pi, np.pi, ang)
-    x[idx] = px
-    y[idx] = py
-    theta[idx] = ang
-    v[idx] = np.where(driving, speed, 0.0)
-    w[idx] = np.where(turning1, L[:, C["rate1"]], np.where(turning2, L[:, C["rate2"]], 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        accelerating = d < ta
+        cruising = ~accelerating & (d <= td - tdec)
+        rest = td - d
+        s = np.where(
+            accelerating, 0.5 * peak * d * d / ta,
+            np.where(cruising, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / tdec),
+        )
+        v = np.where(accelerating, peak * d / ta, np.where(cruising, peak, peak * rest / tdec))
+    s = np.minimum(np.maximum(s, 0.0), dist)
+    out = np.empty((len(L), 5))
+    out[:, 0] = np.where(turning1, col("x0"), np.where(driving, col("x0") + col("ux") * s, col("x1")))
+    out[:, 1] = np.where(turning1, col("y0"), np.where(driving, col("y0") + col("uy") * s, col("y1")))
+    theta_turn1 = _wrap_array(col("theta0") + col("rate1") * tau)
+    theta_turn2 = _wrap_array(col("heading") + col("rate2") * (d - td))
+    out[:, 2] = np.where(turning1, theta_turn1, np.where(driving, col("heading"), theta_turn2))
+    out[:, 3] = np.where(driving, v, 0.0)
+    out[:, 4] = np.where(turning1, col("rate1"), np.where(driving, 0.0, col("rate2")))
+    ended = t >= col("t_end")
+    if ended.any():  # a leg whose completion has not been processed yet: at its end pose
+        out[ended] = np.column_stack((col("x1"), col("y1"), col("end_theta"), np.zeros(len(L)), np.zeros(len(L))))[ended]
+    return out

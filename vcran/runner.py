@@ -25,11 +25,11 @@ class EventLog:
     """``events.jsonl``: one object per line, ``t``, ``robot``, ``event`` and the event's fields."""
 
     def __init__(self, path: Path) -> None:
-        self._f: IO[str] = path.open("w", encoding="utf-8", buffering=1 << 20)
+        self._f: IO[bytes] = path.open("wb", buffering=1 << 20)
         self.count = 0
 
     def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        self._f.write(dumps({"t": t, "robot": robot, "event": name, **fields}) + "\n")
+        self._f.write(dumps({"t": t, "robot": robot, "event": name, **fields}) + b"\n")
         self.count += 1
 
     def close(self) -> None:

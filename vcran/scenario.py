@@ -8,9 +8,11 @@ objects from it, so one scenario can run any number of times (fuzzing, determini
 
 from __future__ import annotations
 
+import heapq
 import json
 import math
 import tomllib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -83,12 +85,56 @@ class ScriptEntry:
 
 
 @dataclass(frozen=True, slots=True)
+class TaskSpec:
+    """One task of a cycle: its path (points ``(x, y, theta or None)``) and its actions."""
+
+    path: tuple[tuple[float, float, float | None], ...]
+    actions: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Cycle:
+    """A task cycle sent again and again: every ``every`` seconds from ``t`` while before ``until``.
+
+    Long fleet runs (``vcran gen``) describe hours of work in a few lines this way; the entries are
+    expanded lazily, so memory does not grow with the run length. Repetition ``k`` names its tasks
+    ``{prefix}_{k}_{i}`` (i counts the cycle's tasks from 1).
+    """
+
+    t: float
+    robot: str
+    every: float
+    until: float
+    prefix: str
+    tasks: tuple[TaskSpec, ...]
+    max_velocity: float = 0.0
+
+    def entries(self) -> Iterator[ScriptEntry]:
+        k = 0
+        while True:
+            start = self.t + k * self.every
+            if start >= self.until:
+                return
+            for i, spec in enumerate(self.tasks, start=1):
+                yield from task_entries(start, self.robot, f"{self.prefix}_{k}_{i}", spec, 0.0, self.max_velocity)
+            k += 1
+
+
+@dataclass(frozen=True, slots=True)
 class Scenario:
     settings: Settings
     robots: tuple[RobotConfig, ...]
     stations: tuple[StationConfig, ...]
     script: tuple[ScriptEntry, ...]
     source: str = "<scenario>"
+    cycles: tuple[Cycle, ...] = ()
+
+    def messages(self) -> Iterator[ScriptEntry]:
+        """The whole script in time order, cycles expanded lazily; equal times keep file order."""
+        if not self.cycles:
+            return iter(self.script)
+        streams = [iter(self.script), *(c.entries() for c in self.cycles)]
+        return heapq.merge(*streams, key=lambda e: e.t)
 
     def fleet_dict(self) -> dict[str, Any]:
         """Everything but the script, as JSON that :func:`parse` reads back: a trace header carries it."""
@@ -154,12 +200,19 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     _unique(source, "stations", [s.id for s in stations])
     known = {r.id for r in robots}
     script: list[ScriptEntry] = []
+    cycles: list[Cycle] = []
     for t in script_tables:
-        script.extend(_script_entry(t, known))
+        entry = _script_entry(t, known)
+        if isinstance(entry, Cycle):
+            cycles.append(entry)
+        else:
+            script.extend(entry)
     script.sort(key=lambda e: e.t)  # stable: equal times keep file order
     if settings.duration is None and not settings.until_idle:
         raise ScenarioError(f"{source}: [simulation]: set duration, or until_idle = true")
-    return Scenario(settings, robots, stations, tuple(script), source)
+    if cycles and settings.duration is None:
+        raise ScenarioError(f"{source}: [simulation]: a scenario with cycles needs a duration")
+    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles))
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -243,7 +296,7 @@ def _station(t: Table) -> StationConfig:
     return s
 
 
-def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry]:
+def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
     time = t.number("t", minimum=0.0)
     robot = t.string("robot")
     if robot not in robots:
@@ -308,6 +361,28 @@ def _raw(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 def _task(t: Table, time: float, robot: str) -> list[ScriptEntry]:
     """A whole task in one entry: its path's motions, then its actions, ``every`` seconds apart."""
     task = t.name("task")
+    spec = _task_spec(t)
+    every = t.number("every", 0.0, minimum=0.0)
+    return list(task_entries(time, robot, task, spec, every, t.number("max_velocity", 0.0, minimum=0.0)))
+
+
+def _cycle(t: Table, time: float, robot: str) -> Cycle:
+    every = t.number("every", positive=True)
+    tasks = t.raw("tasks")
+    if not isinstance(tasks, list):
+        t.fail("tasks", "expected a list of tables {path = [...], actions = [...]}")
+    specs = []
+    for i, v in enumerate(tasks):
+        sub = Table(v, t.source, f"{t.where}.tasks[{i}]")
+        specs.append(_task_spec(sub))
+        sub.done()
+    if not specs:
+        t.fail("tasks", "a cycle needs at least one task")
+    return Cycle(time, robot, every, t.number("until", math.inf, minimum=0.0), t.name("prefix", robot),
+                 tuple(specs), t.number("max_velocity", 0.0, minimum=0.0))
+
+
+def _task_spec(t: Table) -> TaskSpec:
     path = t.list_of("path", lambda i, v: _point(t, f"path[{i}]", v))
     actions = t.strings("actions", [])
     for a in actions:
@@ -315,20 +390,24 @@ def _task(t: Table, time: float, robot: str) -> list[ScriptEntry]:
             t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
     if not path and not actions:
         t.fail("path", "a task needs at least one point or one action")
-    every = t.number("every", 0.0, minimum=0.0)
-    speed = t.number("max_velocity", 0.0, minimum=0.0)
-    length = len(path) + len(actions)
-    out = []
-    for i, (x, y, theta) in enumerate(path, start=1):
-        last_with_theta = i == len(path) and theta is not None
+    return TaskSpec(tuple(path), tuple(actions))
+
+
+def task_entries(time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float) -> Iterator[ScriptEntry]:
+    """The messages of one task: motions ``{task}_m{i}`` then actions ``{task}_a{j}``, ``every`` apart.
+
+    Only the last point's theta is used (with use_orientation); intermediate points are passed through.
+    """
+    length = len(spec.path) + len(spec.actions)
+    for i, (x, y, theta) in enumerate(spec.path, start=1):
+        at = time + (i - 1) * every
+        last_with_theta = i == len(spec.path) and theta is not None
         m = build.motion(task, f"{task}_m{i}", i, length, x, y, theta or 0.0,
-                         use_orientation=last_with_theta, max_velocity=speed, stamp=time + (i - 1) * every)
-        out.append(ScriptEntry(time + (i - 1) * every, robot, "motion_assignment", m))
-    for j, kind in enumerate(actions, start=1):
-        pos = len(path) + j
-        a = build.action(task, f"{task}_a{j}", pos, length, kind)
-        out.append(ScriptEntry(time + (pos - 1) * every, robot, "action_assignment", a))
-    return out
+                         use_orientation=last_with_theta, max_velocity=speed, stamp=at)
+        yield ScriptEntry(at, robot, "motion_assignment", m)
+    for j, kind in enumerate(spec.actions, start=1):
+        pos = len(spec.path) + j
+        yield ScriptEntry(time + (pos - 1) * every, robot, "action_assignment", build.action(task, f"{task}_a{j}", pos, length, kind))
 
 
 def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
@@ -337,7 +416,7 @@ def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
     return float(v[0]), float(v[1]), (float(v[2]) if len(v) == 3 else None)
 
 
-_EXPANDERS = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task}
+_EXPANDERS: dict[str, Any] = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle}
 
 
 def _unique(source: str, section: str, ids: list[str]) -> None:

@@ -74,18 +74,46 @@ class Message:
     ROS_TYPE: ClassVar[str] = ""
 
     def __post_init__(self) -> None:
-        for spec in specs(type(self)):
-            value = getattr(self, spec.name)
+        for name, fast, spec in _plan(type(self)):
+            value = getattr(self, name)
+            if fast(value):
+                continue
             try:
                 checked = _check(spec, value)
             except MessageError as exc:
-                raise exc.within(spec.name) from None
+                raise exc.within(name) from None
             if checked is not value:
-                object.__setattr__(self, spec.name, checked)
+                object.__setattr__(self, name, checked)
         self._check_semantics()
 
     def _check_semantics(self) -> None:
         """Cross-field rules of one message type; raise MessageError naming the field."""
+
+
+def _fast(spec: FieldSpec) -> Any:
+    """A cheap predicate that accepts the common, valid case of a field; anything else takes the full
+    check (which normalises or raises). Validation runs on every message built, so this matters."""
+    if spec.kind == "prim":
+        if spec.ros in ("float64", "float32"):
+            limit = FLOAT32_MAX if spec.ros == "float32" else math.inf
+            return lambda v: type(v) is float and -limit < v < limit
+        if spec.ros in INT_RANGES:
+            lo, hi = INT_RANGES[spec.ros]
+            return lambda v: type(v) is int and lo <= v <= hi
+        want = str if spec.ros == "string" else bool
+        return lambda v: type(v) is want
+    if spec.kind == "array":
+        item = spec.cls
+        if item is None:
+            return lambda v: False
+        return lambda v: type(v) is tuple and all(type(i) is item for i in v)
+    cls = spec.cls
+    return lambda v: type(v) is cls
+
+
+@cache
+def _plan(cls: type) -> tuple[tuple[str, Any, FieldSpec], ...]:
+    return tuple((spec.name, _fast(spec), spec) for spec in specs(cls))
 
 
 def _check(spec: FieldSpec, value: Any) -> Any:

@@ -33,14 +33,23 @@ class Station:
     _shape: Any = field(default=None, repr=False)
 
     def within_reach(self, x: float, y: float) -> bool:
+        """Inside the explicit polygon (shapely), else within ``reach`` of the position (exact circle)."""
+        if not self.area:
+            return math.hypot(self.x - x, self.y - y) <= self.reach
         if self._shape is None:
-            from shapely.geometry import Point, Polygon
+            from shapely.geometry import Polygon
+            from shapely.prepared import prep
 
-            self._shape = Polygon(self.area) if self.area else Point(self.x, self.y).buffer(self.reach, 64)
-        from shapely import covers
+            self._shape = prep(Polygon(self.area))
         from shapely.geometry import Point
 
-        return bool(covers(self._shape, Point(x, y)))
+        return bool(self._shape.covers(Point(x, y)))
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        if self.area:
+            xs, ys = [p[0] for p in self.area], [p[1] for p in self.area]
+            return min(xs), min(ys), max(xs), max(ys)
+        return self.x - self.reach, self.y - self.reach, self.x + self.reach, self.y + self.reach
 
     def produce(self) -> bool:
         """One production tick; returns whether a part appeared."""
@@ -65,18 +74,36 @@ class Outcome:
     station: str = ""
 
 
-def nearest_in_reach(stations: list[Station], x: float, y: float) -> Station | None:
-    """The station in reach of ``(x, y)`` nearest to it; ties go to the first in scenario order."""
-    best, best_d = None, math.inf
-    for s in stations:
-        d = math.hypot(s.x - x, s.y - y)
-        if d < best_d and s.within_reach(x, y):
-            best, best_d = s, d
-    return best
+class StationMap:
+    """The stations with a uniform grid index, so finding the one in reach does not scan them all.
+
+    Each station is filed under every grid cell its reach box touches; a query looks at one cell.
+    """
+
+    def __init__(self, stations: list[Station], cell: float | None = None) -> None:
+        self.stations = stations
+        sizes = [max(b[2] - b[0], b[3] - b[1]) for b in (s.bounds() for s in stations)]
+        self.cell = cell or max([2.0, *sizes])
+        self._grid: dict[tuple[int, int], list[int]] = {}
+        for i, s in enumerate(stations):
+            x0, y0, x1, y1 = s.bounds()
+            for gx in range(math.floor(x0 / self.cell), math.floor(x1 / self.cell) + 1):
+                for gy in range(math.floor(y0 / self.cell), math.floor(y1 / self.cell) + 1):
+                    self._grid.setdefault((gx, gy), []).append(i)
+
+    def nearest_in_reach(self, x: float, y: float) -> Station | None:
+        """The station in reach of ``(x, y)`` nearest to it; ties go to the first in scenario order."""
+        best, best_d = None, math.inf
+        for i in self._grid.get((math.floor(x / self.cell), math.floor(y / self.cell)), ()):
+            s = self.stations[i]
+            d = math.hypot(s.x - x, s.y - y)
+            if d < best_d and s.within_reach(x, y):
+                best, best_d = s, d
+        return best
 
 
 def perform(
-    kind: ActionKind, x: float, y: float, carried: int, capacity: int, stations: list[Station],
+    kind: ActionKind, x: float, y: float, carried: int, capacity: int, stations: StationMap,
     capable: frozenset[ActionKind],
 ) -> tuple[Outcome, int]:
     """Carry out one action at ``(x, y)``; return the outcome and the new number of parts carried."""
@@ -84,7 +111,7 @@ def perform(
         return Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}"), carried
     if kind is ActionKind.DUMMY:
         return Outcome(True), carried
-    station = nearest_in_reach(stations, x, y)
+    station = stations.nearest_in_reach(x, y)
     where = f"at {x:.3f}, {y:.3f}"
     if station is None:
         return Outcome(False, "no_station_in_reach", f"{kind.value}: no station in reach {where}"), carried

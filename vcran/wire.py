@@ -38,22 +38,14 @@ class Publish:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Frame:
-    """``current_motion`` of every robot at tick ``t``: pose and speeds as columns in fleet order."""
+    """``current_motion`` of every robot at tick ``t``: a (robots, 5) float64 array in fleet order."""
 
     t: float
     robots: tuple[str, ...]
-    x: np.ndarray
-    y: np.ndarray
-    theta: np.ndarray
-    v: np.ndarray
-    w: np.ndarray
+    columns: np.ndarray
 
-    #: Column order of the telemetry file and of :meth:`columns`.
+    #: Column order of :attr:`columns` and of the telemetry file.
     FIELDS = ("x", "y", "theta", "v", "w")
-
-    def columns(self) -> np.ndarray:
-        """An (robots, 5) float64 array in :attr:`FIELDS` order."""
-        return np.column_stack((self.x, self.y, self.theta, self.v, self.w))
 
 
 Outbound = Publish | Frame

@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     except ScenarioError as exc:
         print(f"vcran run: {exc}", file=sys.stderr)
         return 2
-    result = run_to(scenario, args.out, ScriptedTransport(scenario.script), options={"transport": "scripted"})
+    result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()), options={"transport": "scripted"})
     if not args.quiet:
         print_summary(result, args.out)
     return 0

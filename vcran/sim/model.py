@@ -20,7 +20,7 @@ from vcran.scenario import Scenario
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
 from vcran.sim.timing import END, PRODUCTION, at
-from vcran.stations import Station, area_problem
+from vcran.stations import Station, StationMap, area_problem
 from vcran.wire import Inbound
 
 
@@ -60,6 +60,7 @@ class Model:
                     c.area)
             for c in scenario.stations
         ]
+        station_map = StationMap(self.stations)
         self.fleet = FleetKinematics([r.pose for r in scenario.robots])
         self.completed: dict[str, list[str]] = {r.id: [] for r in scenario.robots}
         self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
@@ -68,7 +69,7 @@ class Model:
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
                              area_check=motion_area_check)
-            self.robots.append(RobotNode(self.env, i, config, logic, self.fleet, self.stations, s.durations,
+            self.robots.append(RobotNode(self.env, i, config, logic, self.fleet, station_map, s.durations,
                                          self._log, self._changed))
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
         self.finished = self.env.event()
@@ -135,14 +136,14 @@ class Model:
     def summary(self) -> dict[str, Any]:
         """summary.json (SPEC §8): deterministic, no wall-clock figures."""
         t = self.env.now
-        x, y, theta, _, _ = self.fleet.sample(t)
+        poses = self.fleet.sample(t)
         robots = {}
         for r in self.robots:
             robots[r.id] = {
                 "completed": self.completed[r.id],
                 "cancelled": self.cancelled[r.id],
                 "distance": self.fleet.distance(r.index, t),
-                "final_pose": {"x": float(x[r.index]), "y": float(y[r.index]), "theta": float(theta[r.index])},
+                "final_pose": dict(zip(("x", "y", "theta"), map(float, poses[r.index, :3]))),
                 "carrying": r.carrying,
                 "parts_moved": r.parts_moved,
                 "errors": r.logic.error_count,

@@ -1,7 +1,8 @@
 """The RAN: routes inbound messages to robots by entity id, and publishes the fleet's state (seed §3.1).
 
-One RAN serves the whole fleet. Inbound, it decodes raw NGSI payloads (R12) and forwards each message
-to the RanLogic that owns the entity, or reports and drops it (R11). Outbound, one telemetry process
+One RAN serves the whole fleet. Inbound, it decodes raw NGSI payloads (R12) and puts each message into
+the mailbox of the RanLogic that owns the entity, or reports and drops it (R11); routing is a lookup at
+the instant of delivery, so it needs no process of its own. Outbound, one telemetry process
 samples every robot's pose in a single numpy sweep per tick (``current_motion`` as a :class:`Frame`) and
 publishes ``assignment_status`` and ``ran_status`` of the robots whose state changed since the last tick,
 so a tick costs O(changes), not O(robots) Python work. ``robot_description`` goes out at start and then
@@ -48,35 +49,28 @@ class Ran:
         self._by_entity = {r.id: r for r in robots}
         self._decode = decode
         self._reject_unknown = reject_unknown
-        self.inbox = simpy.Store(env)
         self._ids = tuple(r.id for r in robots)
         self._dirty: list[RobotNode] = []
         self._dirty_set: set[int] = set()
         self._published: dict[tuple[int, str], Message] = {}
-        env.process(self._route())
 
     # --- inbound ----------------------------------------------------------------------------------------
 
     def deliver(self, inbound: Inbound) -> None:
-        """The transport's entry point: the message enters at ``env.now``."""
-        self.inbox.put(inbound)
-
-    def _route(self) -> Generator[simpy.events.Event, Any, None]:
-        while True:
-            inbound: Inbound = yield self.inbox.get()
-            robot = self._by_entity.get(inbound.entity)
-            if robot is None:
-                self._reject_unknown(inbound)
-                continue
-            if inbound.message is not None:
-                robot.inbox.put(Decoded(inbound.message))
-                continue
-            try:
-                message = self._decode(inbound.attribute, inbound.raw)
-            except ValueError as exc:  # the codec's error type is a ValueError
-                robot.inbox.put(Malformed(inbound.attribute, str(exc)))
-            else:
-                robot.inbox.put(Decoded(message))
+        """The transport's entry point: route ``inbound`` to its robot's mailbox at ``env.now``."""
+        robot = self._by_entity.get(inbound.entity)
+        if robot is None:
+            self._reject_unknown(inbound)
+            return
+        if inbound.message is not None:
+            robot.inbox.put(Decoded(inbound.message))
+            return
+        try:
+            message = self._decode(inbound.attribute, inbound.raw)
+        except ValueError as exc:  # the codec's error type is a ValueError
+            robot.inbox.put(Malformed(inbound.attribute, str(exc)))
+        else:
+            robot.inbox.put(Decoded(message))
 
     # --- outbound ---------------------------------------------------------------------------------------
 
@@ -101,8 +95,7 @@ class Ran:
             t = k * period
             yield at(self.env, t, TELEMETRY)
             if fleet is not None:
-                x, y, theta, v, w = fleet.sample(t)
-                self.transport.send(Frame(t, self._ids, x, y, theta, v, w))
+                self.transport.send(Frame(t, self._ids, fleet.sample(t)))
             if k == 0:  # everything is "changed" at start
                 for r in self.robots:
                     self.changed(r)

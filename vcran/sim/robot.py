@@ -1,4 +1,4 @@
-"""One robot's three processes: RanLogic, AGV and AgvAction, talking through SimPy stores (seed §2).
+"""One robot's three processes: RanLogic, AGV and AgvAction, talking through mailboxes (seed §2).
 
 The processes decide nothing. RanLogic's process hands each arriving signal to the pure
 :class:`~vcran.ranlogic.RanLogic` and carries out the effects it returns; the AGV drives the legs it is
@@ -28,8 +28,9 @@ from vcran.messages import ActionAssignment, ActionKind, CancelTask, Message, Mo
 from vcran.motion import FleetKinematics, Leg, Limits
 from vcran.ranlogic import RanLogic
 from vcran.scenario import RobotConfig
+from vcran.sim.mailbox import Mailbox
 from vcran.sim.timing import COMPLETION, DEADLINE, after, at
-from vcran.stations import Station, perform
+from vcran.stations import StationMap, perform
 
 Process = Generator[simpy.events.Event, Any, None]
 
@@ -90,7 +91,7 @@ class RobotNode:
         config: RobotConfig,
         logic: RanLogic,
         fleet: FleetKinematics,
-        stations: list[Station],
+        stations: StationMap,
         durations: dict[str, float],
         log: Callable[[RobotNode, Event], None],
         changed: Callable[[RobotNode], None],
@@ -99,9 +100,9 @@ class RobotNode:
         self.id = config.id
         self.fleet, self.stations, self.durations = fleet, stations, durations
         self._log, self._changed = log, changed
-        self.inbox = simpy.Store(env)
-        self.agv_commands = simpy.Store(env)
-        self.action_orders = simpy.Store(env)
+        self.inbox = Mailbox(env)
+        self.agv_commands = Mailbox(env)
+        self.action_orders = Mailbox(env)
         self.pose = config.pose
         self.footprint = PolygonStamped.from_xy(config.footprint)
         self.carrying = config.carrying

@@ -1,0 +1,43 @@
+"""A mailbox: SimPy's ``Store`` for the one case the model needs, one reader and puts that never wait.
+
+``simpy.Store`` supports capacities, many readers and blocking puts, and pays for it with a put event and
+queue scans on every hand-off. Between vcran's processes every store is unbounded and has exactly one
+reader, so a put needs no event: it hands the item to the waiting reader (one scheduled event, exactly
+as ``Store`` does) or appends it. Same ``put``/``get``/``items`` interface, same FIFO order, half the
+events per signal.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import simpy
+from simpy.events import Event
+
+
+class Mailbox:
+    __slots__ = ("env", "items", "_reader")
+
+    def __init__(self, env: simpy.Environment) -> None:
+        self.env = env
+        self.items: deque[Any] = deque()
+        self._reader: Event | None = None
+
+    def put(self, item: Any) -> None:
+        reader = self._reader
+        if reader is not None:
+            self._reader = None
+            reader.succeed(item)
+        else:
+            self.items.append(item)
+
+    def get(self) -> Event:
+        event = Event(self.env)
+        if self.items:
+            event.succeed(self.items.popleft())
+        elif self._reader is not None:
+            raise RuntimeError("a Mailbox has one reader; a second get() is waiting already")
+        else:
+            self._reader = event
+        return event
