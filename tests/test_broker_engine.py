@@ -444,3 +444,48 @@ def test_same_id_two_types_is_ambiguous_without_type(broker: Broker) -> None:
     ok(call(broker, "POST", "/v2/entities", {"id": "r1", "type": "B"}), 201)
     error(call(broker, "GET", "/v2/entities/r1"), 409, "TooManyResults")
     assert ok(call(broker, "GET", "/v2/entities/r1?type=B"), 200).response.json() == {"id": "r1", "type": "B"}
+
+
+def test_default_types_and_text_unrestricted(broker: Broker) -> None:
+    entity = {
+        "id": "r1",
+        "flag": {"value": True},
+        "nothing": {"value": None},
+        "pose": {"value": [1, 2]},
+        "html": {"type": "TextUnrestricted", "value": "<b>"},
+    }
+    ok(call(broker, "POST", "/v2/entities", entity), 201)
+    got = call(broker, "GET", "/v2/entities/r1").response.json()
+    assert [got[name]["type"] for name in ("flag", "nothing", "pose", "html")] == [
+        "Boolean",
+        "None",
+        "StructuredValue",
+        "TextUnrestricted",
+    ]
+    error(call(broker, "POST", "/v2/entities", {"id": "r2", "html": {"value": "<b>"}}), 400, "BadRequest")
+
+
+def test_true_is_not_one(broker: Broker) -> None:
+    ok(call(broker, "POST", "/v2/entities", {"id": "r1", "a": {"type": "X", "value": 1}}), 201)
+    subscribe(broker, {"subject": {"entities": [{"id": "r1"}]}, "notification": {"http": {"url": URL}}})
+    assert len(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"type": "X", "value": True}}).notifications) == 1
+
+
+def test_values_format(broker: Broker) -> None:
+    ok(call(broker, "POST", "/v2/entities", robot("r1", a=1, b=2)), 201)
+    assert call(broker, "GET", "/v2/entities/r1?options=values&attrs=b,a").response.json() == [2, 1]
+    assert call(broker, "GET", "/v2/entities?options=values").response.json() == [[1, 2]]
+
+
+def test_oneshot_and_expired_subscriptions() -> None:
+    clock = Clock()
+    broker = Broker(clock=clock, rng=random.Random(3))
+    body = {"subject": {"entities": [{"id": "r1"}]}, "notification": {"http": {"url": URL}}}
+    oneshot = subscribe(broker, {**body, "status": "oneshot"})
+    expiring = subscribe(broker, {**body, "expires": "2023-11-14T22:14:00.000Z"})  # clock: 22:13:20
+    assert len(call(broker, "POST", "/v2/entities", robot("r1", a=1)).notifications) == 2
+    clock.now += 60
+    notified = call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}).notifications
+    assert notified == ()
+    assert call(broker, "GET", f"/v2/subscriptions/{oneshot}").response.json()["status"] == "inactive"
+    assert call(broker, "GET", f"/v2/subscriptions/{expiring}").response.json()["status"] == "expired"
