@@ -135,3 +135,23 @@ def test_vcran_broker_is_registered_and_its_help_says_data_is_in_memory_only() -
 
     assert COMMANDS["broker"] == "broker"
     assert "memory only" in broker.HELP and "lost on exit" in broker.HELP
+
+
+def test_stop_does_not_wait_for_a_delivery_in_flight() -> None:
+    gate = threading.Event()
+    stuck = Listener(gate=gate)  # does not answer until the test ends
+    broker = start_broker()
+    try:
+        with httpx.Client(base_url=broker.url) as client:
+            subscribe(client, stuck.url)
+            assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 1}}).status_code == 201
+        deadline = time.monotonic() + 5
+        while not stuck.received and time.monotonic() < deadline:
+            time.sleep(0.01)
+        started = time.monotonic()
+        broker.stop()
+        assert time.monotonic() - started < 1
+    finally:
+        broker.stop()
+        gate.set()
+        stuck.stop()

@@ -13,6 +13,7 @@ import functools
 import logging
 import ssl
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable
 
@@ -26,6 +27,8 @@ ResultCallback = Callable[[Notification, "int | None", str], None]
 
 #: Orion's default notification timeout (``-httpTimeout``), in seconds.
 DEFAULT_TIMEOUT = 5.0
+#: How long closing waits for deliveries in flight, in seconds.
+CLOSE_GRACE = 0.2
 
 
 @functools.cache
@@ -34,7 +37,7 @@ def _ssl_context() -> ssl.SSLContext:
     return httpx.create_ssl_context()
 
 
-def _failure_reason(exc: httpx.HTTPError) -> str:
+def _failure_reason(exc: Exception) -> str:
     """libcurl's words where Orion would report them (``lastFailureReason``), else the error itself."""
     if isinstance(exc, httpx.ConnectError):
         return "Couldn't connect to server"
@@ -50,10 +53,9 @@ class Notifier:
         *,
         workers: int = 4,
         timeout: float = DEFAULT_TIMEOUT,
-        transport: httpx.BaseTransport | None = None,
     ) -> None:
         self._on_result = on_result
-        self._client = httpx.Client(timeout=timeout, transport=transport, verify=_ssl_context())
+        self._client = httpx.Client(timeout=timeout, verify=_ssl_context())
         # Send exactly the headers Orion sends: no compression offer, no explicit keep-alive.
         for name in ("Accept-Encoding", "Connection"):
             del self._client.headers[name]
@@ -89,14 +91,17 @@ class Notifier:
             return self._cond.wait_for(lambda: self._pending == 0 or self._closed, timeout)
 
     def close(self) -> None:
-        """Stop: queued notifications are dropped (as a stopping Orion loses its queue)."""
+        """Stop: queued notifications are dropped (as a stopping Orion loses its queue). Stopping does
+        not wait for a slow listener: a delivery still in flight after a short grace period finishes
+        (or times out) in its daemon thread, and its outcome no longer matters."""
         with self._cond:
             self._closed = True
             self._queues.clear()
             self._ready.clear()
             self._cond.notify_all()
+        deadline = time.monotonic() + CLOSE_GRACE
         for thread in self._threads:
-            thread.join(timeout=DEFAULT_TIMEOUT + 1)
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
         self._client.close()
 
     def _work(self) -> None:
@@ -122,7 +127,7 @@ class Notifier:
             response = self._client.post(notification.url, content=notification.body, headers=notification.headers)
             status: int | None = response.status_code
             reason = ""
-        except httpx.HTTPError as exc:
+        except Exception as exc:  # noqa: BLE001 - any failure is this delivery's, never the worker's
             status, reason = None, _failure_reason(exc)
             log.warning("notification of subscription %s to %s failed: %s", notification.subscription_id,
                         notification.url, reason)  # fmt: skip
