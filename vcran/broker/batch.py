@@ -25,7 +25,7 @@ from vcran.broker.entities import (
     update,
 )
 from vcran.broker.model import EntityInput, parse_entity
-from vcran.broker.protocol import Response, bad_request, empty_response, not_implemented
+from vcran.broker.protocol import Response, bad_request, not_implemented
 from vcran.broker.scope import parse_selector
 
 ACTION_TYPES = ("append", "appendStrict", "update", "delete", "replace")
@@ -70,7 +70,7 @@ def op_update(ctx: Context) -> Response:
     report = WriteReport()
     for given in inputs:
         _apply(ctx, action, given, report)
-    return report.answer(empty_response())
+    return report.response()
 
 
 def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -> None:

@@ -8,7 +8,7 @@ semantics, and turn an entity change into notifications.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
@@ -104,17 +104,14 @@ class Context:
 
     # --- finding entities ---
 
+    def _named(self, entity_id: str, entity_type: str | None) -> Iterator[Entity]:
+        for entity in self.tenant().entities.values():
+            if entity.id == entity_id and (entity_type is None or entity.type == entity_type):
+                yield entity
+
     def find(self, entity_id: str, entity_type: str | None) -> Entity:
         """Read semantics: the one entity with this id (and type) among the paths the request sees."""
-        found = _single(
-            [
-                e
-                for e in self.tenant().entities.values()
-                if e.id == entity_id
-                and (entity_type is None or e.type == entity_type)
-                and self.scope.sees(e.service_path)
-            ]
-        )
+        found = _single([e for e in self._named(entity_id, entity_type) if self.scope.sees(e.service_path)])
         if found is None:
             raise not_found(ENTITY_NOT_FOUND)
         return found
@@ -122,15 +119,7 @@ class Context:
     def writable(self, entity_id: str, entity_type: str | None) -> Entity | None:
         """Write semantics: the entity in the write's path (any path when the header is absent)."""
         path = self.scope.write_path()
-        return _single(
-            [
-                e
-                for e in self.tenant().entities.values()
-                if e.id == entity_id
-                and (entity_type is None or e.type == entity_type)
-                and (path is None or e.service_path == path)
-            ]
-        )
+        return _single([e for e in self._named(entity_id, entity_type) if path in (None, e.service_path)])
 
     def find_for_write(self, entity_id: str, entity_type: str | None) -> Entity:
         found = self.writable(entity_id, entity_type)

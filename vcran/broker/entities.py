@@ -74,9 +74,10 @@ class WriteReport:
             self.existing.append(f"{key} - [ {', '.join(names)} ]")
             self.only_entities_missing = False
 
-    def answer(self, success: Response) -> Response:
+    def response(self) -> Response:
+        """204 when everything applied, else the error for what did not (raised)."""
         if not self.missing and not self.existing:
-            return success
+            return empty_response()
         parts = []
         if self.missing:
             parts.append("do not exist: " + ", ".join(self.missing))
@@ -235,7 +236,7 @@ def post_attrs(ctx: Context, entity_id: str) -> Response:
         append_strict(ctx, entity, key, inputs, report)
     else:
         append(ctx, entity, inputs, report)
-    return report.answer(empty_response())
+    return report.response()
 
 
 def patch_attrs(ctx: Context, entity_id: str) -> Response:
@@ -244,7 +245,7 @@ def patch_attrs(ctx: Context, entity_id: str) -> Response:
         raise bad_request("empty payload")
     report = WriteReport()
     update(ctx, entity, key, inputs, report)
-    return report.answer(empty_response())
+    return report.response()
 
 
 def put_attrs(ctx: Context, entity_id: str) -> Response:

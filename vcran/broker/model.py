@@ -3,8 +3,8 @@
 Orion's rules as the recordings (tests/data/orion-4.7-exchanges.jsonl) show them:
 
 - an attribute written without ``type`` gets the default for its value (``Number``, ``StructuredValue``,
-  ...), even when it had another type before; written without ``metadata`` it keeps the metadata it had;
-  given metadata is merged into the old (``options=overrideMetadata`` replaces it);
+  ...), even when it had another type before; written without ``metadata`` it keeps the metadata it had
+  (given metadata is merged into the old, ``options=overrideMetadata`` replaces it: Orion's manual);
 - a value that is JSON-equal to the stored one (object key order ignored, ``80 == 80.0``) is not a
   change, and the stored value keeps its key order;
 - attributes keep the order in which they were first written; reads always carry ``metadata`` (``{}``).
