@@ -489,3 +489,8 @@ def test_oneshot_and_expired_subscriptions() -> None:
     assert notified == ()
     assert call(broker, "GET", f"/v2/subscriptions/{oneshot}").response.json()["status"] == "inactive"
     assert call(broker, "GET", f"/v2/subscriptions/{expiring}").response.json()["status"] == "expired"
+
+
+@pytest.mark.parametrize("body", [b'{"id": "r1"', b'{"id": NaN}', b"[" * 100_000, b'{"id": "\xff"}'])
+def test_unparsable_bodies_are_parse_errors(broker: Broker, body: bytes) -> None:
+    error(call(broker, "POST", "/v2/entities", body), 400, "ParseError", "Errors found in incoming JSON buffer")

@@ -173,7 +173,7 @@ class Broker:
             else:
                 try:
                     body = parse_json(request.body)
-                except ValueError:
+                except (ValueError, RecursionError):  # RecursionError: nesting deeper than Python's stack
                     raise parse_error() from None
         scope.check_tenant()
         ctx = Context(request, scope, params, options, body, correlator, self._tenants, self._clock, text)
