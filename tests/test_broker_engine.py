@@ -494,3 +494,12 @@ def test_oneshot_and_expired_subscriptions() -> None:
 @pytest.mark.parametrize("body", [b'{"id": "r1"', b'{"id": NaN}', b"[" * 100_000, b'{"id": "\xff"}'])
 def test_unparsable_bodies_are_parse_errors(broker: Broker, body: bytes) -> None:
     error(call(broker, "POST", "/v2/entities", body), 400, "ParseError", "Errors found in incoming JSON buffer")
+
+
+def test_the_engine_imports_neither_sockets_nor_httpx() -> None:
+    import subprocess
+    import sys
+
+    code = "import sys, vcran.broker; print(sorted({'httpx', 'http.server', 'socket'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
