@@ -1,0 +1,320 @@
+"""The entity resources: ``/v2/entities``, ``/v2/entities/{id}``, ``.../attrs``, ``.../attrs/{name}``,
+``.../attrs/{name}/value``, and the write semantics that ``/v2/op/update`` shares with them.
+
+Each handler takes the request :class:`~vcran.broker.context.Context` (and the path's ids) and returns a
+:class:`~vcran.broker.protocol.Response` or raises an :class:`~vcran.broker.protocol.NgsiError`.
+A write that applies in part still applies the part and notifies for it, then answers Orion's 422
+``PartialUpdate`` (the recordings show a PATCH naming an existing and a missing attribute doing that).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from vcran.broker.context import Context
+from vcran.broker.model import (
+    DEFAULT_ENTITY_TYPE,
+    AttributeInput,
+    Change,
+    Entity,
+    EntityInput,
+    parse_attribute,
+    parse_attrs_body,
+    parse_entity,
+    render_attribute,
+    render_entity,
+    written,
+)
+from vcran.broker.protocol import (
+    ATTRIBUTE_NOT_FOUND,
+    Headers,
+    NgsiError,
+    Response,
+    accepted_media,
+    bad_request,
+    empty_response,
+    json_response,
+    not_found,
+    unprocessable,
+)
+from vcran.broker.scope import ROOT_PATH, check_pattern
+
+
+def location(entity: Entity) -> Headers:
+    return (("Location", f"/v2/entities/{entity.id}?type={entity.type}"),)
+
+
+def entity_key(entity_id: str, entity_type: str | None) -> str:
+    """How Orion names an entity in error descriptions: ``id/type`` when the request gave the type."""
+    return entity_id if entity_type is None else f"{entity_id}/{entity_type}"
+
+
+@dataclass(slots=True)
+class WriteReport:
+    """What parts of a write did not apply, turned into Orion's answer once the write is done."""
+
+    applied: bool = False
+    missing: list[str] = field(default_factory=list)  # "key - [ a, b ]" or "key - [entity itself]"
+    existing: list[str] = field(default_factory=list)
+    only_entities_missing: bool = True
+
+    def missing_entity(self, key: str) -> None:
+        self.missing.append(f"{key} - [entity itself]")
+
+    def missing_attrs(self, key: str, names: list[str]) -> None:
+        if names:
+            self.missing.append(f"{key} - [ {', '.join(names)} ]")
+            self.only_entities_missing = False
+
+    def existing_attrs(self, key: str, names: list[str]) -> None:
+        if names:
+            self.existing.append(f"{key} - [ {', '.join(names)} ]")
+            self.only_entities_missing = False
+
+    def response(self) -> Response:
+        """204 when everything applied, else the error for what did not (raised)."""
+        if not self.missing and not self.existing:
+            return empty_response()
+        parts = []
+        if self.missing:
+            parts.append("do not exist: " + ", ".join(self.missing))
+        if self.existing:
+            parts.append("one or more of the attributes in the request already exist: " + ", ".join(self.existing))
+        description = "; ".join(parts)
+        if self.applied:
+            raise NgsiError(422, "PartialUpdate", description)
+        if self.only_entities_missing:
+            raise not_found(description)
+        raise unprocessable(description)
+
+
+# --- write semantics shared with op/update ------------------------------------------------------------
+
+
+def _override(ctx: Context) -> bool:
+    return "overrideMetadata" in ctx.options
+
+
+def create(ctx: Context, given: EntityInput) -> Entity:
+    """Create an entity in the write's service path (``/`` by default) and notify for it."""
+    entity = Entity(given.id, given.type or DEFAULT_ENTITY_TYPE, ctx.scope.write_path() or ROOT_PATH)
+    changes = entity.write(given.attrs)
+    ctx.tenant(create=True).add(entity)
+    ctx.notify(entity, changes)
+    return entity
+
+
+def append(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput], report: WriteReport) -> None:
+    """Update the attributes that exist, add the others (``append`` / ``POST .../attrs``)."""
+    ctx.notify(entity, entity.write(inputs, override_metadata=_override(ctx)))
+    report.applied = True
+
+
+def append_strict(
+    ctx: Context, entity: Entity, key: str, inputs: Mapping[str, AttributeInput], report: WriteReport
+) -> None:
+    """Add the attributes that do not exist yet; those that do are an error (``appendStrict``)."""
+    existing = [name for name in inputs if name in entity.attrs]
+    new = {name: given for name, given in inputs.items() if name not in entity.attrs}
+    report.existing_attrs(key, existing)
+    if new:
+        ctx.notify(entity, entity.write(new, override_metadata=_override(ctx)))
+        report.applied = True
+
+
+def update(ctx: Context, entity: Entity, key: str, inputs: Mapping[str, AttributeInput], report: WriteReport) -> None:
+    """Update the attributes that exist; those that do not are an error (``update`` / ``PATCH``)."""
+    report.missing_attrs(key, [name for name in inputs if name not in entity.attrs])
+    present = {name: given for name, given in inputs.items() if name in entity.attrs}
+    if present:
+        ctx.notify(entity, entity.write(present, override_metadata=_override(ctx)))
+        report.applied = True
+
+
+def replace(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput]) -> None:
+    """Drop every attribute and write the given ones (``replace`` / ``PUT .../attrs``); an attribute
+    written again with an equal value is not a change."""
+    changes: dict[str, Change] = {}
+    attrs = {}
+    for name, given in inputs.items():
+        attrs[name], changes[name] = written(entity.attrs.get(name), given, override_metadata=_override(ctx))
+    entity.attrs = attrs
+    ctx.notify(entity, changes)
+
+
+def delete_attrs(ctx: Context, entity: Entity, key: str, names: list[str], report: WriteReport) -> None:
+    report.missing_attrs(key, [name for name in names if name not in entity.attrs])
+    for name in names:
+        if entity.attrs.pop(name, None) is not None:
+            report.applied = True
+
+
+# --- /v2/entities --------------------------------------------------------------------------------------
+
+
+def entity_page(ctx: Context, matches: list[Entity], attrs: list[str] | None) -> Response:
+    """A list answer: ``limit``/``offset`` applied, ``Fiware-Total-Count`` with ``options=count``."""
+    limit, offset = ctx.page_bounds()
+    fmt = ctx.render_format()
+    body = [render_entity(e, attrs, fmt) for e in matches[offset : offset + limit]]
+    headers = (("Fiware-Total-Count", str(len(matches))),) if "count" in ctx.options else ()
+    return json_response(body, headers=headers)
+
+
+def _param_list(ctx: Context, name: str) -> list[str] | None:
+    value = ctx.params.get(name)
+    return value.split(",") if value is not None else None
+
+
+def list_entities(ctx: Context) -> Response:
+    ids, types = _param_list(ctx, "id"), _param_list(ctx, "type")
+    id_pattern, type_pattern = ctx.params.get("idPattern"), ctx.params.get("typePattern")
+    if ids is not None and id_pattern is not None:
+        raise bad_request("Incompatible parameters: id, IdPattern")
+    if types is not None and type_pattern is not None:
+        raise bad_request("Incompatible parameters: type, typePattern")
+    id_re = re.compile(check_pattern(id_pattern, "idPattern")) if id_pattern is not None else None
+    type_re = re.compile(check_pattern(type_pattern, "typePattern")) if type_pattern is not None else None
+    matches = [
+        e
+        for e in ctx.tenant().entities.values()
+        if ctx.scope.sees(e.service_path)
+        and (ids is None or e.id in ids)
+        and (types is None or e.type in types)
+        and (id_re is None or id_re.fullmatch(e.id))
+        and (type_re is None or type_re.fullmatch(e.type))
+    ]
+    return entity_page(ctx, matches, ctx.attrs_param())
+
+
+def create_entity(ctx: Context) -> Response:
+    given = parse_entity(ctx.body, key_values="keyValues" in ctx.options)
+    path = ctx.scope.write_path() or ROOT_PATH
+    existing = ctx.tenant().entities.get((path, given.id, given.type or DEFAULT_ENTITY_TYPE))
+    if existing is not None:
+        if "upsert" not in ctx.options:
+            raise unprocessable("Already Exists")
+        append(ctx, existing, given.attrs, WriteReport())
+        return empty_response(204, location(existing))
+    return empty_response(201, location(create(ctx, given)))
+
+
+# --- /v2/entities/{id} and /attrs -----------------------------------------------------------------------
+
+
+def get_entity(ctx: Context, entity_id: str) -> Response:
+    entity = ctx.find(entity_id, ctx.params.get("type"))
+    return json_response(render_entity(entity, ctx.attrs_param(), ctx.render_format()))
+
+
+def get_attrs(ctx: Context, entity_id: str) -> Response:
+    entity = ctx.find(entity_id, ctx.params.get("type"))
+    return json_response(render_entity(entity, ctx.attrs_param(), ctx.render_format(), with_id=False))
+
+
+def delete_entity(ctx: Context, entity_id: str) -> Response:
+    ctx.tenant().remove(ctx.find_for_write(entity_id, ctx.params.get("type")))
+    return empty_response()
+
+
+def _attrs_write(ctx: Context, entity_id: str) -> tuple[Entity, str, dict[str, AttributeInput]]:
+    """The common start of POST/PATCH/PUT ``.../attrs``: parsed payload, target entity, its name."""
+    inputs = parse_attrs_body(ctx.body, key_values="keyValues" in ctx.options)
+    entity_type = ctx.params.get("type")
+    return ctx.find_for_write(entity_id, entity_type), entity_key(entity_id, entity_type), inputs
+
+
+def post_attrs(ctx: Context, entity_id: str) -> Response:
+    entity, key, inputs = _attrs_write(ctx, entity_id)
+    if not inputs:
+        raise bad_request("empty payload")
+    report = WriteReport()
+    if "append" in ctx.options:
+        append_strict(ctx, entity, key, inputs, report)
+    else:
+        append(ctx, entity, inputs, report)
+    return report.response()
+
+
+def patch_attrs(ctx: Context, entity_id: str) -> Response:
+    entity, key, inputs = _attrs_write(ctx, entity_id)
+    if not inputs:
+        raise bad_request("empty payload")
+    report = WriteReport()
+    update(ctx, entity, key, inputs, report)
+    return report.response()
+
+
+def put_attrs(ctx: Context, entity_id: str) -> Response:
+    entity, _, inputs = _attrs_write(ctx, entity_id)
+    replace(ctx, entity, inputs)
+    return empty_response()
+
+
+# --- /v2/entities/{id}/attrs/{name} and /value ------------------------------------------------------------
+
+
+def _require_attribute(entity: Entity, name: str) -> None:
+    if name not in entity.attrs:
+        raise not_found(ATTRIBUTE_NOT_FOUND)
+
+
+def get_attr(ctx: Context, entity_id: str, name: str) -> Response:
+    entity = ctx.find(entity_id, ctx.params.get("type"))
+    _require_attribute(entity, name)
+    return json_response(render_attribute(entity.attrs[name]))
+
+
+def put_attr(ctx: Context, entity_id: str, name: str) -> Response:
+    given = parse_attribute(name, ctx.body)
+    entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
+    _require_attribute(entity, name)
+    ctx.notify(entity, entity.write({name: given}, override_metadata=_override(ctx)))
+    return empty_response()
+
+
+def delete_attr(ctx: Context, entity_id: str, name: str) -> Response:
+    entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
+    _require_attribute(entity, name)
+    del entity.attrs[name]
+    return empty_response()
+
+
+def get_value(ctx: Context, entity_id: str, name: str) -> Response:
+    """Objects and arrays as JSON; a string, number, boolean or null as ``text/plain`` (strings in
+    quotes) when the client accepts it, else 406, as the NGSI v2 specification says."""
+    entity = ctx.find(entity_id, ctx.params.get("type"))
+    _require_attribute(entity, name)
+    value = entity.attrs[name].value
+    if isinstance(value, (dict, list)):
+        return json_response(value)
+    if not {"*/*", "text/*", "text/plain"}.intersection(accepted_media(ctx.request)):
+        raise NgsiError(406, "NotAcceptable", "accepted MIME types: text/plain")
+    return Response(200, (("Content-Type", "text/plain"),), json.dumps(value, ensure_ascii=False).encode())
+
+
+def _plain_text_value(text: str) -> object:
+    """A ``text/plain`` value: ``"quoted"`` is a string, else true/false/null or a number."""
+    if len(text) >= 2 and text.startswith('"') and text.endswith('"'):
+        return text[1:-1]
+    constants: dict[str, object] = {"true": True, "false": False, "null": None}
+    if text in constants:
+        return constants[text]
+    try:
+        number = float(text)
+    except ValueError:
+        raise bad_request("attribute value type not recognized") from None
+    return int(number) if number.is_integer() and abs(number) < 2**53 else number
+
+
+def put_value(ctx: Context, entity_id: str, name: str) -> Response:
+    """Set the value only: the attribute keeps its type and metadata."""
+    value = _plain_text_value(ctx.text) if ctx.text is not None else ctx.body
+    entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
+    _require_attribute(entity, name)
+    given = parse_attribute(name, {"value": value, "type": entity.attrs[name].type})
+    ctx.notify(entity, entity.write({name: given}))
+    return empty_response()

@@ -1,0 +1,246 @@
+"""Entities and attributes: how a request's JSON becomes them, how a write changes them, how they render.
+
+Orion's rules as the recordings (tests/data/orion-4.7-exchanges.jsonl) show them:
+
+- an attribute written without ``type`` gets the default for its value (``Number``, ``StructuredValue``,
+  ...), even when it had another type before; written without ``metadata`` it keeps the metadata it had
+  (given metadata is merged into the old, ``options=overrideMetadata`` replaces it: Orion's manual);
+- a value that is JSON-equal to the stored one (object key order ignored, ``80 == 80.0``) is not a
+  change, and the stored value keeps its key order;
+- attributes keep the order in which they were first written; reads always carry ``metadata`` (``{}``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from vcran.broker.protocol import bad_request
+from vcran.orion_rules import default_attribute_type, has_forbidden_chars, identifier_error
+
+#: Attribute type that skips the forbidden-character check on the value (Orion's escape hatch).
+TEXT_UNRESTRICTED = "TextUnrestricted"
+#: Entity type given to entities created without one.
+DEFAULT_ENTITY_TYPE = "Thing"
+
+
+@dataclass(frozen=True, slots=True)
+class Metadata:
+    type: str
+    value: Any
+
+
+@dataclass(frozen=True, slots=True)
+class Attribute:
+    type: str
+    value: Any
+    metadata: Mapping[str, Metadata] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class AttributeInput:
+    """An attribute as a request writes it: ``type`` and ``metadata`` are None where the request left
+    them out, because leaving them out means something (default type, keep the old metadata)."""
+
+    value: Any
+    type: str | None = None
+    metadata: Mapping[str, Metadata] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Change:
+    """What one write did to one attribute; subscriptions decide which kinds they care about."""
+
+    value: bool  # created, or its value or type changed
+    metadata: bool  # its metadata changed
+
+
+@dataclass(slots=True)
+class Entity:
+    id: str
+    type: str
+    service_path: str
+    attrs: dict[str, Attribute] = field(default_factory=dict)
+
+    def write(self, inputs: Mapping[str, AttributeInput], *, override_metadata: bool = False) -> dict[str, Change]:
+        """Create or update each attribute; returns what changed, by attribute name."""
+        changes = {}
+        for name, given in inputs.items():
+            self.attrs[name], changes[name] = written(self.attrs.get(name), given, override_metadata=override_metadata)
+        return changes
+
+
+# --- comparing and writing ---------------------------------------------------------------------------
+
+
+def json_equal(a: Any, b: Any) -> bool:
+    """Equality of JSON values as Orion stores them: object key order ignored, numbers as doubles
+    (``80 == 80.0``), but ``true`` is not ``1``."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return type(a) is type(b) and a == b
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return a == b
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(json_equal(a[k], b[k]) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(map(json_equal, a, b))
+    return type(a) is type(b) and a == b
+
+
+def _same_metadata(a: Mapping[str, Metadata], b: Mapping[str, Metadata]) -> bool:
+    return a.keys() == b.keys() and all(a[k].type == b[k].type and json_equal(a[k].value, b[k].value) for k in a)
+
+
+def written(
+    old: Attribute | None, given: AttributeInput, *, override_metadata: bool = False
+) -> tuple[Attribute, Change]:
+    """The attribute after writing ``given`` over ``old`` (None: a new attribute), and the change."""
+    new_type = given.type if given.type is not None else default_attribute_type(given.value)
+    if old is None:
+        return Attribute(new_type, given.value, dict(given.metadata or {})), Change(True, True)
+    value_equal = json_equal(old.value, given.value)
+    value = old.value if value_equal else given.value
+    if given.metadata is None:
+        metadata = old.metadata
+    elif override_metadata:
+        metadata = dict(given.metadata)
+    else:
+        metadata = {**old.metadata, **given.metadata}
+    metadata_changed = not _same_metadata(old.metadata, metadata)
+    if not metadata_changed:
+        metadata = old.metadata
+    change = Change(value=not value_equal or new_type != old.type, metadata=metadata_changed)
+    return Attribute(new_type, value, metadata), change
+
+
+# --- parsing request payloads ----------------------------------------------------------------------
+
+
+def _canonical_numbers(value: Any) -> Any:
+    """Integral doubles as integers, as Orion (which stores doubles) renders them: 80.0 reads back 80."""
+    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
+        return int(value)
+    if isinstance(value, dict):
+        return {k: _canonical_numbers(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_canonical_numbers(v) for v in value]
+    return value
+
+
+def _check_identifier(kind: str, name: Any) -> str:
+    error = identifier_error(kind, name)
+    if error is not None:
+        raise bad_request(error)
+    return str(name)
+
+
+def _parse_metadata(raw: Any) -> dict[str, Metadata]:
+    if not isinstance(raw, dict):
+        raise bad_request("metadata must be a JSON object")
+    metadata = {}
+    for name, item in raw.items():
+        _check_identifier("metadata name", name)
+        if not isinstance(item, dict):
+            raise bad_request("metadata must be a JSON object")
+        value = _canonical_numbers(item.get("value"))
+        md_type = item.get("type")
+        if md_type is None:
+            md_type = default_attribute_type(value)
+        _check_identifier("metadata type", md_type)
+        if has_forbidden_chars(value):
+            raise bad_request("Invalid characters in metadata value")
+        metadata[name] = Metadata(md_type, value)
+    return metadata
+
+
+def parse_attribute(name: Any, raw: Any, *, key_values: bool = False) -> AttributeInput:
+    """One attribute of a request payload, checked as Orion checks it (names, types, forbidden chars)."""
+    _check_identifier("attribute name", name)
+    if key_values:
+        given = AttributeInput(_canonical_numbers(raw))
+    else:
+        if not isinstance(raw, dict):
+            raise bad_request("attribute must be a JSON object, unless keyValues option is used")
+        attr_type = raw.get("type")
+        if attr_type is not None:
+            _check_identifier("attribute type", attr_type)
+        metadata = _parse_metadata(raw["metadata"]) if "metadata" in raw else None
+        given = AttributeInput(_canonical_numbers(raw.get("value")), attr_type, metadata)
+    if given.type != TEXT_UNRESTRICTED and has_forbidden_chars(given.value):
+        raise bad_request("Invalid characters in attribute value")
+    return given
+
+
+def parse_attributes(payload: Any, *, key_values: bool = False, skip: Iterable[str] = ()) -> dict[str, AttributeInput]:
+    """The attributes of a payload object (an entity minus ``skip``, or a bare ``/attrs`` body)."""
+    if not isinstance(payload, dict):
+        raise bad_request("not a JSON object")
+    skipped = set(skip)
+    return {
+        name: parse_attribute(name, raw, key_values=key_values) for name, raw in payload.items() if name not in skipped
+    }
+
+
+def parse_attrs_body(payload: Any, *, key_values: bool = False) -> dict[str, AttributeInput]:
+    """The body of ``/v2/entities/{id}/attrs``: attributes only, id and type belong in the URL."""
+    if isinstance(payload, dict):
+        if "id" in payload:
+            raise bad_request("entity id specified in payload")
+        if "type" in payload:
+            raise bad_request("entity type specified in payload")
+    return parse_attributes(payload, key_values=key_values)
+
+
+@dataclass(frozen=True, slots=True)
+class EntityInput:
+    """An entity as a request writes it; ``type`` is None where the request left it out."""
+
+    id: str
+    type: str | None
+    attrs: dict[str, AttributeInput]
+
+
+def parse_entity(payload: Any, *, key_values: bool = False) -> EntityInput:
+    if not isinstance(payload, dict):
+        raise bad_request("not a JSON object")
+    if "id" not in payload:
+        raise bad_request("entity id is missing")
+    entity_id = _check_identifier("entity id", payload["id"])
+    entity_type = payload.get("type")
+    if entity_type is not None:
+        _check_identifier("entity type", entity_type)
+    attrs = parse_attributes(payload, key_values=key_values, skip=("id", "type"))
+    return EntityInput(entity_id, entity_type, attrs)
+
+
+# --- rendering ----------------------------------------------------------------------------------------
+
+
+def render_attribute(attr: Attribute) -> dict[str, Any]:
+    return {
+        "type": attr.type,
+        "value": attr.value,
+        "metadata": {name: {"type": md.type, "value": md.value} for name, md in attr.metadata.items()},
+    }
+
+
+def selected(entity: Entity, attrs: list[str] | None) -> list[tuple[str, Attribute]]:
+    """The attributes a read or notification shows: all (``None`` or a list with ``*``) in entity
+    order, else those named that exist, in the order named."""
+    if attrs is None or "*" in attrs:
+        return list(entity.attrs.items())
+    return [(name, entity.attrs[name]) for name in dict.fromkeys(attrs) if name in entity.attrs]
+
+
+def render_entity(
+    entity: Entity, attrs: list[str] | None = None, fmt: str = "normalized", *, with_id: bool = True
+) -> Any:
+    """An entity in one of NGSI v2's representations: ``normalized``, ``keyValues`` or ``values``."""
+    chosen = selected(entity, attrs)
+    if fmt == "values":
+        return [attr.value for _, attr in chosen]
+    out: dict[str, Any] = {"id": entity.id, "type": entity.type} if with_id else {}
+    for name, attr in chosen:
+        out[name] = attr.value if fmt == "keyValues" else render_attribute(attr)
+    return out

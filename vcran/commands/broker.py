@@ -1,0 +1,38 @@
+"""``vcran broker``: run vcran's own NGSI v2 broker, a stand-in for Orion when none is at hand (SPEC §8)."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = (
+    "run vcran's own in-memory NGSI-v2 broker (an Orion 4.7 stand-in) until interrupted; "
+    "data lives in memory only and is lost on exit"
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--port", type=int, default=1026, help="port to listen on (default: 1026, Orion's; 0: any free port)"
+    )
+    parser.add_argument("--host", default="127.0.0.1", help="address to bind (default: 127.0.0.1)")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log every request and failed notification")
+
+
+def run(args: argparse.Namespace) -> int:
+    import logging
+    import signal
+    import threading
+
+    from vcran.broker import start_broker
+
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(asctime)s %(message)s")
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    handle = start_broker(args.host, args.port)
+    print(f"vcran broker listening on {handle.url} (in memory only: data is lost on exit)", flush=True)
+    try:
+        stop.wait()
+    finally:
+        handle.stop()
+    return 0
