@@ -15,6 +15,7 @@ from collections.abc import Sequence
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {
     "run": "run",
+    "replay": "replay",
     "gen": "gen",
     "broker": "broker",
 }

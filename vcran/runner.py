@@ -72,6 +72,7 @@ def run_to(
     try:
         model = Model(scenario, recording, events, env=env)
         model.run()
+        writer.end(model.env.now)
     finally:
         recording.close()
         events.close()
