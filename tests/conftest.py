@@ -31,8 +31,9 @@ class Outputs:
         return [e for e in self.events if e["event"] == name and (robot is None or e["robot"] == robot)]
 
     def trace(self) -> list[dict[str, Any]]:
+        """The in and out records (without the header and the end record)."""
         lines = (self.dir / "trace.jsonl").read_text().splitlines()
-        return [json.loads(line) for line in lines[1:]]
+        return [r for r in map(json.loads, lines[1:]) if r["dir"] != "end"]
 
 
 def run_scenario(scenario: Scenario, out: Path) -> Outputs:
