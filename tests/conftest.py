@@ -52,3 +52,24 @@ def run_toml(tmp_path: Path):
         return run_scenario(scenario, tmp_path / f"run{next(counter)}")
 
     return run
+
+
+# --- hypothesis profiles (docs/fuzzing.md) ------------------------------------------------------------------
+# ``ci`` (the default) keeps the whole fuzz set well under a minute on two cores; ``deep`` is for long
+# campaigns: ``pytest --hypothesis-profile=deep`` or ``VCRAN_HYPOTHESIS_PROFILE=deep pytest``. Neither uses
+# a deadline: a simulated run's wall time depends on the machine, never its outcome. The example database
+# (.hypothesis/) replays earlier failures first; it stays out of git.
+
+import os
+
+from hypothesis import HealthCheck, settings
+
+settings.register_profile(
+    "ci", max_examples=100, stateful_step_count=50, deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+settings.register_profile(
+    "deep", max_examples=5_000, stateful_step_count=120, deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+settings.load_profile(os.environ.get("VCRAN_HYPOTHESIS_PROFILE", "ci"))
