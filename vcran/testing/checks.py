@@ -1,0 +1,191 @@
+"""The rules, checked on a run's output folder (``events.jsonl``, ``telemetry.bin``, ``trace.jsonl``).
+
+Used by the whole-simulation fuzz tests and by ``vcran fuzz``. The checks are about the rules, not about
+"everything completes": a perturbed script legitimately produces rejections, timeouts and cancels. Each
+check returns human-readable violations (empty when the run kept the rules):
+
+* R6: every state change is one of ``TRANSITIONS`` and starts where the previous one ended;
+* R1/R8/R9: every queued task ends at most once per life, as completed or cancelled with a known reason;
+  with ``finished`` (the run went idle), every queued task ended;
+* R7/R8: a cancelled task ends at or after the request (its cancel_order, or first seen + timeout), and
+  later than the request only at the end of the one leg or action that was running; nothing of a task
+  finishes after its end, and at most one leg or action of it finishes after the request;
+* §4/R6: the AGV moves only while its robot is in MOTION (telemetry against the state changes).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vcran.effects import Reason, State
+from vcran.ranlogic import TRANSITIONS
+from vcran.trace import read_header, records, telemetry
+
+_TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}
+_REASONS = {r.value for r in Reason}
+
+
+@dataclass
+class _Life:
+    """One task's life on one robot: from task_queued to its end."""
+
+    queued: float
+    end: float | None = None
+    reason: str | None = None
+    finishes: list[tuple[float, str]] = field(default_factory=list)  # (t, "motion"/"action")
+
+
+def check_run(out: Path, task_timeout: float, finished: bool) -> list[str]:
+    """Every violation of the rules found in the output folder ``out`` (module docstring)."""
+    events = [json.loads(line) for line in (out / "events.jsonl").read_text(encoding="utf-8").splitlines()]
+    cancels = _cancel_requests(out / "trace.jsonl")
+    problems = check_states(events) + check_lives(events, cancels, task_timeout, finished)
+    return problems + check_motion(out, events)
+
+
+def check_states(events: list[dict[str, Any]]) -> list[str]:
+    """R6: only the cycle's transitions, each from the state the previous one reached."""
+    state: dict[str, str] = defaultdict(lambda: State.WAITING.value)
+    problems = []
+    for e in events:
+        if e["event"] != "state":
+            continue
+        r = e["robot"]
+        if (e["from"], e["to"]) not in _TRANSITIONS:
+            problems.append(f"t={e['t']} {r}: transition {e['from']} -> {e['to']} does not exist (R6)")
+        if e["from"] != state[r]:
+            problems.append(f"t={e['t']} {r}: transition from {e['from']}, but the state was {state[r]} (R6)")
+        state[r] = e["to"]
+    return problems
+
+
+def check_lives(events: list[dict[str, Any]], cancels: dict[tuple[str, str], list[float]],
+                task_timeout: float, finished: bool) -> list[str]:
+    """R1, R7, R8, R9 on task lifetimes (module docstring)."""
+    lives: dict[tuple[str, str], list[_Life]] = defaultdict(list)
+    problems = []
+    for e in events:
+        kind, key, t = e["event"], (e["robot"], e.get("task", "")), e["t"]
+        life = lives[key][-1] if lives[key] else None
+        open_life = life if life is not None and life.end is None else None
+        if kind == "task_queued":
+            if open_life is not None:
+                problems.append(f"t={t} {key[0]}: task {key[1]} queued again while queued (R1)")
+            lives[key].append(_Life(t))
+        elif kind in ("task_completed", "task_cancelled"):
+            if open_life is None:
+                problems.append(f"t={t} {key[0]}: task {key[1]} ended twice or was never queued")
+                continue
+            open_life.end, open_life.reason = t, e.get("reason", "completed")
+            if kind == "task_cancelled" and e.get("reason") not in _REASONS:
+                problems.append(f"t={t} {key[0]}: task {key[1]} cancelled with unknown reason {e.get('reason')!r}")
+        elif kind in ("motion_finished", "action_finished"):
+            if open_life is None:
+                problems.append(f"t={t} {key[0]}: {kind} for task {key[1]}, which is not queued (R8)")
+                continue
+            open_life.finishes.append((t, kind))
+    for (robot, task), history in lives.items():
+        for life in history:
+            where = f"{robot}: task {task} (queued at {life.queued})"
+            if life.end is None:
+                if finished:
+                    problems.append(f"{where} never ended, though the run went idle")
+                continue
+            if life.reason in ("cancelled", "timeout"):
+                if life.reason == "timeout":
+                    request = life.queued + task_timeout
+                else:
+                    asked = [c for c in cancels.get((robot, task), []) if life.queued <= c <= life.end]
+                    if not asked and any(life.queued <= c <= life.end for c in cancels.get((robot, ""), [])):
+                        continue  # a raw payload may have carried the cancel: its task is not known here
+                    if not asked:
+                        problems.append(f"{where} cancelled at {life.end} with no cancel_order for it (R8)")
+                        continue
+                    request = asked[0]
+                problems += _ended_after_request(where, life, request)
+    return problems
+
+
+def _ended_after_request(where: str, life: _Life, request: float) -> list[str]:
+    """R7/R8: the end comes at the request, or when the one running leg or action finishes."""
+    assert life.end is not None
+    after = [f for f in life.finishes if f[0] > request]
+    if life.end < request:
+        return [f"{where} ended ({life.reason}) at {life.end}, before its request at {request}"]
+    if len(after) > 1:
+        return [f"{where}: {len(after)} legs/actions finished after the {life.reason} request at {request}; "
+                "only the running one may (R8)"]
+    if life.end > request and not (after and after[0][0] == life.end):
+        return [f"{where} ended ({life.reason}) at {life.end}, not at the request ({request}) nor at the end "
+                "of its running leg or action (R7/R8)"]
+    return []
+
+
+def _cancel_requests(trace: Path) -> dict[tuple[str, str], list[float]]:
+    """Whole-task cancel_order records: (robot, task label) -> times; raw ones under (robot, "")."""
+    out: dict[tuple[str, str], list[float]] = defaultdict(list)
+    for r in records(trace):
+        if r.get("dir") != "in" or r.get("attr") != "cancel_order":
+            continue
+        if "value" not in r:
+            out[(r["robot"], "")].append(r["t"])
+            continue
+        v = r["value"]
+        if all(_unused(v[k]) for k in ("motion_id", "action_id")):
+            out[(r["robot"], _label(v["task_id"]))].append(r["t"])
+    return out
+
+
+def _unused(ident: dict[str, Any]) -> bool:
+    return ident["description"] == "not supported" or ident["uuid"] == "00000000-0000-0000-0000-000000000000"
+
+
+def _label(ident: dict[str, Any]) -> str:
+    return str(ident["description"] or ident["uuid"])
+
+
+def check_motion(out: Path, events: list[dict[str, Any]]) -> list[str]:
+    """The AGV moves only in MOTION: between two telemetry ticks where its pose changed, or at a tick
+    where it has a velocity, its robot was in MOTION at some instant of that interval."""
+    robots = read_header(out / "trace.jsonl")["telemetry"]["robots"]
+    rows = telemetry(out, len(robots))
+    if len(rows) == 0:
+        return []
+    changes: dict[str, list[tuple[float, str, str]]] = defaultdict(list)
+    for e in events:
+        if e["event"] == "state":
+            changes[e["robot"]].append((e["t"], e["from"], e["to"]))
+    problems = []
+    t = rows[:, 0]
+    for i, robot in enumerate(robots):
+        pose = rows[:, 1 + 5 * i: 4 + 5 * i]
+        speed = rows[:, 4 + 5 * i: 6 + 5 * i]
+        moved = np.zeros(len(rows), dtype=bool)
+        moved[1:] = np.any(pose[1:] != pose[:-1], axis=1)
+        moved |= np.any(speed != 0.0, axis=1)
+        for k in np.flatnonzero(moved):
+            start = t[k - 1] if k > 0 else t[k]
+            if not _in_motion(changes[robot], float(start), float(t[k])):
+                problems.append(f"t={t[k]} {robot}: the AGV moved between t={start} and t={t[k]} "
+                                "without being in MOTION (R6, §4)")
+                break
+    return problems
+
+
+def _in_motion(changes: list[tuple[float, str, str]], a: float, b: float) -> bool:
+    """Whether the state was MOTION at some instant of [a, b]."""
+    state = State.WAITING.value
+    for t, frm, to in changes:
+        if t > b:
+            break
+        if t <= a:
+            state = to
+        elif State.MOTION.value in (frm, to):
+            return True
+    return state == State.MOTION.value
