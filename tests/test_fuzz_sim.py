@@ -17,16 +17,9 @@ import pytest
 from hypothesis import event, given, note
 from hypothesis import strategies as st
 
-from transports.replay import ReplayTransport
-from transports.scripted import ScriptedTransport
-from vcran.replay import scenario_from_trace, verify
-from vcran.runner import run_to
 from vcran.scenario import parse
-from vcran.testing.checks import check_run
+from vcran.testing.checks import run_variant
 from vcran.testing.scripts import fleets, load_text, perturbations, perturbed_toml
-
-FILES = ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json")
-
 
 @st.composite
 def perturbed_fleets(draw: st.DrawFn, malformed: bool) -> str:
@@ -40,19 +33,14 @@ def perturbed_fleets(draw: st.DrawFn, malformed: bool) -> str:
 
 def run_and_check(text: str, work: Path) -> None:
     scenario = load_text(text)
-    result = run_to(scenario, work / "a", ScriptedTransport(scenario.messages()))
-    assert all(r.logic.idle for r in result.model.robots), "the run hit its duration before going idle"
-    assert check_run(work / "a", scenario.settings.task_timeout, finished=True) == []
+    assert run_variant(scenario, work) == []
     for line in (work / "a" / "events.jsonl").read_text().splitlines():  # --hypothesis-show-statistics
         e = json.loads(line)
         if e["event"] in ("task_completed", "task_cancelled", "rejected", "failed"):
             event(f"{e['event']} {e.get('reason', e.get('code', ''))}".strip())
-    run_to(scenario, work / "b", ScriptedTransport(scenario.messages()))
-    for name in FILES:
-        assert (work / "a" / name).read_bytes() == (work / "b" / name).read_bytes(), f"{name} differs (§5)"
-    trace = work / "a" / "trace.jsonl"
-    run_to(scenario_from_trace(trace), work / "c", ReplayTransport(trace))
-    assert verify(work / "a", work / "c") is None
+    # generated fleets are small and the duration generous: the run must have gone idle
+    summary = json.loads((work / "a" / "summary.json").read_text())
+    assert summary["sim_time"] < scenario.settings.duration, "the run hit its duration before going idle"
 
 
 @given(perturbed_fleets(malformed=False))

@@ -17,6 +17,7 @@ COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
     "gen": "gen",
+    "fuzz": "fuzz",
     "broker": "broker",
 }
 

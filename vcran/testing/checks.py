@@ -25,6 +25,7 @@ import numpy as np
 
 from vcran.effects import Reason, State
 from vcran.ranlogic import TRANSITIONS
+from vcran.scenario import Scenario
 from vcran.trace import read_header, records, telemetry
 
 _TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}
@@ -189,3 +190,51 @@ def _in_motion(changes: list[tuple[float, str, str]], a: float, b: float) -> boo
         elif State.MOTION.value in (frm, to):
             return True
     return state == State.MOTION.value
+
+
+def overdue(robots: list[Any], now: float) -> list[str]:
+    """R7 at the end of a run: no task still queued that was not assembled by its deadline, unless it
+    is finishing its running leg or action (R8). ``robots`` are the model's RobotNodes."""
+    problems = []
+    for robot in robots:
+        for task in robot.logic.queue.values():
+            if len(task.slots) < task.length and task.deadline < now and task.ending is None:
+                problems.append(f"{robot.id}: task {task.id.label} not assembled by its deadline "
+                                f"{task.deadline}, still queued at {now} (R7)")
+    return problems
+
+
+# --- one variant, end to end ---------------------------------------------------------------------------------
+
+_FILES = ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json")
+
+
+def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[str]:
+    """Run ``scenario`` into ``work/a`` and return every rule violation of the outputs.
+
+    With ``again``, also run it a second time (outputs must be byte-identical, §5) and replay its trace
+    (replay verification must find no difference, §6). A crash is a violation too (R12: the simulation
+    never crashes on input). When the run went idle, every queued task must have ended.
+    """
+    from transports.replay import ReplayTransport
+    from transports.scripted import ScriptedTransport
+    from vcran.replay import scenario_from_trace, verify
+    from vcran.runner import run_to
+
+    try:
+        result = run_to(scenario, work / "a", ScriptedTransport(scenario.messages()))
+        idle = all(r.logic.idle for r in result.model.robots)
+        problems = check_run(work / "a", scenario.settings.task_timeout, finished=idle)
+        problems += overdue(result.model.robots, result.summary["sim_time"])
+        if problems or not again:
+            return problems
+        run_to(scenario, work / "b", ScriptedTransport(scenario.messages()))
+        for name in _FILES:
+            if (work / "a" / name).read_bytes() != (work / "b" / name).read_bytes():
+                return [f"{name} differs between two runs of the same scenario (§5)"]
+        trace = work / "a" / "trace.jsonl"
+        run_to(scenario_from_trace(trace), work / "c", ReplayTransport(trace))
+        difference = verify(work / "a", work / "c")
+        return [f"replay verification (§6): {difference}"] if difference is not None else []
+    except Exception as exc:  # noqa: BLE001 - any crash on input is the finding
+        return [f"crash: {type(exc).__name__}: {exc}"]

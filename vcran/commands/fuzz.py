@@ -1,0 +1,103 @@
+"""``vcran fuzz SCENARIO --examples N [--seed S] [--save PATH]``: perturb the script, check the rules.
+
+Each example is the scenario with its message script perturbed the way a real fleet manager and broker
+perturb it (reordered within a window, duplicated, delayed, dropped, cancels and malformed payloads
+injected; :mod:`vcran.testing.scripts`). The variant is written as a scenario file, run in a temporary
+folder, and its outputs are checked against the rules (:mod:`vcran.testing.checks`), then run again
+(byte-identical, §5) and replayed (replay verification, §6) unless ``--fast``.
+
+The search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random``
+seeded by ``--seed``, so one seed always tries the same examples and shrinks to the same script. On a
+violation the shrunk, minimal script is printed as a scenario file, saved to ``--save``, and the command
+exits 1; ``vcran run`` on that file reproduces the failure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+HELP = "perturb a scenario's message script and check the rules on every variant"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    parser.add_argument("--examples", type=int, default=100, help="perturbed variants to try (default 100)")
+    parser.add_argument("--seed", type=int, default=0, help="search seed: same seed, same examples (default 0)")
+    parser.add_argument("--save", type=Path, default=None,
+                        help="where to write a failing script (default: SCENARIO-STEM.fuzz-failure.toml here)")
+    parser.add_argument("--window", type=int, default=3, help="how far a reordering moves a message (default 3)")
+    parser.add_argument("--max-ops", type=int, default=8, help="most perturbations per example (default 8)")
+    parser.add_argument("--fast", action="store_true", help="skip the second run and the replay of each variant")
+
+
+def run(args: argparse.Namespace) -> int:
+    import importlib.util
+    import random
+    import tempfile
+    import time
+
+    from hypothesis import HealthCheck, find, settings
+    from hypothesis.errors import NoSuchExample
+
+    from vcran.scenario import ScenarioError, load
+    from vcran.testing.checks import run_variant
+    from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
+
+    if args.examples < 1:
+        print("vcran fuzz: --examples must be at least 1", file=sys.stderr)
+        return 2
+    try:
+        base = load(args.scenario)
+        entries = list(base.messages())
+        perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
+    except (ScenarioError, ValueError) as exc:
+        print(f"vcran fuzz: {exc}", file=sys.stderr)
+        return 2
+    malformed = importlib.util.find_spec("vcran.codec") is not None
+    if not malformed:
+        print("vcran fuzz: vcran.codec is not installed; malformed payloads are not injected", file=sys.stderr)
+    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window,
+                             malformed=malformed, max_ops=args.max_ops)
+    calls = {"generated": 0, "shrinking": 0}
+    found = False
+
+    def violated(ops: list[Perturbation]) -> bool:
+        nonlocal found
+        calls["shrinking" if found else "generated"] += 1
+        with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
+            bad = bool(run_variant(load_text(perturbed_toml(base, ops)), Path(work), again=not args.fast))
+        found = found or bad
+        return bad
+
+    options = settings(max_examples=args.examples, database=None, deadline=None,
+                       suppress_health_check=list(HealthCheck))
+    start = time.perf_counter()
+    try:
+        minimal = find(strategy, violated, settings=options, random=random.Random(args.seed))
+    except NoSuchExample:
+        wall = time.perf_counter() - start
+        n = calls["generated"]
+        rate = f", {60 * n / wall:,.0f} examples/min" if wall > 0 else ""
+        print(f"vcran fuzz: {n} examples of {args.scenario} ran clean (seed {args.seed}): {wall:.1f} s{rate}")
+        return 0
+    wall = time.perf_counter() - start
+    text = perturbed_toml(base, minimal)
+    with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
+        problems = run_variant(load_text(text), Path(work), again=not args.fast)
+    header = "\n".join([
+        f"vcran fuzz {args.scenario} --examples {args.examples} --seed {args.seed}: a minimal failing script",
+        f"perturbations: {minimal!r}",
+        *(f"violation: {p}" for p in problems),
+        "re-run: vcran run THIS_FILE --out DIR",
+    ])
+    text = perturbed_toml(base, minimal, header)
+    save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
+    save.write_text(text, encoding="utf-8")
+    print(text)
+    print(f"vcran fuzz: rule violated after {calls['generated']} examples ({calls['shrinking']} shrinking runs, "
+          f"{wall:.1f} s); the minimal script above is saved in {save}", file=sys.stderr)
+    for p in problems:
+        print(f"  {p}", file=sys.stderr)
+    return 1
