@@ -134,13 +134,13 @@ def apply(entries: Sequence[ScriptEntry], ops: Sequence[Perturbation]) -> list[S
     return sorted(out, key=lambda e: e.t)
 
 
-def task_names(entries: Sequence[ScriptEntry]) -> list[str]:
-    """Task names of a script's assignments, in order of first appearance."""
-    names: dict[str, None] = {}
+def task_robots(entries: Sequence[ScriptEntry]) -> list[tuple[str, str]]:
+    """(task name, robot) of a script's messages, in order of first appearance."""
+    pairs: dict[tuple[str, str], None] = {}
     for e in entries:
         if isinstance(e.message, (MotionAssignment, ActionAssignment, CancelTask)):
-            names.setdefault(name_of(e.message.task_id))
-    return list(names)
+            pairs.setdefault((name_of(e.message.task_id), e.robot))
+    return list(pairs)
 
 
 def assignment_names(entries: Sequence[ScriptEntry], kind: type[MotionAssignment | ActionAssignment]) -> list[str]:
@@ -173,7 +173,8 @@ def perturbations(
     end = horizon if horizon is not None else max((e.t for e in entries), default=0.0) + 20.0
     times = st.integers(0, int(end * 2)).map(lambda k: k / 2)
     delays = st.sampled_from([0.5, 1.0, 2.0, 5.0, 15.0, 45.0])
-    tasks = task_names(entries) + ["ghost"]
+    # a cancel goes to the robot that has the task (else it is just an unknown task), or is for a ghost
+    targets = st.sampled_from(task_robots(entries) + [("ghost", r) for r in robots])
     motions = st.sampled_from(assignment_names(entries, MotionAssignment) or ["ghost_m1"])
     actions = st.sampled_from(assignment_names(entries, ActionAssignment) or ["ghost_a1"])
     index = st.integers(0, n - 1)
@@ -182,9 +183,9 @@ def perturbations(
         st.builds(Swap, index, st.integers(1, max(window, 1))),
         st.builds(Duplicate, index, st.sampled_from([0.0, 0.5, 3.0, 40.0])),
         st.builds(Drop, index),
-        st.builds(InjectCancel, times, st.sampled_from(list(robots)), st.sampled_from(tasks)),
-        st.builds(InjectCancel, times, st.sampled_from(list(robots)), st.sampled_from(tasks), motions),
-        st.builds(InjectCancel, times, st.sampled_from(list(robots)), st.sampled_from(tasks), st.none(), actions),
+        st.builds(lambda t, to: InjectCancel(t, to[1], to[0]), times, targets),
+        st.builds(lambda t, to, m: InjectCancel(t, to[1], to[0], motion=m), times, targets, motions),
+        st.builds(lambda t, to, a: InjectCancel(t, to[1], to[0], action=a), times, targets, actions),
     ]
     if malformed:
         ops.append(st.builds(InjectMalformed, times, st.sampled_from(list(robots)),

@@ -126,6 +126,16 @@ class RanLogicMachine(RuleBasedStateMachine):
         for pos in plan.order(rotate, backwards):
             self._assign(plan.assignment(pos, stamp=self.now))
 
+    @rule(first=plans, second=plans, split=st.integers(1, 3))
+    def interleave(self, first: TaskPlan, second: TaskPlan, split: int) -> None:
+        """Two tasks' messages interleaved: ``first`` up to ``split``, all of ``second``, the rest of
+        ``first``; the one seen first must run first, whichever is assembled first (R1)."""
+        head = min(split, first.length)
+        for plan, positions in ((first, range(1, head + 1)), (second, range(1, second.length + 1)),
+                                (first, range(head + 1, first.length + 1))):
+            for pos in positions:
+                self._assign(plan.assignment(pos, stamp=self.now))
+
     @rule(a=sent)
     def resend(self, a: Assignment) -> None:
         """A polling re-read of something sent before (R10), whatever happened since."""
