@@ -7,6 +7,7 @@ and on ``simpy.rt.RealtimeEnvironment`` (live).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Generator
 from typing import Any, Protocol
 
 import simpy
@@ -19,7 +20,7 @@ from vcran.ranlogic import RanLogic
 from vcran.scenario import Scenario
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
-from vcran.sim.timing import END, PRODUCTION, at
+from vcran.sim.timing import END, PROGRESS, PRODUCTION, at
 from vcran.stations import Station, StationMap, area_problem
 from vcran.wire import Inbound
 
@@ -48,7 +49,10 @@ class Model:
         events: EventSink,
         env: simpy.Environment | None = None,
         decode: Decode = default_decode,
+        progress: Callable[[float, int], None] | None = None,
     ) -> None:
+        """``progress``, if given, is called with (simulated time, tasks completed) every telemetry period:
+        an observer for a progress display, which sees the run but cannot change it."""
         self.scenario = scenario
         self.env = env if env is not None else simpy.Environment()
         self.transport = transport
@@ -65,6 +69,7 @@ class Model:
         self.completed: dict[str, list[str]] = {r.id: [] for r in scenario.robots}
         self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
         self.fleet_errors = 0
+        self.tasks_done = 0
         self.robots: list[RobotNode] = []
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
@@ -79,6 +84,8 @@ class Model:
             if station.producing:
                 self.env.process(self._produce(station))
         transport.attach(self.env, self.ran.deliver)
+        if progress is not None:
+            self.env.process(self._report_progress(progress, s.telemetry_period))
 
     def run(self) -> float:
         """Run to the scenario's end (duration, or idle); return the simulated end time."""
@@ -94,6 +101,7 @@ class Model:
         self.events.write(self.env.now, robot.id, event.NAME, event.fields())
         if isinstance(event, TaskCompleted):
             self.completed[robot.id].append(event.task.label)
+            self.tasks_done += 1
         elif isinstance(event, TaskCancelled):
             self.cancelled[robot.id].append({"task": event.task.label, "reason": event.reason.value})
         elif isinstance(event, ErrorReport):
@@ -129,6 +137,13 @@ class Model:
         while True:
             yield at(self.env, station.produce_start + k * station.produce_every, PRODUCTION)
             station.produce()
+            k += 1
+
+    def _report_progress(self, progress: Callable[[float, int], None], period: float) -> Generator[simpy.Event, Any, None]:
+        k = 1
+        while True:
+            yield at(self.env, k * period, PROGRESS)
+            progress(self.env.now, self.tasks_done)
             k += 1
 
     # --- results ----------------------------------------------------------------------------------------
