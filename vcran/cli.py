@@ -16,6 +16,9 @@ from collections.abc import Sequence
 COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
+    "live": "live",
+    "send": "send",
+    "orion": "orion",
     "gen": "gen",
     "broker": "broker",
 }

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -56,6 +57,7 @@ def run_to(
     *,
     options: dict[str, Any] | None = None,
     env: simpy.Environment | None = None,
+    on_start: Callable[[Model], None] | None = None,
 ) -> RunResult:
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``."""
     out.mkdir(parents=True, exist_ok=True)
@@ -71,6 +73,8 @@ def run_to(
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env)
+        if on_start is not None:
+            on_start(model)
         model.run()
         writer.end(model.env.now)
     finally:
