@@ -77,6 +77,8 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
     live = vcran("live", str(DEMO), "--orion", url, "--out", str(out), "--factor", "20", *extra)
     try:
         assert wait_until(lambda: ran_status(url) is not None and ran_status(url).state == "WAITING", 10)
+        if inbound == "subscription":  # values overwritten before the subscription exists are gone (SPEC §7)
+            assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)
         sender = vcran("send", str(DEMO), "--orion", url, "--factor", "20", "--quiet")
         assert sender.wait(timeout=30) == 0, sender.stderr.read()
         done = lambda: [i.description for i in ran_status(url).completed] == ["100", "200", "300"]  # noqa: E731
@@ -257,9 +259,9 @@ def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inboun
         write(broker.url, "motion_assignment", m2)
         write(broker.url, "action_assignment", a)
         if inbound == "polling":
-            assert wait_until(lambda: run.events("task_cancelled") != [], 15)
+            assert wait_until(lambda: run.model.cancelled["robot_1"] != [], 15)
         else:
-            assert wait_until(lambda: run.events("task_completed") != [], 15)
+            assert wait_until(lambda: run.model.completed["robot_1"] != [], 15)
     finally:
         run.stop()
         broker.stop()

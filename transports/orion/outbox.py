@@ -2,7 +2,9 @@
 
 The simulation thread puts; the sender thread takes a snapshot, sends it and, if Orion could not take it,
 gives it back. Anything newer that arrived meanwhile wins over what is given back, so after an outage
-Orion receives each robot's latest state once, not the backlog of every tick it missed.
+Orion receives each robot's latest state once, not the backlog of every tick it missed. The outbox also
+remembers the latest value of every attribute ever put, so that when Orion comes back without its data
+(a restart of an in-memory broker, a wiped database) :meth:`resend_all` restores all of it.
 """
 
 from __future__ import annotations
@@ -17,11 +19,21 @@ class Outbox:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._pending: dict[str, dict[str, Message]] = {}
+        self._latest: dict[str, dict[str, Message]] = {}
         self._frame: Frame | None = None
 
     def put(self, robot: str, attribute: str, message: Message) -> None:
         with self._lock:
             self._pending.setdefault(robot, {})[attribute] = message
+            self._latest.setdefault(robot, {})[attribute] = message
+
+    def resend_all(self) -> None:
+        """Queue the latest value of every attribute again (newer pending values stay)."""
+        with self._lock:
+            for robot, attrs in self._latest.items():
+                pending = self._pending.setdefault(robot, {})
+                for attribute, message in attrs.items():
+                    pending.setdefault(attribute, message)
 
     def put_frame(self, frame: Frame) -> None:
         with self._lock:

@@ -122,6 +122,7 @@ class OrionTransport(Transport):
         self._listener: Listener | None = None
         self._subscriptions: set[str] = set()
         self._subscription: str | None = None
+        self._resent = 0.0
 
     # --- Transport --------------------------------------------------------------------------------------
 
@@ -185,8 +186,12 @@ class OrionTransport(Transport):
             self._flush.clear()
             if self._stop.is_set():
                 return
+            was_down = self.outbound.fault is not None
             if self._deliver_pending():
                 backoff = self.options.backoff_start
+                if was_down:  # Orion may have come back empty: restore everything, not only the changes
+                    self.outbox.resend_all()
+                    self._flush.set()
             else:
                 self._stop.wait(backoff)
                 backoff = min(backoff * 2, self.options.backoff_cap)
@@ -233,6 +238,9 @@ class OrionTransport(Transport):
         while not self._stop.is_set():
             try:
                 if self._subscription is None or not self.client.subscription_exists(self._subscription):
+                    if self._subscriptions:  # it existed: Orion lost it, and maybe our entities with it
+                        self.outbox.resend_all()
+                        self._flush.set()
                     self._subscription = self.client.subscribe(self._subscription_body())
                     self._subscriptions.add(self._subscription)
                     log.info("subscribed to Orion: %s", self._subscription)
@@ -267,6 +275,10 @@ class OrionTransport(Transport):
             return
         if not self.options.notify_url:
             self.inbound.ok()
+        if len(entities) < len(self.options.robots) and monotonic() - self._resent > 1.0:
+            self._resent = monotonic()  # some robot entity is gone (Orion restarted or someone deleted it)
+            self.outbox.resend_all()
+            self._flush.set()
         self._forward(entities, monotonic())
 
     def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
