@@ -26,6 +26,8 @@ def _value_to_plain(spec: FieldSpec, value: Any) -> Any:
         return to_plain(value)
     if spec.cls is None:
         return list(value)
+    if spec.cls is Id:
+        return [id_to_plain(item) for item in value]
     return [to_plain(item) for item in value]
 
 
@@ -65,6 +67,8 @@ def _value_from_plain(spec: FieldSpec, value: Any) -> Any:
         try:
             if spec.cls is None:
                 out.append(check_primitive(spec.ros[:-2], item))
+            elif spec.cls is Id:
+                out.append(id_from_plain(item))
             else:
                 out.append(from_plain(spec.cls, item))
         except MessageError as exc:
