@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.codec import CodecError, encode_attribute, encode_entity, split_batch
+from vcran.codec import CodecError, encode_attribute, encode_entity, encode_entity_json, split_batch
 from vcran.ids import id_for
 from vcran.messages import ATTRIBUTES, Motion, RanError
 from vcran.orion_rules import MAX_REQUEST_BYTES, has_forbidden_chars, identifier_error
@@ -94,6 +94,7 @@ def test_strings_with_forbidden_characters_are_escaped_not_refused() -> None:
     assert attr["value"]["task_id"]["value"]["description"]["value"] == "pick %28A%29"
 
 
+@pytest.mark.parametrize("encode", [encode_entity, encode_entity_json])
 @pytest.mark.parametrize(
     ("entity_id", "entity_type", "path", "problem"),
     [
@@ -106,9 +107,11 @@ def test_strings_with_forbidden_characters_are_escaped_not_refused() -> None:
         ("robot_1", "RO#BOT", "type", "Invalid characters in entity type"),
     ],
 )
-def test_encode_entity_refuses_identifiers_orion_rejects(entity_id: str, entity_type: str, path: str, problem: str) -> None:
+def test_encode_entity_refuses_identifiers_orion_rejects(
+    encode: Any, entity_id: str, entity_type: str, path: str, problem: str
+) -> None:
     with pytest.raises(CodecError) as info:
-        encode_entity(entity_id, entity_type, {"current_motion": Motion()})
+        encode(entity_id, entity_type, {"current_motion": Motion()})
     assert (info.value.path, info.value.problem) == (path, problem)
 
 
@@ -158,6 +161,15 @@ def test_split_batch_for_a_thousand_robots_uses_few_requests() -> None:
     assert all(len(b) <= MAX_REQUEST_BYTES for b in bodies)
     assert len(bodies) == -(-total // MAX_REQUEST_BYTES)  # as few as the sizes allow
     assert split_batch([]) == []
+
+
+def test_split_batch_takes_pre_serialized_entities() -> None:
+    entities = fleet(300)
+    serialized = [encode_entity_json(e["id"], "ROBOT", {"current_motion": Motion()}) for e in entities]
+    assert split_batch(serialized, 100_000) == split_batch(entities, 100_000)
+    with pytest.raises(CodecError) as info:
+        split_batch(serialized, 1_000)
+    assert info.value.path == "entities[0]"
 
 
 def test_a_body_of_exactly_the_limit_is_allowed() -> None:
