@@ -25,7 +25,8 @@ from vcran.codec import (
     split_batch,
 )
 from vcran.ids import id_for
-from vcran.messages import AssignmentStatus, Message, RanStatus, TaskEnd, Time
+from vcran.messages import AssignmentStatus, RanStatus, TaskEnd, Time
+from vcran.schema import Message
 
 REFERENCE = Path(__file__).resolve().parent.parent / "tests" / "data" / "opil_robot_entity.json"
 
@@ -55,31 +56,34 @@ def compact(value: Any) -> bytes:
     return json.dumps(value, separators=(",", ":"), allow_nan=False).encode()
 
 
+def attribute_rows(name: str, attr: dict[str, Any]) -> list[tuple[str, Callable[[], Any]]]:
+    message = decode_attribute(name, attr)
+    wire = compact(attr)
+    key_values = attr["value"]
+    return [
+        ("encode (dicts)", lambda: encode_attribute(name, message)),
+        ("encode (dicts) + json.dumps", lambda: compact(encode_attribute(name, message))),
+        ("encode_attribute_json (wire text)", lambda: encode_attribute_json(name, message)),
+        ("decode normalized", lambda: decode_attribute(name, attr)),
+        ("decode keyValues", lambda: decode_attribute(name, key_values, key_values=True)),
+        ("json.loads + decode (wire bytes)", lambda: decode_attribute(name, json.loads(wire))),
+        ("floor: json.dumps alone", lambda: compact(attr)),
+        ("floor: json.loads alone", lambda: json.loads(wire)),
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=1.0, help="time per measurement (default 1)")
     seconds = parser.parse_args().seconds
 
     entity = json.loads(REFERENCE.read_text())
-    print(f"{'attribute':<18} {'operation':<32} {'messages/s':>12}")
+    print(f"{'attribute':<18} {'operation':<34} {'messages/s':>12}")
     for name in ("current_motion", "motion_assignment"):
-        attr = entity[name]
-        message = decode_attribute(name, attr)
-        wire = compact(attr)
-        key_values = attr["value"]
-        rows = [
-            ("encode (dicts)", lambda: encode_attribute(name, message)),
-            ("encode (dicts) + json.dumps", lambda: compact(encode_attribute(name, message))),
-            ("encode_attribute_json (wire text)", lambda: encode_attribute_json(name, message)),
-            ("decode normalized", lambda: decode_attribute(name, attr)),
-            ("decode keyValues", lambda: decode_attribute(name, key_values, key_values=True)),
-            ("json.loads + decode (wire bytes)", lambda: decode_attribute(name, json.loads(wire))),
-            ("floor: json.dumps alone", lambda: compact(attr)),
-            ("floor: json.loads alone", lambda: json.loads(wire)),
-        ]
-        for label, fn in rows:
-            print(f"{name:<18} {label:<32} {rate(fn, seconds):>12,.0f}")
-        print(f"{name:<18} {'wire size (bytes)':<32} {len(compact(encode_attribute(name, message))):>12,}")
+        for label, fn in attribute_rows(name, entity[name]):
+            print(f"{name:<18} {label:<34} {rate(fn, seconds):>12,.0f}")
+        size = len(encode_attribute_json(name, decode_attribute(name, entity[name])))
+        print(f"{name:<18} {'wire size (bytes)':<34} {size:>12,}")
 
     print()
     motion = decode_attribute("current_motion", entity["current_motion"])

@@ -14,7 +14,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.codec import CodecError, encode_attribute, encode_entity, encode_entity_json, split_batch
+from vcran.codec import (
+    CodecError,
+    encode_attribute,
+    encode_entity,
+    encode_entity_json,
+    split_batch,
+)
 from vcran.ids import id_for
 from vcran.messages import ATTRIBUTES, Motion, RanError
 from vcran.orion_rules import MAX_REQUEST_BYTES, has_forbidden_chars, identifier_error

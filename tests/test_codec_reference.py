@@ -15,7 +15,14 @@ from typing import Any
 
 import pytest
 
-from vcran.codec import CodecError, decode_attribute, decode_entity, encode_attribute, encode_entity, unknown_attributes
+from vcran.codec import (
+    CodecError,
+    decode_attribute,
+    decode_entity,
+    encode_attribute,
+    encode_entity,
+    unknown_attributes,
+)
 from vcran.ids import Id
 from vcran.messages import (
     ATTRIBUTES,

@@ -22,7 +22,12 @@ from vcran.codec import (
 from vcran.messages import ATTRIBUTES, Header, Motion, PoseStamped, Time
 from vcran.plain import to_plain
 from vcran.schema import INT_RANGES, Message
-from vcran.testing.strategies import attribute_messages, messages_of, motions, ros_strings
+from vcran.testing.strategies import (
+    attribute_messages,
+    messages_of,
+    motions,
+    ros_strings,
+)
 
 
 def through_json(value: object) -> object:

@@ -18,7 +18,7 @@ import json
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from json.encoder import encode_basestring_ascii
-from typing import Any
+from typing import Any, cast
 
 from vcran.codec.decoding import Decoder, Fault, message_decoder, step_into, unwrap
 from vcran.codec.encoding import DICTS, TEXT, attribute_encoder
@@ -84,7 +84,7 @@ def decode_attribute(name: str, attr: Any, *, key_values: bool | None = None) ->
     try:
         if key_values is None:
             key_values = not (isinstance(attr, dict) and "value" in attr)
-        return plan.decode(attr if key_values else unwrap(attr))  # type: ignore[no-any-return]
+        return cast(Message, plan.decode(attr if key_values else unwrap(attr)))
     except Fault as fault:
         raise CodecError(name, step_into(name, fault.suffix), fault.problem) from None
 

@@ -16,11 +16,20 @@ import re
 import sys
 from collections.abc import Callable
 from functools import cache
-from typing import Any
+from typing import Any, cast
 
 from vcran.codec.strings import unescape_string
 from vcran.ids import Id
-from vcran.schema import FLOAT32_MAX, INT_RANGES, FieldSpec, Message, MessageError, check_primitive, short_repr, specs
+from vcran.schema import (
+    FLOAT32_MAX,
+    INT_RANGES,
+    FieldSpec,
+    Message,
+    MessageError,
+    check_primitive,
+    short_repr,
+    specs,
+)
 
 ID_TYPE = "mars_common_msgs.Id"
 UUID_DATATYPE = "uint8[16]"
@@ -112,10 +121,13 @@ def _suffix(message_path: str) -> str:
 
 def _primitive_decoder(ros: str) -> Decoder:
     # A fast path for what JSON gives for valid input; everything else goes through check_primitive.
-    exact: type | None = float if ros.startswith("float") else int if ros in INT_RANGES else None
-    lo, hi = INT_RANGES.get(ros, (0, -1))
-    if exact is float:
-        lo, hi = (-FLOAT32_MAX, FLOAT32_MAX) if ros == "float32" else (-sys.float_info.max, sys.float_info.max)
+    exact: Any = float if ros.startswith("float") else int if ros in INT_RANGES else None
+    bounds: tuple[float, float] = INT_RANGES.get(ros, (0, -1))
+    if ros == "float32":
+        bounds = (-FLOAT32_MAX, FLOAT32_MAX)
+    elif ros == "float64":
+        bounds = (-sys.float_info.max, sys.float_info.max)
+    lo, hi = bounds
 
     def decode(value: Any) -> Any:
         if type(value) is exact and lo <= value <= hi:  # excludes NaN and the infinities too
@@ -162,7 +174,7 @@ def item_spec(array: FieldSpec) -> FieldSpec:
         return FieldSpec(array.name, "prim", array.ros[:-2])
     if array.cls is Id:
         return FieldSpec(array.name, "id", ID_TYPE, Id)
-    return FieldSpec(array.name, "msg", array.cls.ROS_TYPE, array.cls)
+    return FieldSpec(array.name, "msg", cast(type[Message], array.cls).ROS_TYPE, array.cls)
 
 
 def _field_decoder(spec: FieldSpec) -> Decoder:
@@ -171,7 +183,7 @@ def _field_decoder(spec: FieldSpec) -> Decoder:
     if spec.kind == "id":
         return decode_id
     if spec.kind == "msg":
-        return message_decoder(spec.cls)  # type: ignore[arg-type]
+        return message_decoder(cast(type[Message], spec.cls))
     return _array_decoder(_field_decoder(item_spec(spec)), spec.ros)
 
 

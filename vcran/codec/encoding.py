@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from json.encoder import encode_basestring_ascii
-from typing import Any
+from typing import Any, cast
 
 from vcran.codec.decoding import ID_TYPE, UUID_DATATYPE, item_spec
 from vcran.codec.strings import escape_string
@@ -35,7 +35,7 @@ def datatype(spec: FieldSpec) -> Any:
     if spec.kind == "id":
         return {"uuid": UUID_DATATYPE, "description": "string"}
     if spec.kind == "msg":
-        return {s.name: datatype(s) for s in specs(spec.cls)}  # type: ignore[arg-type]
+        return {s.name: datatype(s) for s in specs(cast(type[Message], spec.cls))}
     return spec.ros
 
 
@@ -144,10 +144,11 @@ def attribute_encoder(cls: type[Message], target: _Target) -> Callable[[Message]
     tree = {spec.name: datatype(spec) for spec in specs(cls)}
     source = f"def encode(m):\n    return {target.wrapper(cls.ROS_TYPE, _message(cls, 'm', 0, target), tree)}\n"
     namespace = dict(_NAMESPACE)
-    exec(compile(source, f"<{type(target).__name__.lower()[1:]} encoder of {cls.__name__}>", "exec"), namespace)
-    encode: Callable[[Message], Any] = namespace["encode"]
-    encode.source = source  # type: ignore[attr-defined]
-    return encode
+    filename = f"<{type(target).__name__.lower()[1:]} encoder of {cls.__name__}>"
+    exec(compile(source, filename, "exec"), namespace)  # noqa: S102 (source built from the schema only)
+    encode = namespace["encode"]
+    setattr(encode, "source", source)  # noqa: B010 (a function attribute for readers, not for mypy)
+    return cast(Callable[[Message], Any], encode)
 
 
 def _message(cls: type[Message], var: str, depth: int, target: _Target) -> str:
@@ -161,7 +162,7 @@ def _field(spec: FieldSpec, var: str, depth: int, target: _Target) -> str:
     if spec.kind == "id":
         return f"{target.encode_id}({var})"
     if spec.kind == "msg":
-        return target.wrapper(spec.ros, _message(spec.cls, var, depth, target))  # type: ignore[arg-type]
+        return target.wrapper(spec.ros, _message(cast(type[Message], spec.cls), var, depth, target))
     item_var = f"item{depth}"  # one name per nesting level: arrays of messages holding arrays
     items = target.array(_field(item_spec(spec), item_var, depth + 1, target), item_var, var)
     return target.wrapper("array", items, spec.ros)

@@ -9,8 +9,9 @@ the codec must carry every valid message. Cross-field rules are respected where 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import cache
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 from hypothesis import strategies as st
 
@@ -83,7 +84,7 @@ def sequences() -> st.SearchStrategy[Sequence]:
 def robot_actions(known_only: bool = True) -> st.SearchStrategy[RobotAction]:
     """A RobotAction; with ``known_only`` its code is one vcran can perform (SPEC §2 action codes)."""
     if not known_only:
-        return _generic(RobotAction)
+        return cast(st.SearchStrategy[RobotAction], _generic(RobotAction))
     codes = st.one_of(
         st.tuples(st.sampled_from(sorted(CATEGORY_CODES)), primitives("uint8")),
         st.tuples(st.just(CATEGORY_UNDEFINED), st.sampled_from(sorted(ACTION_CODES))),
@@ -99,14 +100,16 @@ def robot_actions(known_only: bool = True) -> st.SearchStrategy[RobotAction]:
 
 def messages_of(cls: type[M]) -> st.SearchStrategy[M]:
     """Any valid message of type ``cls``, derived from its field specs."""
-    if cls in _CLASS_STRATEGIES:
-        return _CLASS_STRATEGIES[cls]()  # type: ignore[no-any-return]
-    return _generic(cls)
+    special = _CLASS_STRATEGIES.get(cls)
+    return cast(st.SearchStrategy[M], special() if special else _generic(cls))
 
 
 @cache
-def _generic(cls: type[M]) -> st.SearchStrategy[M]:
-    kwargs = {spec.name: _OVERRIDES.get((cls, spec.name), lambda s=spec: _field(s))() for spec in specs(cls)}
+def _generic(cls: type[Message]) -> st.SearchStrategy[Message]:
+    kwargs = {}
+    for spec in specs(cls):
+        override = _OVERRIDES.get((cls, spec.name))
+        kwargs[spec.name] = override() if override else _field(spec)
     return st.builds(cls, **kwargs)
 
 
@@ -116,7 +119,7 @@ def _field(spec: FieldSpec) -> st.SearchStrategy[Any]:
     if spec.kind == "id":
         return ids()
     if spec.kind == "msg":
-        return messages_of(spec.cls)  # type: ignore[arg-type]
+        return messages_of(cast(type[Message], spec.cls))
     if spec.cls is None:
         item = primitives(spec.ros[:-2])
     else:
@@ -124,8 +127,11 @@ def _field(spec: FieldSpec) -> st.SearchStrategy[Any]:
     return st.lists(item, max_size=4).map(tuple)
 
 
-_CLASS_STRATEGIES = {Time: times, Sequence: sequences}
-_OVERRIDES = {(ActionAssignment, "robot_action"): robot_actions}
+#: Messages with cross-field rules, and fields that must hold more than their type allows.
+_CLASS_STRATEGIES: dict[type[Message], Callable[[], st.SearchStrategy[Any]]] = {Time: times, Sequence: sequences}
+_OVERRIDES: dict[tuple[type[Message], str], Callable[[], st.SearchStrategy[Any]]] = {
+    (ActionAssignment, "robot_action"): robot_actions,
+}
 
 
 # --- one named strategy per RAN attribute (SPEC §2) ------------------------------------------------------
