@@ -83,10 +83,15 @@ def test_decode_lists_skipped_attributes_on_stderr(capsys: pytest.CaptureFixture
     assert err == "vcran decode: skipped attributes that are not RAN messages: battery_level\n"
 
 
-def mutated_reference(value: Any) -> bytes:
-    """The reference with one number replaced; json.dumps writes a NaN as the NaN token Python reads."""
+def mutated_reference(value: Any, field: str = "byte") -> bytes:
+    """The reference with the task id's byte 3 or description replaced. json.dumps writes a NaN as the
+    NaN token and a lone surrogate as ``\\ud800``, both of which Python's JSON parser reads back."""
     entity = copy.deepcopy(REFERENCE)
-    entity["cancel_order"]["value"]["task_id"]["value"]["uuid"]["value"][3]["value"] = value
+    task_id = entity["cancel_order"]["value"]["task_id"]["value"]
+    if field == "byte":
+        task_id["uuid"]["value"][3]["value"] = value
+    else:
+        task_id[field]["value"] = value
     return json.dumps(entity).encode()
 
 
@@ -99,11 +104,12 @@ def mutated_reference(value: Any) -> bytes:
         (b"[1, 2]", "entity: expected an entity object, got list"),
         (b'"robot_1"', "entity: expected an entity object, got 'robot_1'"),
         (mutated_reference(256), "cancel_order.value.task_id.value.uuid.value[3]: 256 is outside the uint8 range 0..255"),
+        (mutated_reference("x\ud800", "description"), "cancel_order.value.task_id.value.description: not valid Unicode"),
         (mutated_reference(float("nan")), "cancel_order.value.task_id.value.uuid.value[3]: expected an integer, got float nan"),
         (b'{"current_motion": {"type": "x", "value": {}}}', "current_motion.value.current_position: missing field"),
         (b'{"motion_assignment": {"value": []}}', "motion_assignment: expected an object for"),
     ],
-    ids=["truncated", "not-utf8", "too-deep", "array", "string", "byte-256", "byte-nan", "missing-field", "value-array"],
+    ids=["truncated", "not-utf8", "too-deep", "array", "string", "byte-256", "surrogate", "byte-nan", "missing-field", "value-array"],
 )
 def test_decode_bad_input_exits_non_zero_with_the_codec_message(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, data: bytes, message: str

@@ -109,6 +109,7 @@ CASES: list[tuple[str, Callable[[dict[str, Any]], None], str, str]] = [
     ("byte-fraction", set_(f"{TASK_UUID}.value[5].value", 1.5), f"{TASK_UUID}.value[5]", "expected an integer, got float 1.5"),
     ("byte-bool", set_(f"{TASK_UUID}.value[5].value", False), f"{TASK_UUID}.value[5]", "expected an integer, got bool"),
     ("byte-unwrapped", set_(f"{TASK_UUID}.value[0]", 76), f"{TASK_UUID}.value[0]", "expected an NGSI {type, value} object, got 76"),
+    ("description-lone-surrogate", set_(f"{MA}.task_id.value.description.value", "ab\udc00"), f"{MA}.task_id.value.description", "lone surrogate at index 2"),
     ("description-number", set_(f"{MA}.task_id.value.description.value", 5), f"{MA}.task_id.value.description", "expected a string, got int"),
     ("message-as-list", set_(f"{MA}.point.value", [1, 2, 0]), f"{MA}.point", "expected an object for geometry_msgs.Pose2D, got list"),
     ("message-as-string", set_("current_motion.value.current_velocity.value", "fast"), "current_motion.value.current_velocity", "expected an object for geometry_msgs.Twist, got 'fast'"),
@@ -174,7 +175,7 @@ def test_the_reference_itself_decodes() -> None:
 # --- fuzz: random JSON in random places -----------------------------------------------------------------
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5) | st.sampled_from([0, 1, 255, 256, -1, 1e39, 2**31]),
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5) | st.sampled_from([0, 1, 255, 256, -1, 1e39, 2**31, "\ud800", "%3C"]),
     lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.sampled_from(["type", "value", "metadata", "x", "uuid"]) | st.text("abc", min_size=1, max_size=3), inner, max_size=4),
     max_leaves=12,
 )

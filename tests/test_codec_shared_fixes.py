@@ -1,8 +1,9 @@
 """Fixes to the shared schema/plain modules that the codec depends on.
 
-Each test failed before its fix: an array of Ids (RanStatus.queue) could not even be declared, and a
+Each test failed before its fix: an array of Ids (RanStatus.queue) could not even be declared; a
 hostile value made ``check_primitive`` raise something other than MessageError, which would leak through
-the codec's "only CodecError" promise (R12).
+the codec's "only CodecError" promise (R12); and a string with a lone surrogate (valid JSON) was
+accepted, then crashed every UTF-8 writer (``vcran decode``, traces).
 """
 
 from __future__ import annotations
@@ -46,8 +47,9 @@ def test_array_of_ids_has_a_spec_and_a_plain_form() -> None:
         ("float32", 10**400, "does not fit a float32"),
         ("int32", _deep_list(100_000), "expected an integer, got list"),
         ("uint8", "x" * 1_000_000, "expected an integer, got str"),
+        ("string", "ok \ud800", "not valid Unicode: lone surrogate at index 3"),
     ],
-    ids=["huge-int", "huge-int-float64", "huge-int-float32", "deep-list", "huge-string"],
+    ids=["huge-int", "huge-int-float64", "huge-int-float32", "deep-list", "huge-string", "lone-surrogate"],
 )
 def test_check_primitive_raises_only_message_error(ros: str, value: object, problem: str) -> None:
     with pytest.raises(MessageError) as info:

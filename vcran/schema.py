@@ -152,6 +152,11 @@ def check_primitive(ros: str, value: Any) -> Any:
     if ros == "string":
         if not isinstance(value, str):
             raise MessageError("", f"expected a string, got {type(value).__name__}")
+        if not value.isascii():  # JSON can carry a lone surrogate, which no UTF-8 output can write
+            try:
+                value.encode("utf-8")
+            except UnicodeEncodeError as exc:
+                raise MessageError("", f"not valid Unicode: lone surrogate at index {exc.start}") from None
         return value
     if ros == "bool":
         if not isinstance(value, bool):
