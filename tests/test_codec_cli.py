@@ -6,10 +6,13 @@ import copy
 import importlib.util
 import io
 import json
+from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from vcran import cli
 from vcran.codec import decode_entity
@@ -126,3 +129,25 @@ def test_decode_missing_file(capsys: pytest.CaptureFixture[str], tmp_path: Path)
     code, out, err = decode(capsys, str(tmp_path / "nope.json"))
     assert (code, out) == (1, "")
     assert err == f"vcran decode: {tmp_path / 'nope.json'}: No such file or directory\n"
+
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=4),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.sampled_from(["type", "value", "uuid", "x"]), inner, max_size=3),
+    max_leaves=10,
+)
+
+
+@settings(suppress_health_check=[HealthCheck.function_scoped_fixture])  # the fixture only narrows COMMANDS
+@given(st.dictionaries(st.sampled_from([*ATTRIBUTES, "id", "other"]), json_values, max_size=4))
+def test_decode_never_crashes(tmp_path: Path, entity: dict[str, Any]) -> None:
+    path = tmp_path / "entity.json"
+    path.write_text(json.dumps(entity))
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        code = cli.main(["decode", str(path)])
+    if code == 0:
+        assert set(json.loads(out.getvalue())) == set(entity) & set(ATTRIBUTES)
+    else:
+        assert code == 1 and out.getvalue() == ""
+        assert err.getvalue().startswith(f"vcran decode: {path}: ")
