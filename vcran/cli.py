@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "orion": "orion",
     "gen": "gen",
     "broker": "broker",
+    "decode": "decode",
 }
 
 
