@@ -1,4 +1,9 @@
-"""Shared test helpers: run a scenario written inline as TOML and read its outputs back."""
+"""Shared test helpers (run a scenario written inline as TOML, read its outputs back) and suite settings.
+
+Hypothesis runs without a per-example deadline and without the too_slow health check: CI tests a fresh
+clone (no .hypothesis cache, so the first text draw builds Unicode tables) on a shared machine whose
+load varies, and neither timing says anything about vcran's behaviour.
+"""
 
 from __future__ import annotations
 
@@ -9,10 +14,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, settings
 
 from transports.scripted import ScriptedTransport
 from vcran.runner import run_to
 from vcran.scenario import Scenario, parse
+
+settings.register_profile("vcran", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("vcran")
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = Path(__file__).resolve().parent / "data"
@@ -31,8 +40,9 @@ class Outputs:
         return [e for e in self.events if e["event"] == name and (robot is None or e["robot"] == robot)]
 
     def trace(self) -> list[dict[str, Any]]:
+        """The in and out records (without the header and the end record)."""
         lines = (self.dir / "trace.jsonl").read_text().splitlines()
-        return [json.loads(line) for line in lines[1:]]
+        return [r for r in map(json.loads, lines[1:]) if r["dir"] != "end"]
 
 
 def run_scenario(scenario: Scenario, out: Path) -> Outputs:

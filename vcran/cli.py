@@ -15,9 +15,14 @@ from collections.abc import Sequence
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {
     "run": "run",
+    "replay": "replay",
+    "live": "live",
+    "send": "send",
+    "orion": "orion",
     "gen": "gen",
     "report": "report",
     "broker": "broker",
+    "decode": "decode",
 }
 
 

@@ -57,6 +57,7 @@ def run_to(
     *,
     options: dict[str, Any] | None = None,
     env: simpy.Environment | None = None,
+    on_start: Callable[[Model], None] | None = None,
     progress: Callable[[float, int], None] | None = None,
 ) -> RunResult:
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
@@ -77,7 +78,10 @@ def run_to(
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)
+        if on_start is not None:
+            on_start(model)
         model.run()
+        writer.end(model.env.now)
     finally:
         recording.close()
         events.close()

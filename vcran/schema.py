@@ -138,12 +138,31 @@ def _check(spec: FieldSpec, value: Any) -> Any:
     return value
 
 
+def short_repr(value: Any, limit: int = 40) -> str:
+    """A bounded description of an untrusted value for an error message.
+
+    ``repr`` of wire input is unsafe in errors: a deeply nested list raises RecursionError, an integer of
+    more than 4300 digits raises ValueError, and a megabyte string floods the log. Scalars show their
+    value (cut at ``limit`` characters), containers only their type.
+    """
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"a {value.bit_length()}-bit integer"
+    if value is None or isinstance(value, (bool, int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return repr(value) if len(value) <= limit else repr(value[:limit]) + "..."
+    return type(value).__name__
+
+
 def check_primitive(ros: str, value: Any) -> Any:
     """Check (and for floats, normalise) one primitive value; return what the message should hold."""
     if ros in ("float64", "float32"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise MessageError("", f"expected a number, got {type(value).__name__}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # an int beyond the float range (JSON allows 1000-digit numbers)
+            raise MessageError("", f"number {short_repr(value)} does not fit a {ros}") from None
         if not math.isfinite(value):
             raise MessageError("", f"number must be finite, got {value!r}")
         if ros == "float32" and abs(value) > FLOAT32_MAX:
@@ -153,14 +172,19 @@ def check_primitive(ros: str, value: Any) -> Any:
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         if isinstance(value, bool) or not isinstance(value, int):
-            raise MessageError("", f"expected an integer, got {type(value).__name__} {value!r}")
+            raise MessageError("", f"expected an integer, got {type(value).__name__} {short_repr(value)}")
         lo, hi = INT_RANGES[ros]
         if not lo <= value <= hi:
-            raise MessageError("", f"{value} is outside the {ros} range {lo}..{hi}")
+            raise MessageError("", f"{short_repr(value)} is outside the {ros} range {lo}..{hi}")
         return value
     if ros == "string":
         if not isinstance(value, str):
             raise MessageError("", f"expected a string, got {type(value).__name__}")
+        if not value.isascii():  # JSON can carry a lone surrogate, which no UTF-8 output can write
+            try:
+                value.encode("utf-8")
+            except UnicodeEncodeError as exc:
+                raise MessageError("", f"not valid Unicode: lone surrogate at index {exc.start}") from None
         return value
     if ros == "bool":
         if not isinstance(value, bool):
@@ -210,5 +234,6 @@ __all__ = [
     "UInt32",
     "UInt8",
     "check_primitive",
+    "short_repr",
     "specs",
 ]

@@ -4,7 +4,7 @@
 :meth:`Scenario.fleet_dict` so that a replay needs nothing else, and the telemetry layout), then one record
 per message: ``{"t", "dir": "in"|"out", "robot", "attr", "value"}`` with the plain decoded value, or
 ``"raw"`` for an inbound payload kept undecoded (it is decoded, and may be rejected, on replay exactly as
-it was live).
+it was live). The last line, ``{"t", "dir": "end"}``, says when the run stopped.
 
 ``current_motion`` of the whole fleet is written every telemetry tick into ``telemetry.bin`` beside the
 trace: little-endian float64 rows ``[t, x0, y0, theta0, v0, w0, x1, ...]``, one row per tick, robots in
@@ -85,6 +85,10 @@ class TraceWriter:
     def frame(self, frame: Frame) -> None:
         self._bin.write(struct.pack("<d", frame.t))
         self._bin.write(frame.columns.astype("<f8", copy=False).tobytes())
+
+    def end(self, t: float) -> None:
+        """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
+        self._jsonl.write(dumps({"t": t, "dir": "end"}) + b"\n")
 
     def close(self) -> None:
         self._jsonl.close()

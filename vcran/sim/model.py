@@ -128,6 +128,10 @@ class Model:
             return True
         return False
 
+    def stop(self) -> None:
+        """End the run at the current instant, after everything else of it (live mode: SIGINT/SIGTERM)."""
+        at(self.env, self.env.now, END).callbacks.append(self._finish)
+
     def _finish(self, _: object) -> None:
         if not self.finished.triggered:
             self.finished.succeed()

@@ -1,0 +1,75 @@
+"""The replay transport: feeds a recorded trace's inbound records back at their recorded times (SPEC §6).
+
+The trace is read lazily, line by line, so a replay of a long run needs no more memory than the run did.
+Outbound messages are dropped here; verification compares the files the replay writes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import simpy
+
+from transports.base import Deliver, Transport
+from vcran.messages import INBOUND
+from vcran.plain import from_plain
+from vcran.sim.timing import INBOUND as INBOUND_PRIORITY
+from vcran.sim.timing import at
+from vcran.trace import records
+from vcran.wire import Inbound, Outbound
+
+
+class TraceError(ValueError):
+    """A trace that cannot be replayed; the message names the file and line."""
+
+
+class ReplayTransport(Transport):
+    def __init__(self, trace: Path) -> None:
+        self.trace = trace
+        self._exhausted = False
+
+    def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
+        env.process(self._play(env, deliver))
+
+    def _play(self, env: simpy.Environment, deliver: Deliver):  # type: ignore[no-untyped-def]
+        for t, inbound in inbound_records(self.trace):
+            if t > env.now:
+                yield at(env, t, INBOUND_PRIORITY)
+            deliver(inbound)
+        self._exhausted = True
+
+    @property
+    def exhausted(self) -> bool:
+        return self._exhausted
+
+    def send(self, out: Outbound) -> None:
+        pass
+
+
+def inbound_records(trace: Path) -> Iterator[tuple[float, Inbound]]:
+    """``(t, Inbound)`` for every ``in`` record, decoded from its plain value (or kept raw)."""
+    last = 0.0
+    for n, record in enumerate(records(trace), start=2):
+        if record.get("dir") != "in":
+            continue
+        t, attr = record.get("t"), record.get("attr")
+        where = f"{trace}:{n}"
+        if not isinstance(t, (int, float)) or t < last:
+            raise TraceError(f"{where}: time {t!r} is not a number at or after {last}")
+        if attr not in INBOUND:
+            raise TraceError(f"{where}: unknown inbound attribute {attr!r}")
+        last = float(t)
+        yield last, Inbound(str(record.get("robot")), attr, *_payload(where, attr, record))
+
+
+def _payload(where: str, attr: str, record: dict[str, Any]) -> tuple[Any, Any]:
+    if "value" in record:
+        try:
+            return from_plain(INBOUND[attr], record["value"]), None
+        except ValueError as exc:
+            raise TraceError(f"{where}: {attr}: {exc}") from None
+    if "raw" in record:
+        return None, record["raw"]
+    raise TraceError(f"{where}: an in record needs value or raw")

@@ -1,0 +1,1 @@
+"""Test helpers for vcran and its users: hypothesis strategies (:mod:`vcran.testing.strategies`)."""
