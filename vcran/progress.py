@@ -16,11 +16,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TextIO
 
+from vcran.effects import State
+
 #: (simulated time, tasks completed so far): what the model reports, see ``Model(progress=...)``.
 Progress = Callable[[float, int], None]
 Clock = Callable[[], float]
 
-STATES = ("WAITING", "TASK", "MOTION", "ACTION")
+STATES = tuple(s.value for s in State)
+#: Wall seconds between two redraws of the progress bar: a few a second reads as live and costs nothing.
+REDRAW_INTERVAL = 0.2
 
 
 def is_terminal(stream: TextIO) -> bool:
@@ -74,12 +78,12 @@ class ProgressBar:
 
     WIDTH = 24
 
-    def __init__(self, stream: TextIO, duration: float | None, *, min_interval: float = 0.2,
+    def __init__(self, stream: TextIO, duration: float | None, *, min_interval: float | None = None,
                  clock: Clock = time.monotonic) -> None:
         self.duration = duration
         self.clock = clock
         self.started = clock()
-        self.due = Throttle(min_interval, clock)
+        self.due = Throttle(REDRAW_INTERVAL if min_interval is None else min_interval, clock)
         self.line = InPlaceLine(stream)
 
     def __call__(self, now: float, tasks_done: int) -> None:

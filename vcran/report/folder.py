@@ -135,19 +135,22 @@ def _events(path: Path) -> Iterator[dict[str, Any]]:
 def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]]]:
     """Motion areas and targets from the inbound ``motion_assignment`` records of the trace.
 
-    The trace of a large run is mostly outbound telemetry; a byte test skips those lines unparsed. Raw
-    (undecoded) inbound payloads are skipped: they are what was rejected or never decoded.
+    The trace of a large run is mostly outbound status; a byte test skips those lines unparsed. A live
+    run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
+    decoded them, and one that does not decode (the RAN rejected it) is skipped.
     """
     areas: dict[tuple[str, tuple[Point, ...]], MotionArea] = {}
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
     with path.open("rb") as f:
         f.readline()
         for n, line in enumerate(f, start=2):
-            if b'"attr":"motion_assignment"' not in line or b'"dir":"in"' not in line:
+            if b"motion_assignment" not in line:
                 continue
             try:
                 record = orjson.loads(line)
-                value = record.get("value")
+                if record.get("dir") != "in" or record.get("attr") != "motion_assignment":
+                    continue
+                value = record["value"] if "value" in record else _decoded(record.get("raw"))
                 if value is None:
                     continue
                 robot = record["robot"]
@@ -160,6 +163,16 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
             if polygon and (robot, polygon) not in areas:
                 areas[robot, polygon] = MotionArea(robot, polygon)
     return tuple(areas.values()), targets
+
+
+def _decoded(raw: Any) -> dict[str, Any] | None:
+    from vcran.codec import decode_attribute
+    from vcran.plain import to_plain
+
+    try:
+        return to_plain(decode_attribute("motion_assignment", raw))
+    except ValueError:
+        return None
 
 
 def _label(ident: dict[str, Any]) -> str:

@@ -12,11 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from vcran.effects import Reason, State
 from vcran.report.folder import Run
 
-WAITING = "WAITING"
-STATES = ("WAITING", "TASK", "MOTION", "ACTION")
-REASONS = ("timeout", "cancelled", "action_failed")
+WAITING = State.WAITING.value
+STATES = tuple(s.value for s in State)
+REASONS = tuple(r.value for r in Reason)
 OPEN = "open"
 
 

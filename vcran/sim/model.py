@@ -7,7 +7,7 @@ and on ``simpy.rt.RealtimeEnvironment`` (live).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Generator
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import simpy
@@ -20,7 +20,7 @@ from vcran.ranlogic import RanLogic
 from vcran.scenario import Scenario
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
-from vcran.sim.timing import END, PROGRESS, PRODUCTION, at
+from vcran.sim.timing import END, PRODUCTION, at
 from vcran.stations import Station, StationMap, area_problem
 from vcran.wire import Inbound
 
@@ -51,8 +51,9 @@ class Model:
         decode: Decode = default_decode,
         progress: Callable[[float, int], None] | None = None,
     ) -> None:
-        """``progress``, if given, is called with (simulated time, tasks completed) every telemetry period:
-        an observer for a progress display, which sees the run but cannot change it."""
+        """``progress``, if given, is called with (simulated time, tasks completed) at every telemetry tick:
+        an observer for a progress display, which sees the run but cannot change it. It rides on the tick
+        rather than on events of its own, so a run with a progress bar schedules exactly the same events."""
         self.scenario = scenario
         self.env = env if env is not None else simpy.Environment()
         self.transport = transport
@@ -78,14 +79,13 @@ class Model:
                                          self._log, self._changed))
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
         self.finished = self.env.event()
-        self.env.process(self.ran.telemetry(s.telemetry_period, self._idle_stop))
+        after_tick = self._idle_stop if progress is None else self._reporting(progress)
+        self.env.process(self.ran.telemetry(s.telemetry_period, after_tick))
         self.env.process(self.ran.descriptions(s.description_period))
         for station in self.stations:
             if station.producing:
                 self.env.process(self._produce(station))
         transport.attach(self.env, self.ran.deliver)
-        if progress is not None:
-            self.env.process(self._report_progress(progress, s.telemetry_period))
 
     def run(self) -> float:
         """Run to the scenario's end (duration, or idle); return the simulated end time."""
@@ -143,12 +143,12 @@ class Model:
             station.produce()
             k += 1
 
-    def _report_progress(self, progress: Callable[[float, int], None], period: float) -> Generator[simpy.Event, Any, None]:
-        k = 1
-        while True:
-            yield at(self.env, k * period, PROGRESS)
+    def _reporting(self, progress: Callable[[float, int], None]) -> Callable[[], bool]:
+        def after_tick() -> bool:
             progress(self.env.now, self.tasks_done)
-            k += 1
+            return self._idle_stop()
+
+        return after_tick
 
     # --- results ----------------------------------------------------------------------------------------
 

@@ -9,8 +9,7 @@ that what happens at one instant does not depend on when the event happened to b
 3. completions: an AGV reaching a point, AgvAction finishing an action;
 4. R7 deadlines (so a task assembled exactly at its deadline is on time);
 5. telemetry (it sees the state after everything else at that instant);
-6. the end of the run (so the last instant is complete, telemetry included);
-7. progress reports to an observer (they change nothing, so they may as well come last).
+6. the end of the run (so the last instant is complete, telemetry included).
 """
 
 from __future__ import annotations
@@ -26,7 +25,6 @@ COMPLETION = 3
 DEADLINE = 4
 TELEMETRY = 5
 END = 6
-PROGRESS = 7
 
 
 def after(env: simpy.Environment, delay: float, priority: int) -> Event:
