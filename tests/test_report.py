@@ -244,10 +244,12 @@ def test_report_of_the_demo_writes_figures_and_tables(demo: Outputs, tmp_path: P
     assert (tmp_path / "rep" / "kpi.md").read_text().startswith("# KPIs: demo")
 
 
-def test_svg_format(demo: Outputs, tmp_path: Path) -> None:
-    report = write_report(demo.dir, tmp_path, "svg")
+def test_svg_format_and_the_same_run_gives_the_same_files(demo: Outputs, tmp_path: Path) -> None:
+    report = write_report(demo.dir, tmp_path / "a", "svg")
     assert [f.name for f in report.files[:2]] == ["layout.svg", "timeline.svg"]
     assert all(f.read_text()[:200].lstrip().startswith("<?xml") for f in report.files[:2])
+    again = write_report(demo.dir, tmp_path / "b", "svg")
+    assert [f.read_bytes() for f in report.files] == [f.read_bytes() for f in again.files]
 
 
 def test_tables_show_a_missing_latency_as_a_dash_and_an_empty_cell(mixed: Outputs) -> None:

@@ -57,5 +57,12 @@ def task_name(robot: str, task: str, robots: int) -> str:
 
 
 def save(fig: Any, path: Path) -> None:
-    """Write a figure in the format its suffix names; an SVG without a date, so reruns give equal files."""
-    fig.savefig(path, dpi=DPI, metadata={"Date": None} if path.suffix == ".svg" else None)
+    """Write a figure in the format its suffix names. An SVG gets no date and fixed element ids (matplotlib
+    salts them with a random uuid by default), so that the same run gives the same file."""
+    import matplotlib
+
+    if path.suffix == ".svg":
+        with matplotlib.rc_context({"svg.hashsalt": "vcran"}):
+            fig.savefig(path, dpi=DPI, metadata={"Date": None})
+    else:
+        fig.savefig(path, dpi=DPI)
