@@ -9,11 +9,13 @@ import math
 import shutil
 import sys
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from tests.conftest import ROOT, Outputs, run_scenario
+from tests.test_scenarios import FLEET
 from vcran.cli import main
 from vcran.gen import generate
 from vcran.report import read_run, write_report
@@ -27,20 +29,8 @@ from vcran.scenario import load, parse
 
 DEMO_DISTANCE = 2 + 2 * math.sqrt(2) + 4 + 4 + 2 + 2 + 2  # 100: (0,0)-(2,0)-(4,2); 200: -(0,2)-(-4,2); 300: back home
 
-MIXED = """
-[simulation]
-name = "mixed"
-until_idle = true
-duration = 300.0
-task_timeout = 30.0
-[simulation.action_durations]
-dummy = 1.0
-load = 2.0
-unload = 2.0
-[[robots]]
-id = "robot_1"
-pose = [0.0, 0.0, 0.0]
-max_velocity = 1.0
+#: test_scenarios' one-robot fleet, plus a second robot and a station with an area.
+MIXED = FLEET + """
 [[robots]]
 id = "robot_2"
 pose = [0.0, -5.0, 0.0]
@@ -169,10 +159,10 @@ def test_demo_paths_bend_at_the_targets_and_add_up_to_the_distance(demo: Outputs
 
 def test_a_corner_between_two_ticks_is_not_cut(run_toml) -> None:  # type: ignore[no-untyped-def]
     # Reaches (1.1, 0) at 2.1 s, turns 45 degrees in 0.79 s and is on its way before the 3 s tick.
-    motion = '[[script]]\nt = 1\nrobot = "robot_1"\nkind = "motion"\ntask = "K"\nid = "K_m{n}"\nseq = [{n}, 2]\npoint = {p}\n'
-    out = run_toml('[simulation]\nuntil_idle = true\nduration = 60.0\n'
-                   '[[robots]]\nid = "robot_1"\npose = [0.0, 0.0, 0.0]\nmax_velocity = 1.0\nmax_angular_velocity = 1.0\n'
-                   + motion.format(n=1, p=[1.1, 0.0, 0.0]) + motion.format(n=2, p=[3.1, 2.0, 0.0]))
+    robot = '[[robots]]\nid = "robot_1"\npose = [0.0, 0.0, 0.0]\nmax_velocity = 1.0\nmax_angular_velocity = 1.0\n'
+    out = run_toml("[simulation]\nuntil_idle = true\nduration = 60.0\n" + robot
+                   + entry(1, "robot_1", "motion", "K", id="K_m1", seq=[1, 2], point=[1.1, 0.0, 0.0])
+                   + entry(1, "robot_1", "motion", "K", id="K_m2", seq=[2, 2], point=[3.1, 2.0, 0.0]))
     run = read_run(out.dir)
     history = histories(run)["robot_1"]
 
@@ -206,8 +196,8 @@ def test_motion_areas_and_targets_come_from_the_inbound_assignments(mixed: Outpu
     (area,) = run.motion_areas
     assert area.robot == "robot_2" and area.points == ((-1.0, -7.0), (6.0, -7.0), (6.0, -3.0), (-1.0, -3.0))
     assert run.targets["robot_1", "B_m1"] == [(2.0, 5.0, 8.0)]
-    (bay,) = run.stations
-    assert bay.area[0] == (7.0, -6.0)
+    s1, bay = run.stations
+    assert (s1.id, s1.area, bay.id, bay.area[0]) == ("s1", (), "bay", (7.0, -6.0))
 
 
 def test_overlapping_tasks_get_separate_lanes() -> None:
@@ -228,7 +218,8 @@ def test_pages_hold_twenty_robots_up_to_the_limit() -> None:
 # --- files ---------------------------------------------------------------------------------------------
 
 
-def test_report_of_the_demo_writes_figures_and_tables(demo: Outputs, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_report_of_the_demo_writes_figures_and_tables(demo: Outputs, tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["report", str(demo.dir), "--out", str(tmp_path / "rep")]) == 0
     names = sorted(p.name for p in (tmp_path / "rep").iterdir())
     assert names == ["kpi.csv", "kpi.md", "layout.png", "timeline.png"]
@@ -304,7 +295,8 @@ def test_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
      "events.jsonl:2: not an event"),
     (lambda d: (d / "events.jsonl").write_text("{oops\n"), "events.jsonl:1: not JSON"),
 ])
-def test_damaged_run_folder(demo: Outputs, tmp_path: Path, capsys: pytest.CaptureFixture[str], damage, expected: str) -> None:  # type: ignore[no-untyped-def]
+def test_damaged_run_folder(demo: Outputs, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                            damage: Callable[[Path], object], expected: str) -> None:
     broken = tmp_path / "run"
     shutil.copytree(demo.dir, broken)
     damage(broken)

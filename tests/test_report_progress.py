@@ -76,7 +76,8 @@ def test_quiet_silences_the_bar_on_a_terminal(tmp_path: Path, monkeypatch: pytes
 def test_progress_callback_sees_the_run_and_changes_nothing(tmp_path: Path) -> None:
     scenario = load(DEMO)
     seen: list[tuple[float, int]] = []
-    run_to(scenario, tmp_path / "watched", ScriptedTransport(scenario.messages()), progress=lambda t, n: seen.append((t, n)))
+    run_to(scenario, tmp_path / "watched", ScriptedTransport(scenario.messages()),
+           progress=lambda t, n: seen.append((t, n)))
     run_to(scenario, tmp_path / "plain", ScriptedTransport(scenario.messages()))
     assert [t for t, _ in seen] == [float(k) for k in range(58)]  # every telemetry tick, to the end at 57 s
     done = [n for t, n in seen]  # tasks 100, 200 and 300 complete at 18.4, 38.5 and 56.3 s

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -34,6 +34,7 @@ NO_TASK_NAME = "driven outside a task"
 TOO_MANY = f"over {len(TASK_PALETTE)} tasks: too many to colour"
 
 Piece = tuple[TaskSpan | None, np.ndarray]
+Dashes = Literal["-", "--"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,7 +146,8 @@ def _floor(ax: Axes, run: Run, labels: list[Label]) -> list[Artist]:
             ax.add_patch(Circle(st.position, st.reach, facecolor="#f3eee4", edgecolor="#6b5b3e",
                                 linestyle="--", zorder=1))
     if run.stations:
-        ax.scatter(*zip(*(st.position for st in run.stations)), marker="s", s=18, color="#6b5b3e", zorder=2)
+        ax.scatter([st.position[0] for st in run.stations], [st.position[1] for st in run.stations], marker="s",
+                   s=18, color="#6b5b3e", zorder=2)
         handles.append(Line2D([], [], marker="s", color="#6b5b3e", markerfacecolor="#f3eee4", linestyle="--",
                               markersize=8, label="station and its reach"))
     if len(run.stations) <= LABELLED_STATIONS:
@@ -165,11 +167,11 @@ def _paths(ax: Axes, run: Run, histories: dict[str, History], arrows: bool) -> l
     colours = task_colours(histories)
     corners = corners_by_robot(run)
     segments: list[np.ndarray] = []
-    styles: list[tuple[str, str]] = []  # (colour, line style) per segment
-    named: dict[str, tuple[str, str]] = {}
+    styles: list[tuple[str, Dashes]] = []  # (colour, line style) per segment
+    named: dict[str, tuple[str, Dashes]] = {}
     for i, robot in enumerate(run.robots):
         for span, points in path_pieces(run, i, histories[robot.id], corners[robot.id]):
-            dashes = "--" if span is not None and span.outcome in REASON_STYLE else "-"
+            dashes: Dashes = "--" if span is not None and span.outcome in REASON_STYLE else "-"
             if span is None:
                 colour, name = NO_TASK, NO_TASK_NAME
             elif colours is not None:
@@ -238,9 +240,11 @@ def _place_labels(fig: Figure, ax: Axes, labels: list[Label]) -> None:
         for x, y, above in label.places:
             text = ax.annotate(label.text, (x, y), xytext=(0, 3 if above else -3), textcoords="offset points",
                                ha="center", va="bottom" if above else "top", fontsize=8, in_layout=False,
-                               fontweight="bold" if label.bold else "normal", color="#222222" if label.bold else "#4a3f2b")
+                               fontweight="bold" if label.bold else "normal",
+                               color="#222222" if label.bold else "#4a3f2b")
             box = text.get_window_extent()
-            if frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1) and not any(box.overlaps(b) for b in taken):
+            inside = frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+            if inside and not any(box.overlaps(b) for b in taken):
                 taken.append(box)
                 break
             text.remove()

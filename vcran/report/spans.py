@@ -96,10 +96,10 @@ class _Builder:
             self.pending[span.task] = span
             self.history.tasks.append(span)
         elif name in ("task_completed", "task_cancelled"):
-            span = self.pending.pop(event["task"], None)
-            if span is not None:
-                span.end = t
-                span.outcome = "completed" if name == "task_completed" else event["reason"]
+            ended = self.pending.pop(event["task"], None)
+            if ended is not None:
+                ended.end = t
+                ended.outcome = "completed" if name == "task_completed" else event["reason"]
 
     def finish(self, end: float) -> History:
         self._band_until(end)

@@ -114,13 +114,18 @@ class _Marks:
     def __init__(self) -> None:
         self.bars: dict[str, tuple[list[list[tuple[float, float]]], list[tuple[str, float]]]] = {}  # hatch ->
         self.points: dict[tuple[str, str], tuple[list[float], list[float]]] = {}
+        self.outlines: list[list[tuple[float, float]]] = []
 
     def bar(self, t0: float, t1: float, y: float, height: float, colour: str, alpha: float = 1.0,
             hatch: str = "") -> None:
         if t1 > t0:
             outlines, faces = self.bars.setdefault(hatch, ([], []))
-            outlines.append([(t0, y - height / 2), (t1, y - height / 2), (t1, y + height / 2), (t0, y + height / 2)])
+            outlines.append(_rectangle(t0, t1, y, height))
             faces.append((colour, alpha))
+
+    def outline(self, t0: float, t1: float, y: float, height: float) -> None:
+        """A thin white frame: where one task ends as the next begins, the two bars stay apart."""
+        self.outlines.append(_rectangle(t0, t1, y, height))
 
     def point(self, t: float, y: float, marker: str, colour: str) -> None:
         xs, ys = self.points.setdefault((marker, colour), ([], []))
@@ -135,6 +140,8 @@ class _Marks:
             rgba = [to_rgba(colour, alpha) for colour, alpha in faces]
             ax.add_collection(PolyCollection(outlines, facecolors=rgba, edgecolors="#555555" if hatch else "none",
                                              hatch=hatch or None, linewidths=0), autolim=False)
+        ax.add_collection(PolyCollection(self.outlines, facecolors="none", edgecolors="white", linewidths=0.8),
+                          autolim=False)
         for (marker, colour), (xs, ys) in self.points.items():
             ax.plot(xs, ys, linestyle="none", marker=marker, color=colour, markersize=7, markeredgecolor="white",
                     markeredgewidth=0.6, zorder=4, clip_on=False, scalex=False, scaley=False)
@@ -147,6 +154,7 @@ def _task(ax: Axes, marks: _Marks, span: TaskSpan, y: float, colour: str, px_per
     hatch = "////" if cancelled else ""
     marks.bar(span.queued, started, y, TASK_LANE, colour, 0.35, hatch)
     marks.bar(started, span.end, y, TASK_LANE, colour, 1.0, hatch)
+    marks.outline(span.queued, span.end, y, TASK_LANE)
     if cancelled:
         marks.point(span.end, y, *REASON_STYLE[span.outcome])
     elif span.outcome == OPEN:
@@ -158,6 +166,10 @@ def _task(ax: Axes, marks: _Marks, span: TaskSpan, y: float, colour: str, px_per
             ax.text((span.queued + span.end) / 2, y, text, ha="center", va="center", fontsize=LABEL_PT,
                     color="#111111", clip_on=True, bbox=backing if cancelled else None)  # legible on hatching
             break
+
+
+def _rectangle(t0: float, t1: float, y: float, height: float) -> list[tuple[float, float]]:
+    return [(t0, y - height / 2), (t1, y - height / 2), (t1, y + height / 2), (t0, y + height / 2)]
 
 
 def _text_px(text: str) -> float:
