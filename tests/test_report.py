@@ -265,6 +265,15 @@ def test_ten_robot_generated_run_is_paged(tmp_path: Path, monkeypatch: pytest.Mo
     assert len(report.kpis) == 11  # every robot is in the tables, drawn or not
 
 
+@pytest.mark.filterwarnings("error")
+def test_a_run_where_nothing_happens_still_reports(run_toml) -> None:  # type: ignore[no-untyped-def]
+    out = run_toml('[simulation]\nuntil_idle = true\nduration = 10.0\n[[robots]]\nid = "r"\npose = [0.0, 0.0, 0.0]\n')
+    assert out.summary["sim_time"] == 0.0
+    report = write_report(out.dir, out.dir / "report")
+    (robot, _fleet) = report.kpis
+    assert (robot.completed, robot.busy_share, robot.idle_share, robot.latency) == (0, 0.0, 1.0, None)
+
+
 def test_run_with_report_flag_writes_into_the_run_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", str(ROOT / "scenarios" / "demo.toml"), "--out", str(tmp_path), "--report", "--quiet"]) == 0
     assert {"layout.png", "timeline.png", "kpi.md", "kpi.csv"} <= {p.name for p in (tmp_path / "report").iterdir()}
@@ -289,11 +298,15 @@ def test_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
 @pytest.mark.parametrize(("damage", "expected"), [
     (lambda d: (d / "events.jsonl").unlink(), "missing events.jsonl"),
     (lambda d: (d / "telemetry.bin").write_bytes(b"\0" * 12), "not a whole number"),
-    (lambda d: (d / "summary.json").write_text("{"), "unreadable run output"),
+    (lambda d: (d / "summary.json").write_text("{"), "summary.json: unreadable"),
+    (lambda d: (d / "summary.json").write_text('{"sim_time": 1, "errors": 0, "robots": {"robot_1": {}}}'),
+     "summary.json: unreadable (missing field 'final_pose')"),
     (lambda d: (d / "trace.jsonl").write_text('{"format": "other"}\n'), "not a vcran trace"),
-    (lambda d: (d / "events.jsonl").write_text('{"t": 1, "robot": "robot_1", "event": "state"}\n[1]\n'),
+    (lambda d: (d / "events.jsonl").write_text('{"t": 1, "robot": "r", "event": "task_queued", "task": "A"}\n[1]\n'),
      "events.jsonl:2: not an event"),
     (lambda d: (d / "events.jsonl").write_text("{oops\n"), "events.jsonl:1: not JSON"),
+    (lambda d: (d / "events.jsonl").write_text('{"t": 1, "robot": "robot_1", "event": "state", "from": "WAITING"}\n'),
+     "events.jsonl:1: state event without to"),
 ])
 def test_damaged_run_folder(demo: Outputs, tmp_path: Path, capsys: pytest.CaptureFixture[str],
                             damage: Callable[[Path], object], expected: str) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,14 @@ import orjson
 from vcran.trace import read_header, telemetry
 
 FILES = ("summary.json", "events.jsonl", "trace.jsonl", "telemetry.bin")
+#: The fields the report reads from each kind of event (strings all).
+EVENT_FIELDS = {
+    "state": ("from", "to"),
+    "task_queued": ("task",),
+    "task_completed": ("task",),
+    "task_cancelled": ("task", "reason"),
+    "motion_finished": ("motion",),
+}
 
 Point = tuple[float, float]
 
@@ -50,6 +59,16 @@ class StationSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class RobotResult:
+    """What ``summary.json`` says of a robot that the report uses; distance is exact, from the kinematics."""
+
+    distance: float
+    parts_moved: int
+    errors: int
+    final_pose: tuple[float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
 class MotionArea:
     """A non-empty ``motion_area`` polygon that a robot was sent, as the fleet manager drew it."""
 
@@ -69,7 +88,7 @@ class Run:
     errors: int
     robots: tuple[RobotSpec, ...]
     stations: tuple[StationSpec, ...]
-    results: dict[str, dict[str, Any]]
+    results: dict[str, RobotResult]
     events: list[dict[str, Any]]
     telemetry: np.ndarray
     motion_areas: tuple[MotionArea, ...] = ()
@@ -88,24 +107,38 @@ def read_run(path: Path) -> Run:
     missing = [name for name in FILES if not (path / name).is_file()]
     if missing:
         raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
-    try:
+    with _reading(path / "trace.jsonl"):
         header = read_header(path / "trace.jsonl")
-        summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
-        fleet = header["fleet"]
         ids = [str(r) for r in header["telemetry"]["robots"]]
-        configs = {r["id"]: r for r in fleet["robots"]}
+        configs = {r["id"]: r for r in header["fleet"]["robots"]}
         robots = tuple(_robot(configs[rid]) for rid in ids)
-        stations = tuple(_station(s) for s in fleet.get("stations", []))
-        results = {rid: summary["robots"][rid] for rid in ids}
+        stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
+    with _reading(path / "summary.json"):
+        summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+        results = {rid: _result(summary["robots"][rid]) for rid in ids}
         sim_time = float(summary["sim_time"])
         errors = int(summary["errors"])
+    with _reading(path / "telemetry.bin"):
         ticks = telemetry(path, len(ids))
-    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
-        raise ReportError(f"{path}: unreadable run output: {_describe(exc)}") from None
     events = list(_events(path / "events.jsonl"))
     areas, targets = _assignments(path / "trace.jsonl")
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
                sim_time, errors, robots, stations, results, events, ticks, areas, targets)
+
+
+@contextmanager
+def _reading(path: Path) -> Iterator[None]:
+    """Whatever goes wrong reading ``path`` becomes one :class:`ReportError` that names it."""
+    try:
+        yield
+    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
+        raise ReportError(f"{path}: unreadable ({_describe(exc)})") from None
+
+
+def _result(robot: dict[str, Any]) -> RobotResult:
+    pose = robot["final_pose"]
+    return RobotResult(float(robot["distance"]), int(robot["parts_moved"]), int(robot["errors"]),
+                       (float(pose["x"]), float(pose["y"]), float(pose["theta"])))
 
 
 def _robot(config: dict[str, Any]) -> RobotSpec:
@@ -129,6 +162,9 @@ def _events(path: Path) -> Iterator[dict[str, Any]]:
             if not (isinstance(event, dict) and isinstance(event.get("t"), int | float)
                     and isinstance(event.get("robot"), str) and isinstance(event.get("event"), str)):
                 raise ReportError(f"{path}:{n}: not an event (an object with t, robot and event expected)")
+            missing = [f for f in EVENT_FIELDS.get(event["event"], ()) if not isinstance(event.get(f), str)]
+            if missing:
+                raise ReportError(f"{path}:{n}: {event['event']} event without {', '.join(missing)}")
             yield event
 
 

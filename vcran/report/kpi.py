@@ -53,11 +53,11 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
             robot=rid,
             completed=len(latencies),
             cancelled={r: sum(s.outcome == r for s in history.tasks) for r in REASONS},
-            distance=float(result["distance"]),
+            distance=result.distance,
             busy_share=_share(history.busy, run.sim_time),
             latency=_mean(latencies),
-            parts_moved=int(result["parts_moved"]),
-            errors=int(result["errors"]),
+            parts_moved=result.parts_moved,
+            errors=result.errors,
         ))
     rows.append(Kpi(
         robot=FLEET,

@@ -208,15 +208,15 @@ def _poses(ax: Axes, run: Run, labels: list[Label], small: bool) -> list[Artist]
     from matplotlib.collections import PolyCollection
     from matplotlib.lines import Line2D
 
-    finals = [run.results[r.id]["final_pose"] for r in run.robots]
+    finals = [run.results[r.id].final_pose for r in run.robots]
     start = [footprint_at(r, *r.pose) for r in run.robots]
-    end = [footprint_at(r, p["x"], p["y"], p["theta"]) for r, p in zip(run.robots, finals)]
+    end = [footprint_at(r, *pose) for r, pose in zip(run.robots, finals)]
     ax.add_collection(PolyCollection(start, facecolors="none", edgecolors="#333333", linestyles="--",
                                      linewidths=0.9, zorder=4))
     ax.add_collection(PolyCollection(end, facecolors="#33333333", edgecolors="#333333", linewidths=0.9, zorder=4))
     ax.scatter([r.pose[0] for r in run.robots], [r.pose[1] for r in run.robots], s=20 if small else 90,
                facecolors="none", edgecolors="#333333", linewidths=0.8 if small else 1.2, zorder=5)
-    x, y, theta = np.array([(p["x"], p["y"], p["theta"]) for p in finals], dtype=float).reshape(-1, 3).T
+    x, y, theta = np.array(finals, dtype=float).reshape(-1, 3).T
     ax.quiver(x, y, np.cos(theta), np.sin(theta), angles="xy", scale_units="inches", scale=10 if small else 3.5,
               pivot="tail", width=0.003 if small else 0.004, headwidth=4, headlength=4, color="#333333", zorder=5)
     if not small:

@@ -69,9 +69,10 @@ def draw_timeline(run: Run, histories: dict[str, History], robots: tuple[str, ..
     height_in = top_in + axes_in + BOTTOM_IN
     fig = Figure(figsize=(WIDTH_IN, height_in))
     ax = fig.add_axes((LEFT, BOTTOM_IN / height_in, RIGHT - LEFT, axes_in / height_in))
-    px_per_s = (RIGHT - LEFT) * WIDTH_IN * DPI / max(run.sim_time, 1e-9)
+    span_s = max(run.sim_time, 1.0)  # a run that ended at 0 s still gets a time axis
+    px_per_s = (RIGHT - LEFT) * WIDTH_IN * DPI / span_s
 
-    ax.set_xlim(0, run.sim_time)
+    ax.set_xlim(0, span_s)
     ax.set_ylim(y - GAP / 2 - PITCH / 2, -PITCH / 2 - GAP / 2)
     marks = _Marks()
     for rid, y0, tasks in blocks:
