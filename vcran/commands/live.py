@@ -27,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import resource
     from dataclasses import replace
 
     from transports.orion.transport import LiveOptions, OrionTransport
@@ -68,8 +69,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         s = result.summary
         done = sum(len(r["completed"]) for r in s["robots"].values())
+        usage = resource.getrusage(resource.RUSAGE_SELF)
         print(f"live run ended at {s['sim_time']:.3f} s simulated: {done} task(s) completed, {s['errors']} error(s)")
         print(f"  {transport.status()}")
+        print(f"  wall {result.wall_seconds:.1f} s, outbound {transport.updates / result.wall_seconds:.1f} requests/s, "
+              f"cpu {usage.ru_utime + usage.ru_stime:.1f} s")
         lat = transport.latency_stats()
         if lat:
             print(f"  inbound to effect: median {lat['median'] * 1000:.1f} ms, p99 {lat['p99'] * 1000:.1f} ms ({lat['count']:.0f} messages)")
