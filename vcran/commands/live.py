@@ -7,6 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
+from vcran.commands import load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
@@ -32,18 +33,13 @@ def run(args: argparse.Namespace) -> int:
 
     from transports.orion.transport import LiveOptions, OrionTransport
     from vcran.runner import run_to
-    from vcran.scenario import ScenarioError, load
     from vcran.sim.live import LiveEnvironment
 
     setup_logging(args.quiet)
     if not args.factor > 0 or not args.poll_interval > 0:
         print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
         return 2
-    try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran live: {exc}", file=sys.stderr)
-        return 2
+    scenario = load_scenario(args.scenario)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
+
+from vcran.commands import load_scenario
 
 HELP = "simulate a scenario with its message script, as fast as possible"
 
@@ -18,13 +19,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from transports.scripted import ScriptedTransport
     from vcran.runner import run_to
-    from vcran.scenario import ScenarioError, load
 
-    try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran run: {exc}", file=sys.stderr)
-        return 2
+    scenario = load_scenario(args.scenario)
     result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()), options={"transport": "scripted"})
     if not args.quiet:
         print_summary(result, args.out)
