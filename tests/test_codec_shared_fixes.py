@@ -65,3 +65,15 @@ def test_short_repr_is_bounded() -> None:
     assert short_repr("a" * 100) == repr("a" * 40) + "..."
     assert short_repr(2**100) == "a 101-bit integer"
     assert short_repr({"a": 1}) == "dict"
+
+
+def test_message_constructor_refuses_lone_surrogate_even_on_the_fast_path():
+    """The constructor's fast path (schema._fast) must not skip the Unicode check (R12)."""
+    import pytest
+
+    from vcran.messages import Tuple
+    from vcran.schema import MessageError
+
+    with pytest.raises(MessageError, match="lone surrogate"):
+        Tuple(name="a\udc80")
+    assert Tuple(name="Grüße").name == "Grüße"

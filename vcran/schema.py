@@ -100,8 +100,9 @@ def _fast(spec: FieldSpec) -> Any:
         if spec.ros in INT_RANGES:
             lo, hi = INT_RANGES[spec.ros]
             return lambda v: type(v) is int and lo <= v <= hi
-        want = str if spec.ros == "string" else bool
-        return lambda v: type(v) is want
+        if spec.ros == "string":  # non-ASCII takes the full check (lone surrogates)
+            return lambda v: type(v) is str and v.isascii()
+        return lambda v: type(v) is bool
     if spec.kind == "array":
         item = spec.cls
         if item is None:

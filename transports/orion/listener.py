@@ -1,7 +1,8 @@
 """The notification listener: where Orion POSTs subscription notifications (SPEC §7).
 
-A plain single-threaded ``http.server``: notifications are handled one at a time, in arrival order, so
-the order Orion sent them in is the order they enter the simulation. It refuses bodies over ``max_body``
+A threaded ``http.server`` whose handlers take one lock: notifications are handled one at a time, so the
+order in which Orion sent them on a connection is the order they enter the simulation, while an idle
+keep-alive connection or a stuck client cannot block others or delay shutdown. It refuses bodies over ``max_body``
 (413) and malformed ones (400) without reading more than it must, answers fast, and never lets a bad
 request take it down. What to do with a good notification is the ``on_notification`` callback's
 business (the transport checks the subscription id and forwards the attributes).
@@ -13,7 +14,7 @@ import json
 import logging
 import threading
 from collections.abc import Callable
-from http.server import BaseHTTPRequestHandler, HTTPServer
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
 log = logging.getLogger("vcran.orion")
@@ -59,7 +60,10 @@ class Listener:
         self._on = on_notification
         self.received = 0
         self.refused = 0
-        self._server = HTTPServer((host, port), Handler)
+        self._lock = threading.Lock()
+        self._server = ThreadingHTTPServer((host, port), Handler)
+        self._server.daemon_threads = True
+        self._server.block_on_close = False
         self.port = self._server.server_address[1]
         self._thread = threading.Thread(target=self._server.serve_forever, name="vcran-listener", daemon=True)
         self._thread.start()
@@ -79,16 +83,18 @@ class Listener:
         if not isinstance(body, dict) or not isinstance(body.get("subscriptionId"), str) \
                 or not isinstance(body.get("data"), list):
             return self._refuse(400, "not an NGSI v2 notification: need subscriptionId and data")
-        self.received += 1
         try:
-            self._on(body["subscriptionId"], [e for e in body["data"] if isinstance(e, dict)])
+            with self._lock:
+                self.received += 1
+                self._on(body["subscriptionId"], [e for e in body["data"] if isinstance(e, dict)])
         except Exception:  # a bug downstream must not kill the listener
             log.exception("notification handling failed")
             return 500, "internal error"
         return 204, ""
 
     def _refuse(self, status: int, problem: str) -> tuple[int, str]:
-        self.refused += 1
+        with self._lock:
+            self.refused += 1
         log.warning("notification refused (%s): %s", status, problem)
         return status, problem
 

@@ -109,7 +109,8 @@ class OrionTransport(Transport):
         self.outbox = Outbox()
         self.outbound = Health("outbound")
         self.inbound = Health("inbound")
-        self.requests = 0
+        self.requests = 0  # all requests that got an answer
+        self.updates = 0  # of which outbound batch updates
         self.latencies: list[float] = []  # wall seconds from arrival to entering the simulation
         self._robots = set(options.robots)
         self._last: dict[tuple[str, str], Any] = {}
@@ -168,7 +169,8 @@ class OrionTransport(Transport):
     def status(self) -> str:
         """One-line health for the live status display."""
         mode = "subscription" if self.options.notify_url else "polling"
-        return f"Orion out {self.outbound.describe()}, in ({mode}) {self.inbound.describe()}, {self.requests} requests"
+        return (f"Orion out {self.outbound.describe()}, in ({mode}) {self.inbound.describe()}, "
+                f"{self.updates} updates, {self.requests - self.updates} reads")
 
     def latency_stats(self) -> dict[str, float]:
         if not self.latencies:
@@ -214,6 +216,7 @@ class OrionTransport(Transport):
             for body in bodies:
                 self.client.update(body)
                 self.requests += 1
+                self.updates += 1
         except OrionError as exc:
             # Bodies already taken stay taken; giving everything back resends them, which Orion
             # treats as a same-value write. Simpler than tracking which entities got through.

@@ -7,6 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
+from vcran.commands import load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
@@ -27,22 +28,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import resource
     from dataclasses import replace
 
     from transports.orion.transport import LiveOptions, OrionTransport
     from vcran.runner import run_to
-    from vcran.scenario import ScenarioError, load
     from vcran.sim.live import LiveEnvironment
 
     setup_logging(args.quiet)
     if not args.factor > 0 or not args.poll_interval > 0:
         print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
         return 2
-    try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran live: {exc}", file=sys.stderr)
-        return 2
+    scenario = load_scenario(args.scenario)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)
@@ -68,8 +65,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         s = result.summary
         done = sum(len(r["completed"]) for r in s["robots"].values())
+        usage = resource.getrusage(resource.RUSAGE_SELF)
         print(f"live run ended at {s['sim_time']:.3f} s simulated: {done} task(s) completed, {s['errors']} error(s)")
         print(f"  {transport.status()}")
+        print(f"  wall {result.wall_seconds:.1f} s, outbound {transport.updates / result.wall_seconds:.1f} requests/s, "
+              f"cpu {usage.ru_utime + usage.ru_stime:.1f} s")
         lat = transport.latency_stats()
         if lat:
             print(f"  inbound to effect: median {lat['median'] * 1000:.1f} ms, p99 {lat['p99'] * 1000:.1f} ms ({lat['count']:.0f} messages)")

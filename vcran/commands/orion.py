@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from vcran.commands import load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robot entities in Orion"
@@ -19,18 +20,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError
+    from transports.orion.transport import motion_message
     from vcran.codec import encode_entity_json, split_batch
     from vcran.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
-    from vcran.scenario import ScenarioError, load
     from vcran.sim.ran import description
-    from transports.orion.transport import motion_message
 
     setup_logging()
-    try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran orion: {exc}", file=sys.stderr)
-        return 2
+    scenario = load_scenario(args.scenario)
     client = client_from_args(args)
     entity_type = scenario.settings.entity_type
     try:

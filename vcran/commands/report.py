@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 HELP = "draw a run's layout and timeline and tabulate its KPIs, from the folder `vcran run --out` wrote"
@@ -18,24 +17,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    return write(args.dir, args.out, args.format, args.timeline_pages, prog="vcran report")
+    return write(args.dir, args.out, args.format, args.timeline_pages)
 
 
-def write(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None, *, prog: str,
-          quiet: bool = False) -> int:
-    """Write the report and print the KPI table and the files (unless quiet); on a bad folder or no
-    matplotlib, say so on stderr and return 2."""
+def write(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None, quiet: bool = False) -> int:
+    """Write the report and print the KPI table and the files (unless quiet). A folder that is no run's
+    output, or no matplotlib, is a CommandError: one line on stderr and exit status 2."""
+    from vcran.cli import CommandError
     from vcran.report import ReportError, write_report
     from vcran.report.tables import console
 
     try:
-        if timeline_pages is None:
-            report = write_report(run_dir, out, fmt)
-        else:
-            report = write_report(run_dir, out, fmt, timeline_pages)
+        report = write_report(run_dir, out, fmt, timeline_pages)
     except ReportError as exc:
-        print(f"{prog}: {exc}", file=sys.stderr)
-        return 2
+        raise CommandError(str(exc)) from None
     if not quiet:
         print(console(report.kpis), end="")
         print(f"report in {out}/: {', '.join(f.name for f in report.files)}")

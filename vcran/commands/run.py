@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from vcran.commands import load_scenario
+
 HELP = "simulate a scenario with its message script, as fast as possible"
 
 
@@ -21,13 +23,8 @@ def run(args: argparse.Namespace) -> int:
     from transports.scripted import ScriptedTransport
     from vcran.progress import progress_bar
     from vcran.runner import run_to
-    from vcran.scenario import ScenarioError, load
 
-    try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran run: {exc}", file=sys.stderr)
-        return 2
+    scenario = load_scenario(args.scenario)
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
     try:
         result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()),
@@ -40,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         from vcran.commands.report import write
 
-        return write(args.out, args.out / "report", prog="vcran run --report", quiet=args.quiet)
+        return write(args.out, args.out / "report", quiet=args.quiet)
     return 0
 
 

@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from vcran.commands import load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "play the scenario's message script into Orion in real time, as the fleet manager would"
@@ -22,17 +23,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError, OrionRejected
     from vcran.codec import encode_attribute
-    from vcran.scenario import ScenarioError, load
 
     setup_logging(args.quiet)
     if not args.factor > 0:
         print("vcran send: --factor must be positive", file=sys.stderr)
         return 2
-    try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran send: {exc}", file=sys.stderr)
-        return 2
+    scenario = load_scenario(args.scenario)
     client = client_from_args(args)
     entity_type = scenario.settings.entity_type
     start = time.monotonic()

@@ -46,8 +46,9 @@ def require_matplotlib() -> None:
         ) from None
 
 
-def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int = TIMELINE_PAGES) -> Report:
-    """Write ``layout``, ``timeline`` (paged above 20 robots), ``kpi.md`` and ``kpi.csv`` into ``out``."""
+def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None) -> Report:
+    """Write ``layout``, ``timeline`` (paged above 20 robots, at most ``timeline_pages`` pages, default
+    :data:`TIMELINE_PAGES`), ``kpi.md`` and ``kpi.csv`` into ``out``."""
     if fmt not in FORMATS:
         raise ValueError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
     require_matplotlib()
@@ -60,7 +61,7 @@ def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int
     files = [out / f"layout.{fmt}"]
     draw_layout(run, history, files[0])
 
-    chunks = pages(run.robot_ids, timeline_pages)
+    chunks = pages(run.robot_ids, timeline_pages or TIMELINE_PAGES)
     drawn = sum(len(c) for c in chunks)
     for n, chunk in enumerate(chunks, start=1):
         if len(chunks) == 1 and drawn == len(run.robots):

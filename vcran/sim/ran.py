@@ -17,8 +17,8 @@ from typing import Any
 import simpy
 
 from transports.base import Transport
-from vcran.effects import ErrorReport
 from vcran.build import CATEGORY_OF
+from vcran.effects import ErrorReport
 from vcran.ids import id_for
 from vcran.messages import (
     ActionKind,
