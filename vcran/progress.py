@@ -18,8 +18,6 @@ from typing import TextIO
 
 from vcran.effects import State
 
-#: (simulated time, tasks completed so far): what the model reports, see ``Model(progress=...)``.
-Progress = Callable[[float, int], None]
 Clock = Callable[[], float]
 
 STATES = tuple(s.value for s in State)
@@ -72,7 +70,8 @@ class InPlaceLine:
 class ProgressBar:
     """``vcran run``'s bar: simulated time against the scenario's duration, speed factor, tasks done.
 
-    Call it as the model's ``progress`` callback; :meth:`close` when the run ends. Without a duration (a
+    Call it as the model's ``progress`` callback, with (simulated time, tasks completed so far);
+    :meth:`close` when the run ends. Without a duration (a
     run that stops when idle) it shows the simulated time and no bar.
     """
 

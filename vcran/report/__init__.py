@@ -17,7 +17,9 @@ from vcran.report.kpi import Kpi, kpis
 from vcran.report.spans import histories
 from vcran.report.tables import csv_text, markdown
 
-__all__ = ["FORMATS", "Report", "ReportError", "Run", "read_run", "require_matplotlib", "write_report"]
+__all__ = [
+    "FORMATS", "MatplotlibMissing", "Report", "ReportError", "Run", "read_run", "require_matplotlib", "write_report",
+]
 
 FORMATS = ("png", "svg")
 #: Timeline pages drawn by default: 5 pages of 20, the first 100 robots.

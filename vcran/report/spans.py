@@ -57,13 +57,10 @@ class History:
     bands: list[Band] = field(default_factory=list)
     tasks: list[TaskSpan] = field(default_factory=list)
 
-    def time_in(self, *states: str) -> float:
-        return sum(b.end - b.start for b in self.bands if b.state in states)
-
     @property
     def busy(self) -> float:
         """Seconds not WAITING: a task was current, whether assembling, driving or acting."""
-        return self.time_in(*STATES[1:])
+        return sum(b.end - b.start for b in self.bands if b.state != WAITING)
 
 
 def histories(run: Run) -> dict[str, History]:
@@ -87,7 +84,7 @@ class _Builder:
         if name == "state":
             self._band_until(t)
             self.state, self.since = event["to"], t
-            if self.state == "TASK" and self.pending:
+            if self.state == State.TASK.value and self.pending:
                 head = next(iter(self.pending.values()))
                 if head.started is None:
                     head.started = t
