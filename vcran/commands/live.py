@@ -29,9 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import resource
+    from collections import Counter
     from dataclasses import replace
 
     from transports.orion.transport import LiveOptions, OrionTransport
+    from vcran.progress import LiveStatus, StatusLine
     from vcran.runner import run_to
     from vcran.sim.live import LiveEnvironment
 
@@ -49,19 +51,34 @@ def run(args: argparse.Namespace) -> int:
     )
     transport = OrionTransport(client_from_args(args), options)
 
+    models = []
+    line = None if args.quiet else StatusLine(sys.stderr)
+
     def on_start(model) -> None:  # type: ignore[no-untyped-def]
+        models.append(model)
+
         def stop(signum: int, _frame: object) -> None:
             env.call_soon(model.stop)
 
         signal.signal(signal.SIGINT, stop)
         signal.signal(signal.SIGTERM, stop)
 
+    def progress(now: float, tasks_done: int) -> None:
+        if line is not None and models:
+            states = Counter(r.logic.state.value for r in models[0].robots)
+            line.update(LiveStatus(now, len(models[0].robots), tasks_done, transport.status(), states))
+
     mode = f"subscription to {args.notify_url}" if args.notify_url else f"polling every {args.poll_interval:g} s"
     if not args.quiet:
         print(f"live: {len(scenario.robots)} robot(s) on {args.orion}, x{args.factor:g}, {mode}; Ctrl-C stops",
               flush=True)
-    result = run_to(scenario, args.out, transport, env=env, on_start=on_start,
-                    options={"transport": "live", "factor": args.factor, "inbound": "subscription" if args.notify_url else "polling"})
+    try:
+        result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
+                        options={"transport": "live", "factor": args.factor,
+                                 "inbound": "subscription" if args.notify_url else "polling"})
+    finally:
+        if line is not None:
+            line.close()
     if not args.quiet:
         s = result.summary
         done = sum(len(r["completed"]) for r in s["robots"].values())
