@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import typing
 from dataclasses import dataclass, fields
-from functools import cache
 from typing import Annotated, Any, ClassVar
 
 from vcran.ids import Id, IdError
@@ -112,9 +111,14 @@ def _fast(spec: FieldSpec) -> Any:
     return lambda v: type(v) is cls
 
 
-@cache
+_PLANS: dict[type, tuple[tuple[str, Any, FieldSpec], ...]] = {}
+
+
 def _plan(cls: type) -> tuple[tuple[str, Any, FieldSpec], ...]:
-    return tuple((spec.name, _fast(spec), spec) for spec in specs(cls))
+    found = _PLANS.get(cls)
+    if found is None:
+        found = _PLANS[cls] = tuple((spec.name, _fast(spec), spec) for spec in specs(cls))
+    return found
 
 
 def _check(spec: FieldSpec, value: Any) -> Any:
@@ -194,14 +198,16 @@ def check_primitive(ros: str, value: Any) -> Any:
     raise AssertionError(f"unknown primitive {ros}")
 
 
-@cache
+_SPECS: dict[type, tuple[FieldSpec, ...]] = {}
+
+
 def specs(cls: type) -> tuple[FieldSpec, ...]:
     """The field specs of a message class, derived once from its annotations."""
-    hints = typing.get_type_hints(cls, include_extras=True)
-    out = []
-    for f in fields(cls):
-        out.append(_spec(f.name, hints[f.name]))
-    return tuple(out)
+    found = _SPECS.get(cls)
+    if found is None:
+        hints = typing.get_type_hints(cls, include_extras=True)
+        found = _SPECS[cls] = tuple(_spec(f.name, hints[f.name]) for f in fields(cls))
+    return found
 
 
 def _spec(name: str, hint: Any) -> FieldSpec:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import re
 import sys
 from collections.abc import Callable
-from functools import cache
 from typing import Any, cast
 
 from vcran.codec.strings import unescape_string
@@ -187,8 +186,14 @@ def _field_decoder(spec: FieldSpec) -> Decoder:
     return _array_decoder(_field_decoder(item_spec(spec)), spec.ros)
 
 
-@cache
+_DECODERS: dict[type, Decoder] = {}
+
+
 def message_decoder(cls: type[Message]) -> Decoder:
-    """Decode the value object of a ``cls`` (its fields, each wrapped) into a ``cls``; raises Fault."""
-    fields = tuple((spec.name, _field_decoder(spec)) for spec in specs(cls))
-    return _object_decoder(cls.ROS_TYPE, fields, cls)
+    """Decode the value object of a ``cls`` (its fields, each wrapped) into a ``cls``; raises Fault.
+    Built once per class (a dict rather than functools.cache, which mypy cannot type for classes)."""
+    decoder = _DECODERS.get(cls)
+    if decoder is None:
+        fields = tuple((spec.name, _field_decoder(spec)) for spec in specs(cls))
+        decoder = _DECODERS[cls] = _object_decoder(cls.ROS_TYPE, fields, cls)
+    return decoder
