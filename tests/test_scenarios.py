@@ -165,3 +165,80 @@ def test_telemetry_stamps_and_cadence(run_toml):
     assert statuses[0]["t"] == 0.0 and statuses[0]["value"]["state"] == "WAITING"
     assert all(r["t"] == int(r["t"]) for r in statuses)  # published on ticks only
     assert statuses[-1]["value"]["completed"][0]["description"] == "A"
+
+
+def raw(t, attribute, value):
+    import json as _json
+
+    return f"t = {t}\nkind = \"raw\"\nattribute = \"{attribute}\"\nvalue = '{_json.dumps(value)}'"
+
+
+def test_r12_malformed_payloads_rejected_then_valid_tasks_run(run_toml):
+    from vcran.build import motion as build_motion
+    from vcran.codec import encode_attribute
+
+    good = encode_attribute("motion_assignment", build_motion("A", "A_m1", 1, 2, 1, 0))
+    no_seq = {**good, "value": {k: v for k, v in good["value"].items() if k != "sequence"}}
+    nan_x = __import__("copy").deepcopy(good)
+    nan_x["value"]["point"]["value"]["x"]["value"] = "NaN"
+    short_uuid = __import__("copy").deepcopy(good)
+    short_uuid["value"]["task_id"]["value"]["uuid"]["value"].pop()
+    out = run_toml(script(
+        raw(1, "motion_assignment", no_seq), raw(2, "motion_assignment", nan_x),
+        raw(3, "motion_assignment", short_uuid), raw(4, "cancel_order", {"type": "x", "value": 42}),
+        motion(5, "B", "B_m1", 1, 2, 1, 0), action(5, "B", "B_a1", 2, 2),
+    ))
+    rejected = out.of("rejected")
+    assert [e["code"] for e in rejected] == ["malformed"] * 4
+    messages = [e["message"] for e in rejected]
+    assert "motion_assignment.value.sequence" in messages[0] and "missing" in messages[0]
+    assert "point.value.x" in messages[1]
+    assert "task_id.value.uuid" in messages[2] and "16" in messages[2]
+    assert messages[3].startswith("cancel_order")
+    assert out.robot()["completed"] == ["B"] and out.of("task_queued")[0]["task"] == "B"
+    # the rejected payloads are in the trace as raw, so a replay rejects them again
+    assert sum(1 for r in out.trace() if r["dir"] == "in" and "raw" in r) == 4
+
+
+def test_r11_message_for_unknown_entity_is_reported_and_dropped(tmp_path):
+    """R11 at run time: a live fleet manager (or a trace) writing to an entity no RanLogic owns."""
+    import tomllib
+
+    from transports.base import Transport
+    from vcran.build import motion as build_motion
+    from vcran.runner import run_to
+    from vcran.scenario import parse
+    from vcran.sim.timing import INBOUND, at
+    from vcran.wire import Inbound
+
+    class Stray(Transport):
+        done = False
+
+        def attach(self, env, deliver):
+            def play(env):
+                yield at(env, 2.0, INBOUND)
+                deliver(Inbound("robot_9", "motion_assignment", build_motion("A", "A_m1", 1, 1, 1, 0)))
+                self.done = True
+            env.process(play(env))
+
+        def send(self, out):
+            pass
+
+        @property
+        def exhausted(self):
+            return self.done
+
+    result = run_to(parse(tomllib.loads(FLEET), "<t>"), tmp_path, Stray())
+    events = [line for line in (tmp_path / "events.jsonl").read_text().splitlines() if "unknown_robot" in line]
+    assert len(events) == 1 and '"robot":"robot_9"' in events[0] and '"t":2.0' in events[0]
+    assert result.summary["errors"] == 1 and result.summary["robots"]["robot_1"]["errors"] == 0
+
+
+def test_r11_scenario_with_differing_agv_and_ranlogic_ids_fails_to_load():
+    import tomllib
+
+    from vcran.scenario import ScenarioError, parse
+
+    text = FLEET.replace('id = "robot_1"', 'id = "robot_1"\nagv_id = "robot_2"')
+    with pytest.raises(ScenarioError, match="agv_id.*robot_2.*differs from the robot id.*R11"):
+        parse(tomllib.loads(text), "fleet.toml")

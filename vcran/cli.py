@@ -12,13 +12,27 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+
+class CommandError(Exception):
+    """A command cannot go on: ``main`` prints ``vcran COMMAND: message`` and returns ``code``."""
+
+    def __init__(self, message: str, code: int = 2) -> None:
+        super().__init__(message)
+        self.code = code
+
+
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
+    "live": "live",
+    "send": "send",
+    "orion": "orion",
     "gen": "gen",
     "fuzz": "fuzz",
+    "report": "report",
     "broker": "broker",
+    "decode": "decode",
 }
 
 
@@ -40,6 +54,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args._run(args) or 0)
+    except CommandError as exc:
+        print(f"vcran {args.command}: {exc}", file=sys.stderr)
+        return exc.code
     except KeyboardInterrupt:
         print("vcran: interrupted", file=sys.stderr)
         return 130

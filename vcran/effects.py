@@ -34,12 +34,11 @@ class Reason(enum.Enum):
     ACTION_FAILED = "action_failed"
 
 
-frozen = dataclass(frozen=True, slots=True)
 
 # --- commands -------------------------------------------------------------------------------------------
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class DispatchPath:
     """Send every motion of the task to the AGV at once, as one path (R6 MOTION)."""
 
@@ -47,14 +46,14 @@ class DispatchPath:
     motions: tuple[MotionAssignment, ...]
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class StopAfterLeg:
     """The current task is being cancelled: finish the running leg, then stop (R8)."""
 
     task: Id
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class DispatchAction:
     """Send one action to AgvAction (R6 ACTION: one at a time, in sequence order)."""
 
@@ -62,7 +61,7 @@ class DispatchAction:
     action: ActionAssignment
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class StartTimer:
     """Call :meth:`RanLogic.on_timer` for ``task`` at simulated time ``at`` (R7)."""
 
@@ -70,7 +69,7 @@ class StartTimer:
     at: float
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class ClearTimer:
     """The R7 timer of ``task`` no longer matters (assembled or ended)."""
 
@@ -92,7 +91,7 @@ class Event:
         raise NotImplementedError
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class StateChanged(Event):
     NAME = "state"
     from_: State
@@ -102,7 +101,7 @@ class StateChanged(Event):
         return {"from": self.from_.value, "to": self.to.value}
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class TaskQueued(Event):
     NAME = "task_queued"
     task: Id
@@ -111,7 +110,7 @@ class TaskQueued(Event):
         return {"task": self.task.label}
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class TaskCompleted(Event):
     NAME = "task_completed"
     task: Id
@@ -120,7 +119,7 @@ class TaskCompleted(Event):
         return {"task": self.task.label}
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class TaskCancelled(Event):
     NAME = "task_cancelled"
     task: Id
@@ -130,7 +129,7 @@ class TaskCancelled(Event):
         return {"task": self.task.label, "reason": self.reason.value}
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class MotionFinished(Event):
     NAME = "motion_finished"
     task: Id
@@ -140,7 +139,7 @@ class MotionFinished(Event):
         return {"task": self.task.label, "motion": self.motion.label}
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class ActionFinished(Event):
     NAME = "action_finished"
     task: Id
@@ -151,7 +150,7 @@ class ActionFinished(Event):
         return {"task": self.task.label, "action": self.action.label, "ok": self.ok}
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class ErrorReport(Event):
     """Published as ``ran_error``. ``count`` is the robot's running error count including this one."""
 
@@ -173,14 +172,14 @@ class ErrorReport(Event):
         return out
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class Rejected(ErrorReport):
     """An input that was refused (R2, R8, R9, R10, R11, R12); nothing of it was applied."""
 
     NAME = "rejected"
 
 
-@frozen
+@dataclass(frozen=True, slots=True)
 class Failed(ErrorReport):
     """An action that failed (§4); the task is cancelled with reason ``action_failed``."""
 

@@ -25,13 +25,12 @@ from vcran.schema import (
     UInt32,
 )
 
-msg = dataclass(frozen=True, slots=True)
 
 
 # --- std_msgs / geometry_msgs -------------------------------------------------------------------------
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Time(Message):
     """ROS time. vcran stamps simulated seconds since the start of the run (docs/wire-format.md)."""
 
@@ -54,7 +53,7 @@ class Time(Message):
         return (self.secs * 1_000_000_000 + self.nsecs) / 1_000_000_000
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Header(Message):
     ROS_TYPE = "std_msgs.Header"
     seq: UInt32 = 0
@@ -62,7 +61,7 @@ class Header(Message):
     frame_id: String = ""
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Vector3(Message):
     ROS_TYPE = "geometry_msgs.Vector3"
     x: Float64 = 0.0
@@ -70,21 +69,21 @@ class Vector3(Message):
     z: Float64 = 0.0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Twist(Message):
     ROS_TYPE = "geometry_msgs.Twist"
     linear: Vector3 = field(default_factory=Vector3)
     angular: Vector3 = field(default_factory=Vector3)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Accel(Message):
     ROS_TYPE = "geometry_msgs.Accel"
     linear: Vector3 = field(default_factory=Vector3)
     angular: Vector3 = field(default_factory=Vector3)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Pose2D(Message):
     ROS_TYPE = "geometry_msgs.Pose2D"
     x: Float64 = 0.0
@@ -92,7 +91,7 @@ class Pose2D(Message):
     theta: Float64 = 0.0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Point(Message):
     ROS_TYPE = "geometry_msgs.Point"
     x: Float64 = 0.0
@@ -100,7 +99,7 @@ class Point(Message):
     z: Float64 = 0.0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Point32(Message):
     ROS_TYPE = "geometry_msgs.Point32"
     x: Float32 = 0.0
@@ -108,7 +107,7 @@ class Point32(Message):
     z: Float32 = 0.0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Quaternion(Message):
     ROS_TYPE = "geometry_msgs.Quaternion"
     x: Float64 = 0.0
@@ -124,27 +123,27 @@ class Quaternion(Message):
         return math.atan2(2.0 * (self.w * self.z + self.x * self.y), 1.0 - 2.0 * (self.y**2 + self.z**2))
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Pose(Message):
     ROS_TYPE = "geometry_msgs.Pose"
     position: Point = field(default_factory=Point)
     orientation: Quaternion = field(default_factory=Quaternion)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class PoseStamped(Message):
     ROS_TYPE = "geometry_msgs.PoseStamped"
     header: Header = field(default_factory=Header)
     pose: Pose = field(default_factory=Pose)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Polygon(Message):
     ROS_TYPE = "geometry_msgs.Polygon"
     points: tuple[Point32, ...] = ()
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class PolygonStamped(Message):
     ROS_TYPE = "geometry_msgs.PolygonStamped"
     header: Header = field(default_factory=Header)
@@ -161,7 +160,7 @@ class PolygonStamped(Message):
 # --- mars_common_msgs / mars_agent_physical_robot_msgs --------------------------------------------------
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Tuple(Message):
     """`mars_common_msgs/Tuple`: a typed key/value attribute of a robot action."""
 
@@ -171,7 +170,7 @@ class Tuple(Message):
     value: String = ""
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Sequence(Message):
     """Position of an assignment within its task; numbers start at 1 (R2)."""
 
@@ -203,7 +202,7 @@ ACTION_CODES: dict[int, ActionKind] = {0: ActionKind.DUMMY, 1: ActionKind.LOAD, 
 CATEGORY_UNDEFINED = 0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class RobotAction(Message):
     ROS_TYPE = "mars_agent_physical_robot_msgs.RobotAction"
     category: UInt8 = CATEGORY_UNDEFINED
@@ -227,7 +226,7 @@ class RobotAction(Message):
             raise MessageError("action", f"unknown action code {self.action} with category 0 (known: {known})") from None
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class MotionAssignment(Message):
     """One point of a task's path (consumed: ``motion_assignment``)."""
 
@@ -245,7 +244,7 @@ class MotionAssignment(Message):
     sequence: Sequence = field(default_factory=Sequence)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class ActionAssignment(Message):
     """One action of a task (consumed: ``action_assignment``)."""
 
@@ -266,7 +265,7 @@ class ActionAssignment(Message):
         return self.robot_action.kind
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class CancelTask(Message):
     """Cancel a whole task (consumed: ``cancel_order``); unused motion/action ids are nil or "not supported"."""
 
@@ -276,13 +275,13 @@ class CancelTask(Message):
     motion_id: Id = NIL
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class VehicleType(Message):
     ROS_TYPE = "mars_agent_physical_robot_msgs.VehicleType"
     vehicle_type: UInt8 = 0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class RobotAgentProperties(Message):
     """The robot's description (produced: ``robot_description``, at start and every 60 s)."""
 
@@ -314,7 +313,7 @@ class RobotAgentProperties(Message):
     weight: Float32 = 0.0
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class Motion(Message):
     """Pose and velocity (produced: ``current_motion``, every second: the seed's "RAN-state")."""
 
@@ -323,7 +322,7 @@ class Motion(Message):
     current_velocity: Twist = field(default_factory=Twist)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class AssignmentStatus(Message):
     """What runs now and what finished last (produced: ``assignment_status``, every second)."""
 
@@ -339,7 +338,7 @@ class AssignmentStatus(Message):
 # --- vcran extensions -----------------------------------------------------------------------------------
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class TaskEnd(Message):
     """A cancelled task in ``ran_status``: which, why (timeout/cancelled/action_failed) and when."""
 
@@ -349,7 +348,7 @@ class TaskEnd(Message):
     stamp: Time = field(default_factory=Time)
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class RanStatus(Message):
     """RanLogic's state and queue (produced: ``ran_status``, every second; vcran extension)."""
 
@@ -361,7 +360,7 @@ class RanStatus(Message):
     cancelled: tuple[TaskEnd, ...] = ()
 
 
-@msg
+@dataclass(frozen=True, slots=True)
 class RanError(Message):
     """One rejected input or failure (produced: ``ran_error``, when it happens; vcran extension)."""
 

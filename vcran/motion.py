@@ -21,7 +21,9 @@ TAU = 2.0 * math.pi
 
 
 def wrap(angle: float) -> float:
-    """Angle in (-pi, pi]."""
+    """Angle in (-pi, pi]; an angle already in range is returned unchanged (bit for bit)."""
+    if -math.pi < angle <= math.pi:
+        return angle
     a = math.fmod(angle + math.pi, TAU)
     if a <= 0.0:
         a += TAU
@@ -80,7 +82,7 @@ class Leg:
     def __post_init__(self) -> None:
         dx, dy = self.x1 - self.x0, self.y1 - self.y0
         distance = math.hypot(dx, dy)
-        heading = math.atan2(dy, dx) if distance > 0 else self.theta0
+        heading = wrap(math.atan2(dy, dx) if distance > 0 else self.theta0)  # atan2 may return -pi
         turn1 = wrap(heading - self.theta0) if distance > 0 else 0.0
         lim = self.limits
         peak, t_acc, t_dec, t_drive = _profile(distance, lim.speed, lim.accel, lim.decel)
@@ -187,6 +189,7 @@ class FleetKinematics:
         #: x, y, theta, v, w of every robot at rest (v = w = 0); rows of moving robots are overwritten.
         self.rest = np.zeros((n, 5), dtype=np.float64)
         self.rest[:, :3] = np.asarray(poses, dtype=np.float64).reshape(n, 3)
+        self.rest[:, 2] = [wrap(theta) for _, _, theta in poses]
         self.odometer = np.zeros(n, dtype=np.float64)  # distance of finished legs
         self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
 
@@ -227,7 +230,7 @@ def _wrap_array(a: np.ndarray) -> np.ndarray:
     """:func:`wrap` elementwise, with the same fmod steps (fmod is exact, so results agree)."""
     r = np.fmod(a + math.pi, TAU)
     r = np.where(r <= 0.0, r + TAU, r)
-    return r - math.pi
+    return np.where((-math.pi < a) & (a <= math.pi), a, r - math.pi)
 
 
 def _sample_moving(L: np.ndarray, t: float) -> np.ndarray:

@@ -218,7 +218,7 @@ class RanLogic:
             ended = self.history.get(a.task_id)
             if ended is None:
                 self._new_task(now, a)
-            elif not self._is_duplicate(ended.task, a):
+            elif not ended.has_identical(a):
                 code = "task_completed" if ended.reason is None else "task_cancelled"
                 what = "completed" if ended.reason is None else f"cancelled, reason {ended.reason.value}"
                 self._reject(code, f"task {a.task_id.label} was already {what} [R9]", a)
@@ -260,13 +260,6 @@ class RanLogic:
             self._set_state(State.TASK)
             self._advance(now)
 
-    @staticmethod
-    def _is_duplicate(task: Task | None, a: Assignment) -> bool:
-        if task is None:
-            return False
-        pos = task.lookup(a)
-        return pos is not None and same_content(task.slots[pos], a)
-
     # --- cancel (R8) ------------------------------------------------------------------------------------
 
     def _on_cancel(self, now: float, c: CancelTask) -> None:
@@ -287,7 +280,7 @@ class RanLogic:
             return
         ended = self.history.get(c.task_id)
         if ended is None:
-            self._remember(c.task_id, Ended(None, Reason.CANCELLED, now, c))
+            self._remember(c.task_id, Ended((), Reason.CANCELLED, now, c))
             self._error(
                 Rejected, "cancel_unknown_task",
                 f"cancel for unknown task {c.task_id.label}: remembered, its assignments will be rejected [R8]",
@@ -325,7 +318,7 @@ class RanLogic:
 
     def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
         del self.queue[task.id]
-        self._remember(task.id, Ended(task, reason, now, cancel))
+        self._remember(task.id, Ended(tuple(task.slots.values()), reason, now, cancel))
         self.recent_cancelled.append(TaskEnd(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
         if not task.assembled:
@@ -361,7 +354,7 @@ class RanLogic:
 
     def _complete(self, now: float, task: Task) -> None:
         del self.queue[task.id]
-        self._remember(task.id, Ended(task, None, now))
+        self._remember(task.id, Ended(tuple(task.slots.values()), None, now))
         self.recent_completed.append(task.id)
         self.version += 1
         self._emit(TaskCompleted(task.id))

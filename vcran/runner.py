@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -56,8 +57,14 @@ def run_to(
     *,
     options: dict[str, Any] | None = None,
     env: simpy.Environment | None = None,
+    on_start: Callable[[Model], None] | None = None,
+    progress: Callable[[float, int], None] | None = None,
 ) -> RunResult:
-    """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``."""
+    """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
+
+    ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
+    (:class:`vcran.progress.ProgressBar` is one); it observes and cannot change the outputs.
+    """
     out.mkdir(parents=True, exist_ok=True)
     header = {
         "scenario": scenario.settings.name,
@@ -70,7 +77,9 @@ def run_to(
     recording = RecordingTransport(transport, writer)
     start = time.perf_counter()
     try:
-        model = Model(scenario, recording, events, env=env)
+        model = Model(scenario, recording, events, env=env, progress=progress)
+        if on_start is not None:
+            on_start(model)
         model.run()
         writer.end(model.env.now)
     finally:

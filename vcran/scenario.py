@@ -15,7 +15,7 @@ import tomllib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from vcran import build
 from vcran.ids import IdError
@@ -440,9 +440,10 @@ class Table:
     def __init__(self, data: Any, source: str, where: str) -> None:
         if not isinstance(data, dict):
             raise ScenarioError(f"{source}: {where}: expected a table, got {type(data).__name__}")
-        self.data, self.source, self.where, self.used = data, source, where, set()
+        self.data, self.source, self.where = data, source, where
+        self.used: set[str] = set()
 
-    def fail(self, key: str, problem: str) -> Any:
+    def fail(self, key: str, problem: str) -> NoReturn:
         where = f"{self.where}: " if self.where else ""
         raise ScenarioError(f"{self.source}: {where}field {key!r}: {problem}")
 

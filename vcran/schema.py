@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import typing
 from dataclasses import dataclass, fields
-from functools import cache
 from typing import Annotated, Any, ClassVar
 
 from vcran.ids import Id, IdError
@@ -100,8 +99,9 @@ def _fast(spec: FieldSpec) -> Any:
         if spec.ros in INT_RANGES:
             lo, hi = INT_RANGES[spec.ros]
             return lambda v: type(v) is int and lo <= v <= hi
-        want = str if spec.ros == "string" else bool
-        return lambda v: type(v) is want
+        if spec.ros == "string":  # non-ASCII takes the full check (lone surrogates)
+            return lambda v: type(v) is str and v.isascii()
+        return lambda v: type(v) is bool
     if spec.kind == "array":
         item = spec.cls
         if item is None:
@@ -111,9 +111,14 @@ def _fast(spec: FieldSpec) -> Any:
     return lambda v: type(v) is cls
 
 
-@cache
+_PLANS: dict[type, tuple[tuple[str, Any, FieldSpec], ...]] = {}
+
+
 def _plan(cls: type) -> tuple[tuple[str, Any, FieldSpec], ...]:
-    return tuple((spec.name, _fast(spec), spec) for spec in specs(cls))
+    found = _PLANS.get(cls)
+    if found is None:
+        found = _PLANS[cls] = tuple((spec.name, _fast(spec), spec) for spec in specs(cls))
+    return found
 
 
 def _check(spec: FieldSpec, value: Any) -> Any:
@@ -138,12 +143,31 @@ def _check(spec: FieldSpec, value: Any) -> Any:
     return value
 
 
+def short_repr(value: Any, limit: int = 40) -> str:
+    """A bounded description of an untrusted value for an error message.
+
+    ``repr`` of wire input is unsafe in errors: a deeply nested list raises RecursionError, an integer of
+    more than 4300 digits raises ValueError, and a megabyte string floods the log. Scalars show their
+    value (cut at ``limit`` characters), containers only their type.
+    """
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"a {value.bit_length()}-bit integer"
+    if value is None or isinstance(value, (bool, int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return repr(value) if len(value) <= limit else repr(value[:limit]) + "..."
+    return type(value).__name__
+
+
 def check_primitive(ros: str, value: Any) -> Any:
     """Check (and for floats, normalise) one primitive value; return what the message should hold."""
     if ros in ("float64", "float32"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise MessageError("", f"expected a number, got {type(value).__name__}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # an int beyond the float range (JSON allows 1000-digit numbers)
+            raise MessageError("", f"number {short_repr(value)} does not fit a {ros}") from None
         if not math.isfinite(value):
             raise MessageError("", f"number must be finite, got {value!r}")
         if ros == "float32" and abs(value) > FLOAT32_MAX:
@@ -153,14 +177,19 @@ def check_primitive(ros: str, value: Any) -> Any:
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         if isinstance(value, bool) or not isinstance(value, int):
-            raise MessageError("", f"expected an integer, got {type(value).__name__} {value!r}")
+            raise MessageError("", f"expected an integer, got {type(value).__name__} {short_repr(value)}")
         lo, hi = INT_RANGES[ros]
         if not lo <= value <= hi:
-            raise MessageError("", f"{value} is outside the {ros} range {lo}..{hi}")
+            raise MessageError("", f"{short_repr(value)} is outside the {ros} range {lo}..{hi}")
         return value
     if ros == "string":
         if not isinstance(value, str):
             raise MessageError("", f"expected a string, got {type(value).__name__}")
+        if not value.isascii():  # JSON can carry a lone surrogate, which no UTF-8 output can write
+            try:
+                value.encode("utf-8")
+            except UnicodeEncodeError as exc:
+                raise MessageError("", f"not valid Unicode: lone surrogate at index {exc.start}") from None
         return value
     if ros == "bool":
         if not isinstance(value, bool):
@@ -169,14 +198,16 @@ def check_primitive(ros: str, value: Any) -> Any:
     raise AssertionError(f"unknown primitive {ros}")
 
 
-@cache
+_SPECS: dict[type, tuple[FieldSpec, ...]] = {}
+
+
 def specs(cls: type) -> tuple[FieldSpec, ...]:
     """The field specs of a message class, derived once from its annotations."""
-    hints = typing.get_type_hints(cls, include_extras=True)
-    out = []
-    for f in fields(cls):
-        out.append(_spec(f.name, hints[f.name]))
-    return tuple(out)
+    found = _SPECS.get(cls)
+    if found is None:
+        hints = typing.get_type_hints(cls, include_extras=True)
+        found = _SPECS[cls] = tuple(_spec(f.name, hints[f.name]) for f in fields(cls))
+    return found
 
 
 def _spec(name: str, hint: Any) -> FieldSpec:
@@ -210,5 +241,6 @@ __all__ = [
     "UInt32",
     "UInt8",
     "check_primitive",
+    "short_repr",
     "specs",
 ]

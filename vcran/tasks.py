@@ -125,10 +125,20 @@ class Task:
 
 @dataclass(slots=True, eq=False)
 class Ended:
-    """A finished task in the history (R9), or a tombstone left by a cancel for an unknown id (R8)."""
+    """A finished task in the history (R9), or a tombstone left by a cancel for an unknown id (R8).
 
-    task: Task | None
+    It keeps only what R9 and R10 still ask of an ended task, not the Task: its assignments, so that a
+    re-read of one of them stays silent, and its last cancel. The history holds up to ``history_limit``
+    of these per robot, so their size is what a long run's memory grows by until that bound.
+    """
+
+    received: tuple[Assignment, ...]
     reason: Reason | None  # None: completed
     time: float
     #: The last cancel received for this id, so that re-reads of it stay silent (R10).
     cancel: CancelTask | None = None
+
+    def has_identical(self, a: Assignment) -> bool:
+        """R10: ``a`` is a re-read of one of the task's assignments."""
+        key = (kind_of(a), assignment_id(a))
+        return any((kind_of(b), assignment_id(b)) == key and same_content(b, a) for b in self.received)

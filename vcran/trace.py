@@ -17,13 +17,12 @@ from __future__ import annotations
 
 import json
 import struct
-
-import orjson
-from pathlib import Path
 from collections.abc import Iterator
+from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+import orjson
 
 from vcran.wire import Frame, Inbound, Publish
 

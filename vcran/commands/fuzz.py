@@ -41,20 +41,19 @@ def run(args: argparse.Namespace) -> int:
     from hypothesis import HealthCheck, find, settings
     from hypothesis.errors import NoSuchExample
 
-    from vcran.scenario import ScenarioError, load
+    from vcran.cli import CommandError
+    from vcran.commands import load_scenario
     from vcran.testing.checks import run_variant
     from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
 
     if args.examples < 1:
-        print("vcran fuzz: --examples must be at least 1", file=sys.stderr)
-        return 2
+        raise CommandError("--examples must be at least 1")
+    base = load_scenario(args.scenario)
+    entries = list(base.messages())
     try:
-        base = load(args.scenario)
-        entries = list(base.messages())
         perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
-    except (ScenarioError, ValueError) as exc:
-        print(f"vcran fuzz: {exc}", file=sys.stderr)
-        return 2
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
     malformed = importlib.util.find_spec("vcran.codec") is not None
     if not malformed:
         print("vcran fuzz: vcran.codec is not installed; malformed payloads are not injected", file=sys.stderr)

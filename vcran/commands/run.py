@@ -6,28 +6,38 @@ import argparse
 import sys
 from pathlib import Path
 
+from vcran.commands import load_scenario
+
 HELP = "simulate a scenario with its message script, as fast as possible"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
-    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress bar either)")
+    parser.add_argument("--report", action="store_true",
+                        help="then write the report (figures, KPI tables) into DIR/report; needs vcran[report]")
 
 
 def run(args: argparse.Namespace) -> int:
     from transports.scripted import ScriptedTransport
+    from vcran.progress import progress_bar
     from vcran.runner import run_to
-    from vcran.scenario import ScenarioError, load
 
+    scenario = load_scenario(args.scenario)
+    bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
     try:
-        scenario = load(args.scenario)
-    except ScenarioError as exc:
-        print(f"vcran run: {exc}", file=sys.stderr)
-        return 2
-    result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()), options={"transport": "scripted"})
+        result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()),
+                        options={"transport": "scripted"}, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
     if not args.quiet:
         print_summary(result, args.out)
+    if args.report:
+        from vcran.commands.report import write
+
+        return write(args.out, args.out / "report", quiet=args.quiet)
     return 0
 
 

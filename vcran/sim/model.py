@@ -7,6 +7,7 @@ and on ``simpy.rt.RealtimeEnvironment`` (live).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import simpy
@@ -48,7 +49,11 @@ class Model:
         events: EventSink,
         env: simpy.Environment | None = None,
         decode: Decode = default_decode,
+        progress: Callable[[float, int], None] | None = None,
     ) -> None:
+        """``progress``, if given, is called with (simulated time, tasks completed) at every telemetry tick:
+        an observer for a progress display, which sees the run but cannot change it. It rides on the tick
+        rather than on events of its own, so a run with a progress bar schedules exactly the same events."""
         self.scenario = scenario
         self.env = env if env is not None else simpy.Environment()
         self.transport = transport
@@ -65,6 +70,7 @@ class Model:
         self.completed: dict[str, list[str]] = {r.id: [] for r in scenario.robots}
         self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
         self.fleet_errors = 0
+        self.tasks_done = 0
         self.robots: list[RobotNode] = []
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
@@ -73,7 +79,8 @@ class Model:
                                          self._log, self._changed))
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
         self.finished = self.env.event()
-        self.env.process(self.ran.telemetry(s.telemetry_period, self._idle_stop))
+        after_tick = self._idle_stop if progress is None else self._reporting(progress)
+        self.env.process(self.ran.telemetry(s.telemetry_period, after_tick))
         self.env.process(self.ran.descriptions(s.description_period))
         for station in self.stations:
             if station.producing:
@@ -94,6 +101,7 @@ class Model:
         self.events.write(self.env.now, robot.id, event.NAME, event.fields())
         if isinstance(event, TaskCompleted):
             self.completed[robot.id].append(event.task.label)
+            self.tasks_done += 1
         elif isinstance(event, TaskCancelled):
             self.cancelled[robot.id].append({"task": event.task.label, "reason": event.reason.value})
         elif isinstance(event, ErrorReport):
@@ -120,6 +128,10 @@ class Model:
             return True
         return False
 
+    def stop(self) -> None:
+        """End the run at the current instant, after everything else of it (live mode: SIGINT/SIGTERM)."""
+        at(self.env, self.env.now, END).callbacks.append(self._finish)
+
     def _finish(self, _: object) -> None:
         if not self.finished.triggered:
             self.finished.succeed()
@@ -130,6 +142,13 @@ class Model:
             yield at(self.env, station.produce_start + k * station.produce_every, PRODUCTION)
             station.produce()
             k += 1
+
+    def _reporting(self, progress: Callable[[float, int], None]) -> Callable[[], bool]:
+        def after_tick() -> bool:
+            progress(self.env.now, self.tasks_done)
+            return self._idle_stop()
+
+        return after_tick
 
     # --- results ----------------------------------------------------------------------------------------
 

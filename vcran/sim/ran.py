@@ -17,18 +17,20 @@ from typing import Any
 import simpy
 
 from transports.base import Transport
-from vcran.effects import ErrorReport
 from vcran.build import CATEGORY_OF
+from vcran.effects import ErrorReport
 from vcran.ids import id_for
 from vcran.messages import (
     ActionKind,
     AssignmentStatus,
     Message,
+    PolygonStamped,
     RanError,
     RobotAction,
     RobotAgentProperties,
     Time,
 )
+from vcran.scenario import RobotConfig
 from vcran.sim.robot import Decoded, Malformed, RobotNode
 from vcran.sim.timing import TELEMETRY, at
 from vcran.wire import Frame, Inbound, Publish
@@ -113,7 +115,7 @@ class Ran:
             t = j * period
             yield at(self.env, t, TELEMETRY)
             for robot in self.robots:
-                self.transport.send(Publish(t, robot.id, "robot_description", description(robot)))
+                self.transport.send(Publish(t, robot.id, "robot_description", description(robot.config, robot.footprint)))
             j += 1
 
     def _publish_if_new(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
@@ -135,12 +137,12 @@ class Ran:
         )
 
 
-def description(robot: RobotNode) -> RobotAgentProperties:
-    """``robot_description`` from the robot's configuration (footprint, limits, capabilities)."""
-    c = robot.config
+def description(config: RobotConfig, footprint: PolygonStamped) -> RobotAgentProperties:
+    """``robot_description`` from a robot's configuration (footprint, limits, capabilities)."""
+    c = config
     return RobotAgentProperties(
         robot_id=id_for(c.id),
-        footprint=robot.footprint,
+        footprint=footprint,
         payload=float(c.capacity),
         max_pos_x_vel=c.max_velocity,
         max_neg_x_vel=c.max_velocity,
@@ -153,4 +155,3 @@ def description(robot: RobotNode) -> RobotAgentProperties:
             RobotAction(CATEGORY_OF[ActionKind(a)], 0, (), a) for a in c.actions
         ),
     )
-

@@ -1,5 +1,6 @@
 """Test helpers for vcran and its users (docs/fuzzing.md).
 
+* :mod:`vcran.testing.strategies` — hypothesis strategies for every message type (the codec's fuzzing);
 * :mod:`vcran.testing.model` — a reference model of RanLogic's rules, written to be obviously right;
 * :mod:`vcran.testing.plans` — task plans and the deviations a real fleet manager produces;
 * :mod:`vcran.testing.stateful` — a hypothesis state machine pairing RanLogic with the model;

@@ -1,0 +1,38 @@
+"""Connection options shared by the commands that talk to Orion (live, send, orion)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+from pathlib import Path
+
+TOKEN_ENV = "VCRAN_ORION_TOKEN"
+
+
+def add_connection_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--orion", required=True, metavar="URL", help="Orion's base URL, e.g. http://127.0.0.1:1026")
+    parser.add_argument("--service", metavar="NAME", help="Fiware-Service (tenant)")
+    parser.add_argument("--service-path", metavar="PATH", help="Fiware-ServicePath, e.g. /factory")
+    parser.add_argument("--token-file", type=Path, metavar="FILE",
+                        help=f"file holding the X-Auth-Token (or set {TOKEN_ENV}); never given on the command line")
+
+
+def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+    """An OrionClient; the token comes from a file or the environment, never from argv (it shows in ps)."""
+    from transports.orion.client import OrionClient, Tenant
+
+    token = os.environ.get(TOKEN_ENV) or None
+    if args.token_file is not None:
+        try:
+            token = args.token_file.read_text(encoding="utf-8").strip() or None
+        except OSError as exc:
+            raise SystemExit(f"vcran: cannot read --token-file: {exc.strerror}") from None
+    return OrionClient(args.orion, Tenant(args.service, args.service_path, token))
+
+
+def setup_logging(quiet: bool = False) -> None:
+    logging.basicConfig(level=logging.ERROR if quiet else logging.INFO, stream=sys.stderr,
+                        format="vcran: %(message)s")
+    logging.getLogger("httpx").setLevel(logging.WARNING)  # it would log every request URL

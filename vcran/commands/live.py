@@ -1,0 +1,94 @@
+"""``vcran live SCENARIO --orion URL --out DIR``: the scenario's fleet, in real time, driven through Orion."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+from vcran.commands import load_scenario
+from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+
+HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML); its [[script]] is not played")
+    add_connection_arguments(parser)
+    parser.add_argument("--out", type=Path, required=True, help="output folder (trace, events, summary)")
+    parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
+    parser.add_argument("--notify-url", metavar="URL",
+                        help="subscribe, with notifications to this URL (vcran listens there); default: polling")
+    parser.add_argument("--listen", default="127.0.0.1", metavar="HOST",
+                        help="address the notification listener binds to (default 127.0.0.1)")
+    parser.add_argument("--poll-interval", type=float, default=0.25, metavar="S",
+                        help="polling period in simulated seconds (default 0.25)")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace) -> int:
+    import resource
+    from collections import Counter
+    from dataclasses import replace
+
+    from transports.orion.transport import LiveOptions, OrionTransport
+    from vcran.progress import LiveStatus, StatusLine
+    from vcran.runner import run_to
+    from vcran.sim.live import LiveEnvironment
+
+    setup_logging(args.quiet)
+    if not args.factor > 0 or not args.poll_interval > 0:
+        print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
+        return 2
+    scenario = load_scenario(args.scenario)
+    # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
+    scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
+    env = LiveEnvironment(speed=args.factor)
+    options = LiveOptions(
+        entity_type=scenario.settings.entity_type, robots=tuple(r.id for r in scenario.robots),
+        notify_url=args.notify_url, listen_host=args.listen, poll_interval=args.poll_interval,
+    )
+    transport = OrionTransport(client_from_args(args), options)
+
+    models = []
+    line = None if args.quiet else StatusLine(sys.stderr)
+
+    def on_start(model) -> None:  # type: ignore[no-untyped-def]
+        models.append(model)
+
+        def stop(signum: int, _frame: object) -> None:
+            env.call_soon(model.stop)
+
+        signal.signal(signal.SIGINT, stop)
+        signal.signal(signal.SIGTERM, stop)
+
+    def progress(now: float, tasks_done: int) -> None:
+        if line is not None and models:
+            states = Counter(r.logic.state.value for r in models[0].robots)
+            line.update(LiveStatus(now, len(models[0].robots), tasks_done, transport.status(), states))
+
+    mode = f"subscription to {args.notify_url}" if args.notify_url else f"polling every {args.poll_interval:g} s"
+    if not args.quiet:
+        print(f"live: {len(scenario.robots)} robot(s) on {args.orion}, x{args.factor:g}, {mode}; Ctrl-C stops",
+              flush=True)
+    try:
+        result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
+                        options={"transport": "live", "factor": args.factor,
+                                 "inbound": "subscription" if args.notify_url else "polling"})
+    finally:
+        if line is not None:
+            line.close()
+    if not args.quiet:
+        s = result.summary
+        done = sum(len(r["completed"]) for r in s["robots"].values())
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        print(f"live run ended at {s['sim_time']:.3f} s simulated: {done} task(s) completed, {s['errors']} error(s)")
+        print(f"  {transport.status()}")
+        print(f"  wall {result.wall_seconds:.1f} s, outbound {transport.updates / result.wall_seconds:.1f} requests/s, "
+              f"cpu {usage.ru_utime + usage.ru_stime:.1f} s")
+        lat = transport.latency_stats()
+        if lat:
+            print(f"  inbound to effect: median {lat['median'] * 1000:.1f} ms, p99 {lat['p99'] * 1000:.1f} ms ({lat['count']:.0f} messages)")
+        print(f"  outputs in {args.out}/")
+    return 0

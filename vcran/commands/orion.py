@@ -1,0 +1,55 @@
+"""``vcran orion init|delete SCENARIO --orion URL``: the seed's "Initialize FOCB" / "Delete FOCB entity"."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from vcran.commands import load_scenario
+from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+
+HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robot entities in Orion"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("action", choices=("init", "delete"))
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML): its robots are the entities")
+    add_connection_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from transports.orion.client import OrionError
+    from transports.orion.transport import motion_message
+    from vcran.codec import encode_entity_json, split_batch
+    from vcran.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
+    from vcran.sim.ran import description
+
+    setup_logging()
+    scenario = load_scenario(args.scenario)
+    client = client_from_args(args)
+    entity_type = scenario.settings.entity_type
+    try:
+        removed = sum(client.delete_entity(r.id, entity_type) for r in scenario.robots)
+        if args.action == "delete":
+            print(f"deleted {removed} of {len(scenario.robots)} entities of type {entity_type}")
+            return 0
+        entities = []
+        for r in scenario.robots:
+            footprint = PolygonStamped.from_xy(r.footprint)
+            attrs = {
+                "current_motion": motion_message(Time(), *r.pose, 0.0, 0.0),
+                "assignment_status": AssignmentStatus(footprint=footprint),
+                "ran_status": RanStatus(),
+                "robot_description": description(r, footprint),
+            }
+            entities.append(encode_entity_json(r.id, entity_type, attrs))
+        for body in split_batch(entities):
+            client.update(body)
+    except OrionError as exc:
+        print(f"vcran orion {args.action}: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        client.close()
+    print(f"initialised {len(scenario.robots)} entities of type {entity_type} ({removed} replaced)")
+    return 0

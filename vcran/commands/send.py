@@ -1,0 +1,60 @@
+"""``vcran send SCENARIO --orion URL [--factor F]``: play the message script into Orion (the JMeter role)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from vcran.commands import load_scenario
+from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+
+HELP = "play the scenario's message script into Orion in real time, as the fleet manager would"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML) whose [[script]] is played")
+    add_connection_arguments(parser)
+    parser.add_argument("--factor", type=float, default=1.0, help="script seconds per wall second (default 1)")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace) -> int:
+    from transports.orion.client import OrionError, OrionRejected
+    from vcran.codec import encode_attribute
+
+    setup_logging(args.quiet)
+    if not args.factor > 0:
+        print("vcran send: --factor must be positive", file=sys.stderr)
+        return 2
+    scenario = load_scenario(args.scenario)
+    client = client_from_args(args)
+    entity_type = scenario.settings.entity_type
+    start = time.monotonic()
+    failures = 0
+    sent = 0
+    try:
+        for entry in scenario.messages():
+            delay = start + entry.t / args.factor - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            value = entry.raw if entry.message is None else encode_attribute(entry.attribute, entry.message)
+            try:
+                client.append_attrs(entry.robot, entity_type, {entry.attribute: value})
+                sent += 1
+            except OrionRejected as exc:
+                failures += 1
+                hint = " (run vcran orion init first)" if exc.status == 404 else ""
+                print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}{hint}", file=sys.stderr)
+            except OrionError as exc:
+                failures += 1
+                print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}", file=sys.stderr)
+            else:
+                if not args.quiet:
+                    print(f"t={entry.t:g} {entry.robot} {entry.attribute}", flush=True)
+    finally:
+        client.close()
+    if not args.quiet:
+        print(f"sent {sent} message(s), {failures} failed")
+    return 1 if failures else 0

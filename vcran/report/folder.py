@@ -1,0 +1,220 @@
+"""A run's output folder read back into a small data model, the one input of every figure and table.
+
+``vcran run --out DIR`` writes ``summary.json``, ``events.jsonl``, ``trace.jsonl`` and ``telemetry.bin``
+(SPEC §8). A report needs a little of each: the fleet's geometry from the trace header, where the robots
+were from the telemetry, what happened from the events, the per-robot totals from the summary, and the
+motion areas and targets that only the inbound assignments carry. Everything is checked here, so the
+figures can trust what they get and a broken folder fails with one clear :class:`ReportError`, never a
+traceback.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import orjson
+
+from vcran.trace import read_header, telemetry
+
+FILES = ("summary.json", "events.jsonl", "trace.jsonl", "telemetry.bin")
+#: The fields the report reads from each kind of event (strings all).
+EVENT_FIELDS = {
+    "state": ("from", "to"),
+    "task_queued": ("task",),
+    "task_completed": ("task",),
+    "task_cancelled": ("task", "reason"),
+    "motion_finished": ("motion",),
+}
+
+Point = tuple[float, float]
+
+
+class ReportError(Exception):
+    """The folder is not a complete, readable run output; the message says which file and why."""
+
+
+@dataclass(frozen=True, slots=True)
+class RobotSpec:
+    """A robot as configured: where it started and the outline it occupies, in its own frame."""
+
+    id: str
+    pose: tuple[float, float, float]
+    footprint: tuple[Point, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class StationSpec:
+    """A station: a point with a reach circle, or an area polygon when the scenario gave one."""
+
+    id: str
+    position: Point
+    reach: float
+    area: tuple[Point, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class RobotResult:
+    """What ``summary.json`` says of a robot that the report uses; distance is exact, from the kinematics."""
+
+    distance: float
+    parts_moved: int
+    errors: int
+    final_pose: tuple[float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class MotionArea:
+    """A non-empty ``motion_area`` polygon that a robot was sent, as the fleet manager drew it."""
+
+    robot: str
+    points: tuple[Point, ...]
+
+
+@dataclass(frozen=True)
+class Run:
+    """Everything a report draws, from one run folder; robots in telemetry column order."""
+
+    path: Path
+    scenario: str
+    seed: int
+    sim_time: float
+    #: The run's error count: every robot's rejected inputs and failures, and R11's unknown entities.
+    errors: int
+    robots: tuple[RobotSpec, ...]
+    stations: tuple[StationSpec, ...]
+    results: dict[str, RobotResult]
+    events: list[dict[str, Any]]
+    telemetry: np.ndarray
+    motion_areas: tuple[MotionArea, ...] = ()
+    #: (robot, motion label) -> the targets received for it, as (receive time, x, y), in arrival order.
+    targets: dict[tuple[str, str], list[tuple[float, float, float]]] = field(default_factory=dict)
+
+    @property
+    def robot_ids(self) -> tuple[str, ...]:
+        return tuple(r.id for r in self.robots)
+
+
+def read_run(path: Path) -> Run:
+    """Read and check the run folder ``path``; raise :class:`ReportError` naming what is wrong."""
+    if not path.is_dir():
+        raise ReportError(f"{path}: no such folder (expected the --out folder of `vcran run`)")
+    missing = [name for name in FILES if not (path / name).is_file()]
+    if missing:
+        raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
+    with _reading(path / "trace.jsonl"):
+        header = read_header(path / "trace.jsonl")
+        ids = [str(r) for r in header["telemetry"]["robots"]]
+        configs = {r["id"]: r for r in header["fleet"]["robots"]}
+        robots = tuple(_robot(configs[rid]) for rid in ids)
+        stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
+    with _reading(path / "summary.json"):
+        summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+        results = {rid: _result(summary["robots"][rid]) for rid in ids}
+        sim_time = float(summary["sim_time"])
+        errors = int(summary["errors"])
+    with _reading(path / "telemetry.bin"):
+        ticks = telemetry(path, len(ids))
+    events = list(_events(path / "events.jsonl"))
+    areas, targets = _assignments(path / "trace.jsonl")
+    return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
+               sim_time, errors, robots, stations, results, events, ticks, areas, targets)
+
+
+@contextmanager
+def _reading(path: Path) -> Iterator[None]:
+    """Whatever goes wrong reading ``path`` becomes one :class:`ReportError` that names it."""
+    try:
+        yield
+    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
+        raise ReportError(f"{path}: unreadable ({_describe(exc)})") from None
+
+
+def _result(robot: dict[str, Any]) -> RobotResult:
+    pose = robot["final_pose"]
+    return RobotResult(float(robot["distance"]), int(robot["parts_moved"]), int(robot["errors"]),
+                       (float(pose["x"]), float(pose["y"]), float(pose["theta"])))
+
+
+def _robot(config: dict[str, Any]) -> RobotSpec:
+    x, y, theta = (float(v) for v in config["pose"])
+    return RobotSpec(config["id"], (x, y, theta), tuple((float(px), float(py)) for px, py in config["footprint"]))
+
+
+def _station(config: dict[str, Any]) -> StationSpec:
+    x, y = (float(v) for v in config["position"])
+    area = tuple((float(px), float(py)) for px, py in config.get("area", []))
+    return StationSpec(config["id"], (x, y), float(config.get("reach", 0.0)), area)
+
+
+def _events(path: Path) -> Iterator[dict[str, Any]]:
+    with path.open("rb") as f:
+        for n, line in enumerate(f, start=1):
+            try:
+                event = orjson.loads(line)
+            except orjson.JSONDecodeError as exc:
+                raise ReportError(f"{path}:{n}: not JSON ({exc})") from None
+            if not (isinstance(event, dict) and isinstance(event.get("t"), int | float)
+                    and isinstance(event.get("robot"), str) and isinstance(event.get("event"), str)):
+                raise ReportError(f"{path}:{n}: not an event (an object with t, robot and event expected)")
+            missing = [f for f in EVENT_FIELDS.get(event["event"], ()) if not isinstance(event.get(f), str)]
+            if missing:
+                raise ReportError(f"{path}:{n}: {event['event']} event without {', '.join(missing)}")
+            yield event
+
+
+def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]]]:
+    """Motion areas and targets from the inbound ``motion_assignment`` records of the trace.
+
+    The trace of a large run is mostly outbound status; a byte test skips those lines unparsed. A live
+    run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
+    decoded them, and one that does not decode (the RAN rejected it) is skipped.
+    """
+    areas: dict[tuple[str, tuple[Point, ...]], MotionArea] = {}
+    targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
+    with path.open("rb") as f:
+        f.readline()
+        for n, line in enumerate(f, start=2):
+            if b"motion_assignment" not in line:
+                continue
+            try:
+                record = orjson.loads(line)
+                if record.get("dir") != "in" or record.get("attr") != "motion_assignment":
+                    continue
+                value = record["value"] if "value" in record else _decoded(record.get("raw"))
+                if value is None:
+                    continue
+                robot = record["robot"]
+                motion = _label(value["motion_id"])
+                point = value["point"]
+                targets.setdefault((robot, motion), []).append((record["t"], point["x"], point["y"]))
+                polygon = tuple((p["x"], p["y"]) for p in value["motion_area"]["polygon"]["points"])
+            except (orjson.JSONDecodeError, KeyError, TypeError) as exc:
+                raise ReportError(f"{path}:{n}: not a motion_assignment record ({_describe(exc)})") from None
+            if polygon and (robot, polygon) not in areas:
+                areas[robot, polygon] = MotionArea(robot, polygon)
+    return tuple(areas.values()), targets
+
+
+def _decoded(raw: Any) -> dict[str, Any] | None:
+    from vcran.codec import decode_attribute
+    from vcran.plain import to_plain
+
+    try:
+        return to_plain(decode_attribute("motion_assignment", raw))
+    except ValueError:
+        return None
+
+
+def _label(ident: dict[str, Any]) -> str:
+    """An id as events and summary name it (SPEC §8): its description, else its canonical uuid."""
+    return str(ident.get("description") or ident["uuid"])
+
+
+def _describe(exc: BaseException) -> str:
+    return f"missing field {exc}" if isinstance(exc, KeyError) else str(exc) or type(exc).__name__

@@ -1,0 +1,90 @@
+"""The KPI table written out: Markdown for people (``kpi.md``, and stdout), CSV for spreadsheets (``kpi.csv``).
+
+Both come from one column list, so the two files always have the same columns in the same order. The
+Markdown rounds for reading (shares in percent); the CSV keeps plain numbers (shares as fractions) and
+leaves a cell empty where there is no value (no completed task: no latency).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from vcran.report.kpi import Kpi
+
+#: Above this many robots, stdout shows the first ones and the fleet row; the files have every robot.
+CONSOLE_ROBOTS = 20
+
+
+@dataclass(frozen=True, slots=True)
+class Column:
+    title: str  # Markdown header
+    name: str  # CSV header
+    value: Callable[[Kpi], float | int | str | None]
+    text: Callable[[float | int | str], str] = str
+
+
+def _pct(v: float | int | str) -> str:
+    return f"{float(v):.1%}"
+
+
+def _fixed(digits: int) -> Callable[[float | int | str], str]:
+    return lambda v: f"{float(v):.{digits}f}"
+
+
+COLUMNS = (
+    Column("robot", "robot", lambda k: k.robot),
+    Column("completed", "completed", lambda k: k.completed),
+    Column("timed out", "cancelled_timeout", lambda k: k.cancelled["timeout"]),
+    Column("cancelled", "cancelled_cancelled", lambda k: k.cancelled["cancelled"]),
+    Column("action failed", "cancelled_action_failed", lambda k: k.cancelled["action_failed"]),
+    Column("distance (m)", "distance_m", lambda k: k.distance, _fixed(2)),
+    Column("busy", "busy_share", lambda k: k.busy_share, _pct),
+    Column("idle", "idle_share", lambda k: k.idle_share, _pct),
+    Column("mean latency (s)", "mean_latency_s", lambda k: k.latency, _fixed(1)),
+    Column("parts moved", "parts_moved", lambda k: k.parts_moved),
+    Column("errors", "errors", lambda k: k.errors),
+)
+
+
+def markdown(rows: list[Kpi]) -> str:
+    """A Markdown table with padded columns, so it reads as well in a terminal as rendered."""
+    cells = [[c.title for c in COLUMNS]]
+    for row in rows:
+        values = [c.value(row) for c in COLUMNS]
+        cells.append(["–" if v is None else c.text(v) for c, v in zip(COLUMNS, values)])
+    if len(rows) > 1:  # the fleet row, in bold
+        cells[-1] = [f"**{text}**" for text in cells[-1]]
+    widths = [max(len(line[i]) for line in cells) for i in range(len(COLUMNS))]
+
+    def line(texts: list[str]) -> str:
+        padded = [t.ljust(w) if i == 0 else t.rjust(w) for i, (t, w) in enumerate(zip(texts, widths))]
+        return "| " + " | ".join(padded) + " |"
+
+    rule = "|" + "|".join("-" * (w + 1) + (":" if i else "-") for i, w in enumerate(widths)) + "|"
+    return "\n".join([line(cells[0]), rule, *(line(c) for c in cells[1:])]) + "\n"
+
+
+def console(rows: list[Kpi]) -> str:
+    """The Markdown table for stdout: at most :data:`CONSOLE_ROBOTS` robot rows and the fleet row."""
+    robots, fleet = rows[:-1], rows[-1]
+    if len(robots) <= CONSOLE_ROBOTS:
+        return markdown(rows)
+    shown = markdown([*robots[:CONSOLE_ROBOTS], fleet])
+    return shown + f"({len(robots) - CONSOLE_ROBOTS} more robots in kpi.md and kpi.csv)\n"
+
+
+def csv_text(rows: list[Kpi]) -> str:
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow([c.name for c in COLUMNS])
+    for row in rows:
+        writer.writerow(["" if (v := c.value(row)) is None else _plain(v) for c in COLUMNS])
+    return out.getvalue()
+
+
+def _plain(value: float | int | str) -> str:
+    """Floats to four decimals (0.1 mm, 0.1 ms, 0.01 %), without trailing zeros: 18.8284, 57, 0.5."""
+    return f"{value:.4f}".rstrip("0").rstrip(".") if isinstance(value, float) else str(value)
