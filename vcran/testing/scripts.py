@@ -165,7 +165,7 @@ def perturbations(
 ) -> st.SearchStrategy[list[Perturbation]]:
     """Lists of up to ``max_ops`` perturbations of ``entries`` (module docstring).
 
-    ``window`` bounds how far a swap reorders; ``horizon`` (default: the last entry's time plus a
+    ``window`` bounds how far a swap reorders; ``horizon`` (default: the last entry's time plus
     20 s) bounds when injected messages arrive; ``malformed`` adds undecodable payloads (needs
     :mod:`vcran.codec` at run time).
     """
