@@ -6,6 +6,49 @@ under the active hypothesis profile (tests/conftest.py: ``ci`` by default, ``dee
 
 from __future__ import annotations
 
+from vcran.testing.plans import TaskPlan
 from vcran.testing.stateful import RanLogicMachine
 
 TestRanLogicAgainstModel = RanLogicMachine.TestCase
+
+
+# Shrunk examples pasted verbatim from failures of the machine against deliberate mutations of RanLogic
+# (docs/fuzzing.md): they stay as regression tests of the rule each mutation broke.
+
+
+def test_r7_timer_at_exactly_the_deadline_cancels():
+    """Mutation ``now > task.deadline`` in on_timer: the deadline instant must cancel (R7)."""
+    state = RanLogicMachine()
+    state.configure(limit=2)
+    plans_0 = state.first_plan(plan=TaskPlan(task='A', length=1, motions=0))
+    plans_1 = state.plan(plan=TaskPlan(task='A', length=2, motions=0))
+    state.send(plan=plans_1, pos=1, variant='planned')
+    state.advance(dt=10.0)
+    state.advance(dt=0.0)
+    state.rules_hold()
+    state.teardown()
+
+
+def test_r8_cancel_while_driving_stops_after_the_running_leg():
+    """Mutation "cancel at once even while a leg runs": R8 wants StopAfterLeg, then the cancel."""
+    state = RanLogicMachine()
+    state.configure(limit=2)
+    plans_0 = state.first_plan(plan=TaskPlan(task='A', length=1, motions=1))
+    state.send_task(backwards=False, plan=plans_0, rotate=0)
+    state.cancel(plan=plans_0, variant='whole')
+    state.rules_hold()
+    state.finish_leg()
+    state.rules_hold()
+    state.teardown()
+
+
+def test_r10_reread_of_a_failed_tasks_assignment_is_silent():
+    """Mutation "reject every assignment of an ended task": an identical re-read stays silent (R10)."""
+    state = RanLogicMachine()
+    state.configure(limit=2)
+    plans_0 = state.first_plan(plan=TaskPlan(task='A', length=1, motions=0))
+    sent_0 = state.send(plan=plans_0, pos=1, variant='planned')
+    state.finish_action(ok=False)
+    state.resend(a=sent_0)
+    state.rules_hold()
+    state.teardown()
