@@ -270,3 +270,22 @@ def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inboun
         assert robot["cancelled"] == [{"task": "T", "reason": "timeout"}] and robot["completed"] == []
     else:
         assert robot["completed"] == ["T"]
+
+
+def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
+    """Orion keeps its data but loses vcran's subscription: the keeper re-creates it and reads the entity
+    again, so an assignment written in between still reaches the simulation (SPEC §7)."""
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        first = run.transport._subscription
+        assert httpx.delete(f"{broker.url}/v2/subscriptions/{first}").status_code == 204
+        for m in task("gap"):  # written while nobody is subscribed: no notification
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["gap"], 15)
+        assert run.transport._subscription not in (None, first)
+    finally:
+        run.stop()
+        broker.stop()
