@@ -1,4 +1,10 @@
-"""``vcran send SCENARIO --orion URL [--factor F]``: play the message script into Orion (the JMeter role)."""
+"""``vcran send SCENARIO --orion URL [--factor F]``: play the message script into Orion (the JMeter role).
+
+Each message is sent at its script time, scaled by the factor, but never sooner after the previous one
+than the script spaces them: when a slow answer makes ``send`` fall behind, the rest of the script shifts
+instead of bunching up. Bunched writes to one attribute would be overwritten before a polling RAN reads
+them (SPEC §7), which the original's JMeter file, with its constant timer between requests, never did.
+"""
 
 from __future__ import annotations
 
@@ -34,11 +40,16 @@ def run(args: argparse.Namespace) -> int:
     start = time.monotonic()
     failures = 0
     sent = 0
+    previous: tuple[float, float] | None = None  # (script time, wall time) of the last message sent
     try:
         for entry in scenario.messages():
-            delay = start + entry.t / args.factor - time.monotonic()
+            due = start + entry.t / args.factor
+            if previous is not None:  # keep the script's spacing, like JMeter's constant timer (see below)
+                due = max(due, previous[1] + (entry.t - previous[0]) / args.factor)
+            delay = due - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
+            previous = (entry.t, time.monotonic())
             value = entry.raw if entry.message is None else encode_attribute(entry.attribute, entry.message)
             try:
                 client.append_attrs(entry.robot, entity_type, {entry.attribute: value})
