@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vcran.build import action, cancel, motion
 from vcran.effects import (
@@ -435,3 +437,24 @@ def test_r10_resend_with_new_header_stamp_is_a_duplicate():
     assert logic.on_motion(2, motion("A", "A_m1", 1, 3, 1, 0.5, stamp=2.0)) == []  # new point: replaced
     assert logic.version == version + 1
     assert logic.queue[T("A")].slots[1].point.y == 0.5
+
+
+@settings(max_examples=150)
+@given(st.data())
+def test_r10_fingerprint_agrees_with_identity(data):
+    """Ended tasks keep fingerprints (R9 history): equal exactly when R10 calls two assignments identical."""
+    from vcran.tasks import fingerprint, same_content
+    from vcran.testing.strategies import action_assignments, motion_assignments
+
+    kind = data.draw(st.sampled_from([motion_assignments, action_assignments]))
+    a = data.draw(kind())
+    b = data.draw(st.one_of(kind(), st.just(a), st.builds(lambda: _restamped(a))))
+    assert (fingerprint(a) == fingerprint(b)) == same_content(a, b)
+
+
+def _restamped(a):
+    from dataclasses import replace
+
+    from vcran.messages import Header, MotionAssignment, Time
+
+    return replace(a, header=Header(a.header.seq + 1, Time(7, 0), "x")) if isinstance(a, MotionAssignment) else a

@@ -280,7 +280,7 @@ class RanLogic:
             return
         ended = self.history.get(c.task_id)
         if ended is None:
-            self._remember(c.task_id, Ended((), Reason.CANCELLED, now, c))
+            self._remember(c.task_id, Ended.of(None, Reason.CANCELLED, now, c))
             self._error(
                 Rejected, "cancel_unknown_task",
                 f"cancel for unknown task {c.task_id.label}: remembered, its assignments will be rejected [R8]",
@@ -318,7 +318,7 @@ class RanLogic:
 
     def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
         del self.queue[task.id]
-        self._remember(task.id, Ended(tuple(task.slots.values()), reason, now, cancel))
+        self._remember(task.id, Ended.of(task, reason, now, cancel))
         self.recent_cancelled.append(TaskEnd(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
         if not task.assembled:
@@ -354,7 +354,7 @@ class RanLogic:
 
     def _complete(self, now: float, task: Task) -> None:
         del self.queue[task.id]
-        self._remember(task.id, Ended(tuple(task.slots.values()), None, now))
+        self._remember(task.id, Ended.of(task, None, now))
         self.recent_completed.append(task.id)
         self.version += 1
         self._emit(TaskCompleted(task.id))

@@ -7,11 +7,15 @@ known once R3 holds, which is also the moment the whole path can go to the AGV.
 
 from __future__ import annotations
 
+import pickle
 from dataclasses import dataclass, field, replace
+from hashlib import blake2b
+from typing import Any
 
 from vcran.effects import Reason
 from vcran.ids import Id
 from vcran.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
+from vcran.schema import specs
 
 
 def same_content(a: Assignment, b: Assignment) -> bool:
@@ -20,6 +24,43 @@ def same_content(a: Assignment, b: Assignment) -> bool:
     if isinstance(a, MotionAssignment) and isinstance(b, MotionAssignment):
         return a == replace(b, header=a.header)
     return a == b
+
+
+def _flat(message: Any, out: list[Any], skip: str = "") -> None:
+    """Append every primitive of ``message`` in schema order; an id counts by its uuid only (SPEC §2)."""
+    for spec in specs(type(message)):
+        if spec.name == skip:
+            continue
+        value = getattr(message, spec.name)
+        if spec.kind == "prim":
+            out.append(value)
+        elif spec.kind == "id":
+            out.append(value.uuid)
+        elif spec.kind == "msg":
+            _flat(value, out)
+        else:
+            out.append(len(value))
+            for item in value:
+                if spec.cls is None:
+                    out.append(item)
+                elif spec.cls is Id:
+                    out.append(item.uuid)
+                else:
+                    _flat(item, out)
+
+
+def fingerprint(a: Assignment) -> bytes:
+    """A 16-byte digest of what :func:`same_content` compares: the kind and every field but the header.
+
+    Ended tasks keep these instead of their assignments, so the R9 history costs tens of bytes per
+    assignment, not a kilobyte. Deterministic (no salted ``hash()``): the schema-ordered primitives are
+    pickled (floats and bytes pickle exactly) and hashed with blake2b. Two assignments that differ
+    collide with probability 2**-128, and even then only a re-read that should have been reported (R9)
+    would go silent: an ended task applies nothing either way.
+    """
+    out: list[Any] = [type(a).__name__]
+    _flat(a, out, skip="header")  # only MotionAssignment has one
+    return blake2b(pickle.dumps(out, protocol=5), digest_size=16).digest()
 
 
 def assignment_id(a: Assignment) -> Id:
@@ -127,18 +168,23 @@ class Task:
 class Ended:
     """A finished task in the history (R9), or a tombstone left by a cancel for an unknown id (R8).
 
-    It keeps only what R9 and R10 still ask of an ended task, not the Task: its assignments, so that a
-    re-read of one of them stays silent, and its last cancel. The history holds up to ``history_limit``
-    of these per robot, so their size is what a long run's memory grows by until that bound.
+    It keeps only what R9 and R10 still ask of an ended task: the fingerprints of its assignments, so
+    that a re-read of one of them stays silent, and its last cancel. The history holds up to
+    ``history_limit`` of these per robot, so their size is what a long run's memory grows by until
+    that bound (about 0.3 kB per task).
     """
 
-    received: tuple[Assignment, ...]
+    received: frozenset[bytes]
     reason: Reason | None  # None: completed
     time: float
     #: The last cancel received for this id, so that re-reads of it stay silent (R10).
     cancel: CancelTask | None = None
 
+    @classmethod
+    def of(cls, task: Task | None, reason: Reason | None, time: float, cancel: CancelTask | None = None) -> Ended:
+        received = frozenset(map(fingerprint, task.slots.values())) if task is not None else frozenset()
+        return cls(received, reason, time, cancel)
+
     def has_identical(self, a: Assignment) -> bool:
         """R10: ``a`` is a re-read of one of the task's assignments."""
-        key = (kind_of(a), assignment_id(a))
-        return any((kind_of(b), assignment_id(b)) == key and same_content(b, a) for b in self.received)
+        return bool(self.received) and fingerprint(a) in self.received

@@ -42,7 +42,7 @@ def _default(value: Any) -> Any:
     if text is not None:
         return text
     if isinstance(value, bytes) and len(value) == 16:
-        if len(_CANONICAL) >= 65_536:
+        if len(_CANONICAL) >= 8_192:
             _CANONICAL.clear()
         h = value.hex()
         text = _CANONICAL[value] = f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:]}"
