@@ -103,3 +103,15 @@ def test_malformed_inbound_record_names_the_line(demo_run, tmp_path, capsys):
     assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 2
     err = capsys.readouterr().err
     assert "trace.jsonl:" in err and "sequence" in err and "missing" in err
+
+
+def test_recording_without_duration_replays(demo_run, tmp_path):
+    """A live run of a scenario with no duration records until_idle false and no duration (live runs
+    until a signal); its end record alone says when to stop (review finding)."""
+    path = demo_run / "trace.jsonl"
+    lines = path.read_text().splitlines()
+    header = json.loads(lines[0])
+    header["fleet"]["simulation"].pop("duration", None)
+    header["fleet"]["simulation"]["until_idle"] = False
+    path.write_text("\n".join([json.dumps(header), *lines[1:]]) + "\n")
+    assert replay(path, tmp_path / "rep") == 0

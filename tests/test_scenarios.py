@@ -242,3 +242,44 @@ def test_r11_scenario_with_differing_agv_and_ranlogic_ids_fails_to_load():
     text = FLEET.replace('id = "robot_1"', 'id = "robot_1"\nagv_id = "robot_2"')
     with pytest.raises(ScenarioError, match="agv_id.*robot_2.*differs from the robot id.*R11"):
         parse(tomllib.loads(text), "fleet.toml")
+
+
+def test_r7_timer_of_a_task_id_seen_again_after_history_eviction(run_toml):
+    """A task id evicted from the R9 history and seen again gets its own deadline; the old one must not
+    consume it (review finding)."""
+    text = script(
+        motion(0, "A", "A_m1", 1, 2, 1, 0), cancel(1, "A"),
+        motion(2, "B", "B_m1", 1, 2, 1, 0), action(2, "B", "B_a1", 2, 2),  # B ends: A leaves the history
+        motion(8, "A", "A_m1", 1, 2, 1, 0),  # A again, never assembled: deadline 38, after A's old 30
+    ).replace("task_timeout = 30.0", "task_timeout = 30.0\nhistory_limit = 1")
+    out = run_toml(text)
+    timeouts = [(e["t"], e["task"]) for e in out.of("task_cancelled") if e["reason"] == "timeout"]
+    assert timeouts == [(38.0, "A")]
+
+
+def test_raw_payloads_orjson_cannot_write_are_rejected_and_replay(run_toml, tmp_path):
+    """Deep nesting, a 100-digit integer and NaN in raw input (R12): rejected, recorded, replayed (§6)."""
+    from vcran.cli import main
+
+    deep: object = 1
+    for _ in range(300):
+        deep = [deep]
+    out = run_toml(script(
+        raw(1, "motion_assignment", {"type": "x", "value": deep}),
+        raw(2, "motion_assignment", {"type": "x", "value": {"task_id": 10**100}}),
+        't = 3\nkind = "raw"\nattribute = "cancel_order"\nvalue = \'{"type": "x", "value": NaN}\'',
+        motion(4, "B", "B_m1", 1, 2, 1, 0), action(4, "B", "B_a1", 2, 2),
+    ))
+    assert [e["code"] for e in out.of("rejected")] == ["malformed"] * 3
+    assert out.robot()["completed"] == ["B"]
+    assert main(["replay", str(out.dir / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+
+
+def test_raw_value_that_is_not_json_fails_to_load():
+    import tomllib
+
+    from vcran.scenario import ScenarioError, parse
+
+    text = script('t = 1\nkind = "raw"\nattribute = "cancel_order"\nvalue = {when = 1979-05-27T07:32:00}')
+    with pytest.raises(ScenarioError, match="script\\[0\\].*field 'value': not a JSON value"):
+        parse(tomllib.loads(text), "x.toml")

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from itertools import zip_longest
 from pathlib import Path
 from typing import Any
@@ -53,12 +53,15 @@ def scenario_from_trace(trace: Path) -> Scenario:
     """The fleet of a recorded run, set to stop exactly when the recording stopped."""
     header = read_header(trace)
     end = end_time(trace)
+    fleet = header.get("fleet")
+    if not isinstance(fleet, dict) or not isinstance(fleet.get("simulation", {}), dict):
+        raise ValueError(f"{trace}: the header does not describe a fleet")
+    # The recording's end decides; a live run of a scenario without a duration has none of its own.
+    fleet = {**fleet, "simulation": {**fleet.get("simulation", {}), "duration": end, "until_idle": False}}
     try:
-        scenario = parse(header["fleet"], f"{trace} (header)")
-    except (KeyError, ScenarioError) as exc:
+        return parse(fleet, f"{trace} (header)")
+    except ScenarioError as exc:
         raise ValueError(f"{trace}: the header does not describe a fleet: {exc}") from None
-    settings = replace(scenario.settings, duration=end, until_idle=False)
-    return replace(scenario, settings=settings)
 
 
 def end_time(trace: Path) -> float:

@@ -353,8 +353,12 @@ def _raw(t: Table, time: float, robot: str) -> list[ScriptEntry]:
     if isinstance(value, str):
         try:
             value = json.loads(value)
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, RecursionError) as exc:
             t.fail("value", f"not valid JSON: {exc}")
+    try:  # what Orion could hold: TOML dates and times have no JSON form (NaN is kept, to test R12)
+        json.dumps(value, allow_nan=True)
+    except (TypeError, ValueError, RecursionError) as exc:
+        t.fail("value", f"not a JSON value: {exc}")
     return [ScriptEntry(time, robot, attribute, raw=value)]
 
 

@@ -60,6 +60,17 @@ def dumps(value: Any) -> bytes:
     return orjson.dumps(value, default=_default)
 
 
+def raw_json(value: Any) -> bytes:
+    """JSON text of an undecoded inbound value, exactly as ``json.loads`` will read it back on replay.
+
+    orjson refuses what a peer may legitimately send and the RAN must reject (R12): nesting deeper than
+    254 levels, integers beyond 64 bits; and it turns NaN into null, which would change the payload.
+    The standard library writes all of these (NaN as the token Python reads back), and anything that
+    came from ``json.loads`` or a scenario checked by the loader can be written.
+    """
+    return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode()
+
+
 class TraceWriter:
     def __init__(self, directory: Path, header: dict[str, Any], robots: tuple[str, ...]) -> None:
         directory.mkdir(parents=True, exist_ok=True)
@@ -73,9 +84,9 @@ class TraceWriter:
         record: dict[str, Any] = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
         if inbound.message is not None:
             record["value"] = inbound.message
-        else:
-            record["raw"] = inbound.raw
-        self._jsonl.write(dumps(record) + b"\n")
+            self._jsonl.write(dumps(record) + b"\n")
+        else:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
+            self._jsonl.write(dumps(record)[:-1] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
 
     def publish(self, out: Publish) -> None:
         record = {"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute, "value": out.message}

@@ -69,11 +69,13 @@ class ActionDone:
     message: str = ""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class TimerFired:
-    """Deadline -> RanLogic: the R7 deadline of ``task`` is due."""
+    """Deadline -> RanLogic: the R7 deadline of ``task`` is due; ``deadline`` says which one (a task id
+    can be seen again after its history entry is evicted, with a new timer)."""
 
     task: Id
+    deadline: simpy.events.Event
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,8 +137,9 @@ class RobotNode:
             elif isinstance(item, ActionDone):
                 effects = logic.on_action_finished(now, item.action, item.ok, item.code, item.message)
             elif isinstance(item, TimerFired):
-                if self._timers.pop(item.task, None) is None:
-                    continue  # cleared meanwhile
+                if self._timers.get(item.task) is not item.deadline:
+                    continue  # cleared meanwhile, or an older timer of a task id seen again
+                del self._timers[item.task]
                 effects = logic.on_timer(now, item.task)
             else:
                 assert isinstance(item, Malformed)
@@ -164,7 +167,7 @@ class RobotNode:
     def _start_timer(self, task: Id, when: float) -> None:
         deadline = at(self.env, when, DEADLINE)
         self._timers[task] = deadline
-        deadline.callbacks.append(lambda _: self.inbox.put(TimerFired(task)))
+        deadline.callbacks.append(lambda event: self.inbox.put(TimerFired(task, event)))
 
     # --- AGV --------------------------------------------------------------------------------------------
 
