@@ -27,7 +27,7 @@ from vcran.cli import main
 pytest.importorskip("vcran.codec")
 
 from transports.orion.client import OrionClient  # noqa: E402
-from transports.orion.transport import LiveOptions, OrionTransport, wait_until  # noqa: E402
+from transports.orion.transport import LiveOptions, OrionTransport  # noqa: E402
 from vcran.broker import start_broker  # noqa: E402
 from vcran.codec import decode_attribute, encode_attribute  # noqa: E402
 from vcran.runner import run_to  # noqa: E402
@@ -35,6 +35,16 @@ from vcran.scenario import parse  # noqa: E402
 from vcran.sim.live import LiveEnvironment  # noqa: E402
 
 DEMO = ROOT / "scenarios" / "demo.toml"
+
+
+def wait_until(predicate, timeout: float, step: float = 0.02) -> bool:
+    """Poll ``predicate`` until it is true or ``timeout`` wall seconds have passed."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(step)
+    return predicate()
 
 
 def free_port() -> int:

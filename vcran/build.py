@@ -16,9 +16,14 @@ from vcran.messages import (
     ActionKind,
     CancelTask,
     Header,
+    Motion,
     MotionAssignment,
+    Point,
     PolygonStamped,
+    Pose,
     Pose2D,
+    PoseStamped,
+    Quaternion,
     RobotAction,
     Sequence,
     Time,
@@ -129,3 +134,10 @@ def cancel(task: str | Id, *, motion: str | Id | None = None, action: str | Id |
 def _id(name: str | Id) -> Id:
     return name if isinstance(name, Id) else id_for(name)
 
+
+def motion_message(stamp: Time, x: float, y: float, theta: float, v: float, w: float) -> Motion:
+    """``current_motion`` of one robot: pose in the map frame and body velocities (SPEC §2)."""
+    return Motion(
+        PoseStamped(Header(0, stamp, "/map"), Pose(Point(x, y, 0.0), Quaternion.from_yaw(theta))),
+        Twist(Vector3(v, 0.0, 0.0), Vector3(0.0, 0.0, w)),
+    )

@@ -355,7 +355,10 @@ class RanStatus(Message):
     ROS_TYPE = "vcran_msgs.RanStatus"
     state: String = "WAITING"
     current_task_id: Id = NIL
+    #: The head of the task queue (current task first), at most ``QUEUE_SHOWN`` ids; ``queued`` is
+    #: the queue's full length. Bounded so that no backlog can push an entity past Orion's 1 MB limit.
     queue: tuple[Id, ...] = ()
+    queued: UInt32 = 0
     completed: tuple[Id, ...] = ()
     cancelled: tuple[TaskEnd, ...] = ()
 

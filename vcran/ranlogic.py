@@ -14,6 +14,7 @@ deadline`` when the timer fires, and the driver delivers inputs of an instant be
 from __future__ import annotations
 
 from collections import OrderedDict, deque
+from itertools import islice
 from collections.abc import Callable
 
 from vcran.effects import (
@@ -53,6 +54,8 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
 
 #: How many recently completed / cancelled tasks ``ran_status`` shows.
 RECENT = 10
+#: How many queued task ids ``ran_status`` lists (it also says how many are queued in all).
+QUEUE_SHOWN = 50
 
 
 class LocalProtocolError(RuntimeError):
@@ -201,7 +204,8 @@ class RanLogic:
         return RanStatus(
             state=self.state.value,
             current_task_id=self.current_task,
-            queue=tuple(self.queue),
+            queue=tuple(islice(self.queue, QUEUE_SHOWN)),
+            queued=len(self.queue),
             completed=tuple(self.recent_completed),
             cancelled=tuple(self.recent_cancelled),
         )

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vcran.scenario import Scenario, ScenarioError, parse
-from vcran.trace import read_header, records, telemetry
+from vcran.trace import TELEMETRY_FILE, read_header, records, telemetry
 from vcran.wire import Frame
 
 
@@ -70,18 +70,26 @@ def end_time(trace: Path) -> float:
         size = f.tell()
         f.seek(max(0, size - 4096))
         tail = f.read().splitlines()
-    last = json.loads(tail[-1]) if tail else {}
-    if last.get("dir") != "end" or not isinstance(last.get("t"), (int, float)):
+    try:
+        last = json.loads(tail[-1]) if tail else {}
+    except ValueError:  # a truncated last line: the recording was cut off
+        last = {}
+    if not isinstance(last, dict) or last.get("dir") != "end" or not isinstance(last.get("t"), (int, float)):
         raise ValueError(f"{trace}: no end record; the recording did not finish (was it interrupted?)")
     return float(last["t"])
 
 
 def verify(recorded: Path, replayed: Path) -> Difference | None:
-    """Compare two run folders; None when the replay reproduced every record."""
+    """Compare a recorded trace (its path; telemetry and events beside it) with a replay's folder;
+    None when the replay reproduced every record. Raises ValueError/OSError naming a missing file."""
+    header = read_header(recorded)
+    telemetry_file = recorded.parent / str(header.get("telemetry", {}).get("file", "telemetry.bin"))
+    if not telemetry_file.exists():
+        raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (SPEC §6)")
     return (
-        _compare_records(recorded / "trace.jsonl", replayed / "trace.jsonl")
-        or _compare_telemetry(recorded, replayed)
-        or _compare_events(recorded / "events.jsonl", replayed / "events.jsonl")
+        _compare_records(recorded, replayed / "trace.jsonl")
+        or _compare_telemetry(header, telemetry_file, replayed)
+        or _compare_events(recorded.parent / "events.jsonl", replayed / "events.jsonl")
     )
 
 
@@ -91,7 +99,7 @@ def _outbound(trace: Path) -> Iterator[dict[str, Any]]:
 
 def _compare_records(expected: Path, got: Path) -> Difference | None:
     for a, b in zip_longest(_outbound(expected), _outbound(got)):
-        if a == b:
+        if a == b and _same_json(a, b):
             continue
         ref = a or b
         assert ref is not None
@@ -100,9 +108,9 @@ def _compare_records(expected: Path, got: Path) -> Difference | None:
     return None
 
 
-def _compare_telemetry(expected_dir: Path, got_dir: Path) -> Difference | None:
-    robots = read_header(expected_dir / "trace.jsonl")["telemetry"]["robots"]
-    a, b = telemetry(expected_dir, len(robots)), telemetry(got_dir, len(robots))
+def _compare_telemetry(header: dict[str, Any], expected: Path, got_dir: Path) -> Difference | None:
+    robots = header["telemetry"]["robots"]
+    a, b = telemetry(expected, len(robots)), telemetry(got_dir / TELEMETRY_FILE, len(robots))
     rows = min(len(a), len(b))
     bad = np.flatnonzero(np.any(a[:rows].view(np.uint64) != b[:rows].view(np.uint64), axis=1))
     if bad.size:
@@ -131,6 +139,11 @@ def _compare_events(expected: Path, got: Path) -> Difference | None:
             path, x, y = first_mismatch(a, b)
             return Difference("events.jsonl", ref.get("t"), ref.get("robot"), ref.get("event"), path, x, y)
     return None
+
+
+def _same_json(a: Any, b: Any) -> bool:
+    """Equal as JSON text, not only as Python values (where 1 == 1.0 == True and key order is lost)."""
+    return json.dumps(a) == json.dumps(b)
 
 
 def first_mismatch(a: Any, b: Any, path: str = "") -> tuple[str, Any, Any]:

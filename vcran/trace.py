@@ -106,10 +106,15 @@ class TraceWriter:
 
 
 def read_header(path: Path) -> dict[str, Any]:
-    with path.open(encoding="utf-8") as f:
-        header = json.loads(f.readline())
-    if header.get("format") != FORMAT:
-        raise ValueError(f"{path}: not a vcran trace (format {header.get('format')!r})")
+    try:
+        with path.open(encoding="utf-8") as f:
+            header = json.loads(f.readline())
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a vcran trace (not UTF-8 text)") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not a vcran trace (line 1 is not JSON: {exc.msg})") from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise ValueError(f"{path}: not a vcran trace (its first line is no vcran-trace header)")
     if header.get("version") != VERSION:
         raise ValueError(f"{path}: trace version {header.get('version')!r}, this vcran reads {VERSION}")
     return header
@@ -126,10 +131,12 @@ def records(path: Path) -> Iterator[dict[str, Any]]:
                 raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
 
 
-def telemetry(directory: Path, robots: int) -> np.ndarray:
-    """The telemetry file as a (ticks, 1 + robots * 5) float64 array."""
-    data = np.fromfile(directory / TELEMETRY_FILE, dtype="<f8")
+def telemetry(path: Path, robots: int) -> np.ndarray:
+    """A telemetry file (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array."""
+    if path.is_dir():
+        path = path / TELEMETRY_FILE
+    data = np.fromfile(path, dtype="<f8")
     width = 1 + robots * len(Frame.FIELDS)
     if data.size % width:
-        raise ValueError(f"{directory / TELEMETRY_FILE}: size is not a whole number of {width}-column rows")
+        raise ValueError(f"{path}: size is not a whole number of {width}-column rows")
     return data.reshape(-1, width)

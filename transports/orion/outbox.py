@@ -1,18 +1,38 @@
-"""What vcran still has to tell Orion: the latest value per robot and attribute (SPEC §7 coalescing).
+"""What vcran still has to tell Orion (SPEC §7 coalescing).
 
-The simulation thread puts; the sender thread takes a snapshot, sends it and, if Orion could not take it,
-gives it back. Anything newer that arrived meanwhile wins over what is given back, so after an outage
-Orion receives each robot's latest state once, not the backlog of every tick it missed. The outbox also
-remembers the latest value of every attribute ever put, so that when Orion comes back without its data
+State attributes (``current_motion``, ``assignment_status``, ``ran_status``, ``robot_description``) are
+kept as the latest value per robot and attribute: after an outage Orion receives each robot's latest
+state once, not the backlog of every tick it missed. ``ran_error`` is different: each one reports a
+distinct rejected input (SPEC §2, "on each rejected input"), so errors queue in order and every one is
+delivered, oldest first (a bounded queue: past ``ERRORS_MAX`` pending errors the oldest are dropped and
+counted).
+
+The simulation thread puts; the sender thread takes a :class:`Batch`, sends it and, if Orion could not
+take it, gives it back; anything newer that arrived meanwhile wins over what is given back. The outbox
+also remembers the latest value of every state attribute, so that when Orion comes back without its data
 (a restart of an in-memory broker, a wiped database) :meth:`resend_all` restores all of it.
 """
 
 from __future__ import annotations
 
 import threading
+from collections import deque
+from dataclasses import dataclass, field
 
 from vcran.messages import Message
 from vcran.wire import Frame
+
+ERRORS_MAX = 10_000
+
+
+@dataclass
+class Batch:
+    state: dict[str, dict[str, Message]] = field(default_factory=dict)
+    frame: Frame | None = None
+    errors: list[tuple[str, Message]] = field(default_factory=list)
+
+    def __bool__(self) -> bool:
+        return bool(self.state or self.frame is not None or self.errors)
 
 
 class Outbox:
@@ -21,39 +41,48 @@ class Outbox:
         self._pending: dict[str, dict[str, Message]] = {}
         self._latest: dict[str, dict[str, Message]] = {}
         self._frame: Frame | None = None
+        self._errors: deque[tuple[str, Message]] = deque()
+        self.errors_dropped = 0
 
     def put(self, robot: str, attribute: str, message: Message) -> None:
         with self._lock:
+            if attribute == "ran_error":
+                if len(self._errors) >= ERRORS_MAX:
+                    self._errors.popleft()
+                    self.errors_dropped += 1
+                self._errors.append((robot, message))
+                return
             self._pending.setdefault(robot, {})[attribute] = message
             self._latest.setdefault(robot, {})[attribute] = message
 
+    def put_frame(self, frame: Frame) -> None:
+        with self._lock:
+            self._frame = frame
+
     def resend_all(self) -> None:
-        """Queue the latest value of every attribute again (newer pending values stay)."""
+        """Queue the latest value of every state attribute again (newer pending values stay)."""
         with self._lock:
             for robot, attrs in self._latest.items():
                 pending = self._pending.setdefault(robot, {})
                 for attribute, message in attrs.items():
                     pending.setdefault(attribute, message)
 
-    def put_frame(self, frame: Frame) -> None:
+    def take(self) -> Batch:
         with self._lock:
-            self._frame = frame
-
-    def take(self) -> tuple[dict[str, dict[str, Message]], Frame | None]:
-        with self._lock:
-            pending, frame = self._pending, self._frame
+            batch = Batch(self._pending, self._frame, list(self._errors))
             self._pending, self._frame = {}, None
-        return pending, frame
+            self._errors.clear()
+        return batch
 
-    def give_back(self, pending: dict[str, dict[str, Message]], frame: Frame | None) -> None:
+    def give_back(self, batch: Batch) -> None:
         with self._lock:
-            for robot, attrs in pending.items():
+            for robot, attrs in batch.state.items():
                 newer = self._pending.setdefault(robot, {})
                 for attribute, message in attrs.items():
                     newer.setdefault(attribute, message)
             if self._frame is None:
-                self._frame = frame
-
-    def __len__(self) -> int:
-        with self._lock:
-            return sum(map(len, self._pending.values())) + (self._frame is not None)
+                self._frame = batch.frame
+            self._errors.extendleft(reversed(batch.errors))  # older than anything put meanwhile
+            while len(self._errors) > ERRORS_MAX:
+                self._errors.popleft()
+                self.errors_dropped += 1

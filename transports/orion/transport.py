@@ -4,17 +4,20 @@ Threads and what they own:
 
 * the **simulation thread** (SimPy, :class:`~vcran.sim.live.LiveEnvironment`) calls :meth:`send`, which
   only writes into the :class:`Outbox` and wakes the sender: it never waits on the network;
-* the **sender** takes the outbox at every telemetry tick and writes the whole fleet's changes with
-  ``POST /v2/op/update`` (one request per tick, more only when a batch would pass Orion's 1 MB limit);
-  when Orion is down it keeps the latest value per robot and attribute and retries with capped backoff;
+* the **sender** takes the outbox at every telemetry tick and writes the fleet's changes with
+  ``POST /v2/op/update`` (one request per tick; more only when a body would pass Orion's 1 MB limit, or
+  when several ``ran_error`` of one robot are waiting, since each is delivered); when Orion is down it
+  keeps the latest value per robot and attribute and retries with capped backoff;
 * the **inbound** thread polls ``GET /v2/entities`` for the whole fleet, or, with a notification URL,
-  keeps one subscription alive (re-created when Orion lost it) and reads the entities once after each
-  (re)subscription so nothing Orion holds is missed; notifications arrive on the :class:`Listener`.
+  keeps one subscription alive (re-created only when Orion says it is gone) and reads the entities
+  after each (re)subscription so nothing Orion holds is missed; notifications arrive on the
+  :class:`Listener`.
 
 Inbound attribute values go into the simulation through :meth:`LiveEnvironment.call_soon`, which stamps
 them with the simulated time at which they entered. A value identical to the last one forwarded for the
 same entity and attribute is not forwarded again: that is a re-read, which R10 ignores anyway, and
-dropping it here keeps traces small.
+dropping it here keeps traces small. A read that overlaps a notification never forwards a value older
+than the notified one.
 """
 
 from __future__ import annotations
@@ -23,8 +26,7 @@ import logging
 import math
 import statistics
 import threading
-import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from time import monotonic
 from typing import Any
@@ -33,22 +35,11 @@ from urllib.parse import urlsplit
 import simpy
 
 from transports.base import Deliver, Transport
-from transports.orion.client import OrionClient, OrionError
+from transports.orion.client import OrionClient, OrionError, OrionRejected
 from transports.orion.listener import Listener
-from transports.orion.outbox import Outbox
-from vcran.messages import (
-    INBOUND,
-    Header,
-    Message,
-    Motion,
-    Point,
-    Pose,
-    PoseStamped,
-    Quaternion,
-    Time,
-    Twist,
-    Vector3,
-)
+from transports.orion.outbox import Batch, Outbox
+from vcran.build import motion_message
+from vcran.messages import INBOUND, Message, Time
 from vcran.sim.live import LiveEnvironment
 from vcran.wire import Frame, Inbound, Outbound, Publish
 
@@ -109,37 +100,54 @@ class OrionTransport(Transport):
         self.outbox = Outbox()
         self.outbound = Health("outbound")
         self.inbound = Health("inbound")
-        self.requests = 0  # all requests that got an answer
-        self.updates = 0  # of which outbound batch updates
         self.latencies: list[float] = []  # wall seconds from arrival to entering the simulation
-        self._robots = set(options.robots)
+        self._robots = frozenset(options.robots)
+        self._counts = {"requests": 0, "updates": 0}
+        self._lock = threading.Lock()  # counters, last forwarded values, forward order
         self._last: dict[tuple[str, str], Any] = {}
-        self._last_lock = threading.Lock()
+        #: How many times a value of (robot, attribute) was forwarded: lets a read skip what a
+        #: notification delivered while the read was in flight.
+        self._forwarded: dict[tuple[str, str], int] = {}
         self._stop = threading.Event()
         self._flush = threading.Event()
         self._env: LiveEnvironment | None = None
         self._deliver: Deliver | None = None
         self._threads: list[threading.Thread] = []
         self._listener: Listener | None = None
-        self._subscriptions: set[str] = set()
         self._subscription: str | None = None
+        self._subscriptions: set[str] = set()
         self._resent = 0.0
 
+    @property
+    def requests(self) -> int:
+        return self._counts["requests"]
+
+    @property
+    def updates(self) -> int:
+        return self._counts["updates"]
+
+    def _count(self, *names: str) -> None:
+        with self._lock:
+            for name in names:
+                self._counts[name] += 1
+
     # --- Transport --------------------------------------------------------------------------------------
+
+    def open(self) -> None:
+        """Bind the notification listener (if any) now, so that a busy port fails before the run starts."""
+        if self.options.notify_url and self._listener is None:
+            parts = urlsplit(self.options.notify_url)
+            self._listener = Listener(self.options.listen_host, parts.port or 80, parts.path or "/",
+                                      self._on_notification, self.options.max_notification)
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         if not isinstance(env, LiveEnvironment):
             raise TypeError("the Orion transport runs on a LiveEnvironment (real time)")
         self._env, self._deliver = env, deliver
-        if self.options.notify_url:
-            parts = urlsplit(self.options.notify_url)
-            self._listener = Listener(self.options.listen_host, parts.port or 80, parts.path or "/",
-                                      self._on_notification, self.options.max_notification)
-            inbound: Callable[[], None] = self._subscription_loop
-        else:
-            inbound = self._poll_loop
+        self.open()
+        inbound = self._subscription_loop if self.options.notify_url else self._poll_loop
         for name, target in (("vcran-sender", self._send_loop), ("vcran-inbound", inbound)):
-            thread = threading.Thread(target=target, name=name, daemon=True)
+            thread = threading.Thread(target=_resilient(name, target, self._stop), name=name, daemon=True)
             thread.start()
             self._threads.append(thread)
 
@@ -156,14 +164,17 @@ class OrionTransport(Transport):
         self._flush.set()
         for thread in self._threads:
             thread.join(timeout=10)
-        self._deliver_pending()  # a last attempt with what the run produced at its end
+        try:
+            self._deliver_pending()  # a last attempt with what the run produced at its end
+        except Exception:  # noqa: BLE001 - closing must finish
+            log.exception("final delivery failed")
         if self._listener is not None:
             self._listener.stop()
-        if self._subscription is not None:
+        for sid in sorted(self._subscriptions):
             try:
-                self.client.unsubscribe(self._subscription)
+                self.client.unsubscribe(sid)
             except OrionError as exc:
-                log.warning("could not delete subscription %s: %s", self._subscription, exc)
+                log.warning("could not delete subscription %s: %s", sid, exc)
         self.client.close()
 
     def status(self) -> str:
@@ -200,31 +211,61 @@ class OrionTransport(Transport):
                 self._flush.set()  # try again even without a new tick
 
     def _deliver_pending(self) -> bool:
-        from vcran.codec import CodecError, encode_entity_json, split_batch
+        """Send what the outbox holds; False when Orion could not take it (it is given back)."""
+        from vcran.codec import split_batch
 
-        pending, frame = self.outbox.take()
-        if not pending and frame is None:
+        batch = self.outbox.take()
+        if not batch:
             return True
-        try:
-            entities = [encode_entity_json(robot, self.options.entity_type, attrs)
-                        for robot, attrs in _entities(self.options.robots, pending, frame)]
-            bodies = split_batch(entities)
-        except CodecError as exc:  # a bug, not a fault of Orion: drop the batch, say so loudly
-            log.error("cannot encode the outbound batch: %s", exc)
-            return True
+        bodies = [body for entities in self._rounds(batch) for body in split_batch(entities)]
         try:
             for body in bodies:
                 self.client.update(body)
-                self.requests += 1
-                self.updates += 1
+                self._count("requests", "updates")
+        except OrionRejected as exc:
+            # Orion refuses this content (a 4xx): sending it again will not help, and holding it back
+            # would block every other robot's updates. Drop it, say so once, carry on with new state.
+            self.outbound.failed(f"Orion refused a batch update, dropped: {exc}")
+            return True
         except OrionError as exc:
-            # Bodies already taken stay taken; giving everything back resends them, which Orion
-            # treats as a same-value write. Simpler than tracking which entities got through.
-            self.outbox.give_back(pending, frame)
+            # Giving everything back resends bodies that got through, which Orion treats as a
+            # same-value write: simpler than tracking which entities arrived.
+            self.outbox.give_back(batch)
             self.outbound.failed(str(exc))
             return False
-        self.outbound.ok(f"delivered {len(entities)} entities")
+        self.outbound.ok("delivered the fleet's latest state")
         return True
+
+    def _rounds(self, batch: Batch) -> Iterator[list[bytes]]:
+        """Encoded entities per request round: the state and each robot's oldest error, then one more
+        round per further error of a robot (an entity can carry one value of an attribute at a time)."""
+        errors: dict[str, list[Message]] = {}
+        for robot, message in batch.errors:
+            errors.setdefault(robot, []).append(message)
+        first = list(self._encoded(_entities(self.options.robots, batch.state, batch.frame, errors)))
+        if first:
+            yield first
+        while any(errors.values()):
+            extra = {robot: {"ran_error": queue.pop(0)} for robot, queue in errors.items() if queue}
+            yield list(self._encoded(extra.items()))
+
+    def _encoded(self, entities: Iterator[tuple[str, dict[str, Message]]] | Any) -> Iterator[bytes]:
+        from vcran.codec import CodecError, encode_entity_json
+        from vcran.orion_rules import MAX_REQUEST_BYTES
+
+        for robot, attrs in entities:
+            while attrs:
+                try:
+                    data = encode_entity_json(robot, self.options.entity_type, attrs)
+                except CodecError as exc:  # a bug, not Orion's fault: drop the attribute, keep the rest
+                    log.error("cannot encode %s of %s, dropped: %s", exc.attribute or "an attribute", robot, exc)
+                    attrs = {k: v for k, v in attrs.items() if k != exc.attribute} if exc.attribute in attrs else {}
+                    continue
+                if len(data) > MAX_REQUEST_BYTES - 64:
+                    log.error("%s encodes to %d bytes, over Orion's request limit: not sent", robot, len(data))
+                else:
+                    yield data
+                break
 
     # --- inbound ----------------------------------------------------------------------------------------
 
@@ -233,25 +274,36 @@ class OrionTransport(Transport):
         period = self.options.poll_interval / self._env.speed
         next_poll = monotonic()
         while not self._stop.is_set():
-            self._read_all()
+            try:
+                self._read_all()
+                self.inbound.ok()
+            except OrionError as exc:
+                self.inbound.failed(str(exc))
             next_poll = max(next_poll + period, monotonic())
             self._stop.wait(max(0.0, next_poll - monotonic()))
 
     def _subscription_loop(self) -> None:
+        unread = True  # the entities must be read after each (re)subscription
         while not self._stop.is_set():
             try:
-                if self._subscription is None or not self.client.subscription_exists(self._subscription):
-                    if self._subscriptions:  # it existed: Orion lost it, and maybe our entities with it
-                        self.outbox.resend_all()
-                        self._flush.set()
+                if self._subscription is not None and not self.client.subscription_exists(self._subscription):
+                    # Orion lost it (restart, or someone deleted it), and maybe our entities with it.
+                    log.warning("subscription %s is gone from Orion; re-creating it", self._subscription)
+                    self._subscriptions.discard(self._subscription)
+                    self._subscription = None
+                    self.outbox.resend_all()
+                    self._flush.set()
+                if self._subscription is None:
                     self._subscription = self.client.subscribe(self._subscription_body())
                     self._subscriptions.add(self._subscription)
                     log.info("subscribed to Orion: %s", self._subscription)
-                    self._read_all(raise_errors=True)  # whatever was written before (or while) it existed
+                    unread = True
+                if unread:
+                    self._read_all()
+                    unread = False
                 self.inbound.ok("subscription in place")
-            except OrionError as exc:
+            except OrionError as exc:  # keep the subscription id: only Orion saying 404 makes it stale
                 self.inbound.failed(str(exc))
-                self._subscription = None
                 self._stop.wait(self.options.backoff_start)
                 continue
             self._stop.wait(self.options.keepalive)
@@ -267,22 +319,17 @@ class OrionTransport(Transport):
             "notification": {"http": {"url": self.options.notify_url}, "attrs": attrs, "attrsFormat": "normalized"},
         }
 
-    def _read_all(self, raise_errors: bool = False) -> None:
-        try:
-            entities = self.client.entities(self.options.entity_type, list(self.options.robots), INBOUND)
-            self.requests += 1
-        except OrionError as exc:
-            if raise_errors:
-                raise
-            self.inbound.failed(str(exc))
-            return
-        if not self.options.notify_url:
-            self.inbound.ok()
+    def _read_all(self) -> None:
+        """Read every robot's command attributes once; raises OrionError."""
+        with self._lock:
+            before = dict(self._forwarded)
+        entities = self.client.entities(self.options.entity_type, list(self.options.robots), INBOUND)
+        self._count("requests")
         if len(entities) < len(self.options.robots) and monotonic() - self._resent > 1.0:
             self._resent = monotonic()  # some robot entity is gone (Orion restarted or someone deleted it)
             self.outbox.resend_all()
             self._flush.set()
-        self._forward(entities, monotonic())
+        self._forward(entities, monotonic(), unchanged_since=before)
 
     def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
         if subscription not in self._subscriptions:
@@ -290,21 +337,30 @@ class OrionTransport(Transport):
             return
         self._forward(data, monotonic())
 
-    def _forward(self, entities: list[dict[str, Any]], arrived: float) -> None:
-        env, deliver = self._env, self._deliver
-        assert env is not None and deliver is not None
-        for entity in entities:
-            robot = entity.get("id")
-            for attribute in INBOUND:
-                if attribute not in entity:
+    def _forward(self, entities: list[dict[str, Any]], arrived: float,
+                 unchanged_since: dict[tuple[str, str], int] | None = None) -> None:
+        """Hand new values to the simulation, in order. ``unchanged_since`` (a read's snapshot of the
+        forward counters): skip values that a notification replaced while the read was in flight."""
+        env = self._env
+        assert env is not None
+        with self._lock:  # one order for reads and notifications: the order of call_soon
+            for entity in entities:
+                robot = entity.get("id")
+                if robot not in self._robots:
                     continue
-                value = entity[attribute]
-                with self._last_lock:
-                    if self._last.get((robot, attribute)) == value:
+                for attribute in INBOUND:
+                    if attribute not in entity:
                         continue
-                    self._last[(robot, attribute)] = value
-                inbound = Inbound(str(robot), attribute, raw=value)
-                env.call_soon(lambda inbound=inbound: self._enter(inbound, arrived))
+                    key = (robot, attribute)
+                    if unchanged_since is not None and self._forwarded.get(key, 0) != unchanged_since.get(key, 0):
+                        continue
+                    value = entity[attribute]
+                    if self._last.get(key) == value:
+                        continue
+                    self._last[key] = value
+                    self._forwarded[key] = self._forwarded.get(key, 0) + 1
+                    inbound = Inbound(robot, attribute, raw=value)
+                    env.call_soon(lambda inbound=inbound: self._enter(inbound, arrived))
 
     def _enter(self, inbound: Inbound, arrived: float) -> None:
         assert self._deliver is not None
@@ -314,38 +370,41 @@ class OrionTransport(Transport):
         self._deliver(inbound)
 
 
-def _entities(robots: tuple[str, ...], pending: dict[str, dict[str, Message]], frame: Frame | None):  # type: ignore[no-untyped-def]
-    """``(robot, {attribute: message})`` in fleet order, attributes in a fixed order."""
+def _resilient(name: str, loop: Callable[[], None], stop: threading.Event) -> Callable[[], None]:
+    """Run a worker loop; an unexpected error is logged and the loop restarted, never silently lost."""
+
+    def run() -> None:
+        while not stop.is_set():
+            try:
+                loop()
+                return
+            except Exception:  # noqa: BLE001 - a worker must outlive a bug in one iteration
+                log.exception("%s: unexpected error; restarting the loop", name)
+                stop.wait(1.0)
+
+    return run
+
+
+def _entities(
+    robots: tuple[str, ...], state: dict[str, dict[str, Message]], frame: Frame | None,
+    errors: dict[str, list[Message]],
+) -> Iterator[tuple[str, dict[str, Message]]]:
+    """``(robot, {attribute: message})`` in fleet order, attributes in a fixed order; takes each
+    robot's oldest waiting error."""
     motions = {}
     if frame is not None:
         stamp = Time.from_seconds(frame.t)
-        for robot, (x, y, theta, v, w) in zip(frame.robots, frame.columns.tolist()):
+        for robot, (x, y, theta, v, w) in zip(frame.robots, frame.columns.tolist(), strict=True):
             motions[robot] = motion_message(stamp, x, y, theta, v, w)
     for robot in robots:
         attrs: dict[str, Message] = {}
         if robot in motions:
             attrs["current_motion"] = motions[robot]
-        extra = pending.get(robot, {})
-        for name in ATTRIBUTE_ORDER[1:]:
+        extra = state.get(robot, {})
+        for name in ATTRIBUTE_ORDER[1:-1]:
             if name in extra:
                 attrs[name] = extra[name]
+        if errors.get(robot):
+            attrs["ran_error"] = errors[robot].pop(0)
         if attrs:
             yield robot, attrs
-
-
-def motion_message(stamp: Time, x: float, y: float, theta: float, v: float, w: float) -> Motion:
-    """``current_motion`` of one robot: pose in the map frame and body velocities (SPEC §2)."""
-    return Motion(
-        PoseStamped(Header(0, stamp, "/map"), Pose(Point(x, y, 0.0), Quaternion.from_yaw(theta))),
-        Twist(Vector3(v, 0.0, 0.0), Vector3(0.0, 0.0, w)),
-    )
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float, step: float = 0.02) -> bool:
-    """Poll ``predicate`` until true or ``timeout`` wall seconds passed (tests and the CLI use it)."""
-    end = monotonic() + timeout
-    while monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(step)
-    return predicate()

@@ -7,6 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
+from vcran.cli import CommandError
 from vcran.commands import load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
@@ -50,6 +51,10 @@ def run(args: argparse.Namespace) -> int:
         notify_url=args.notify_url, listen_host=args.listen, poll_interval=args.poll_interval,
     )
     transport = OrionTransport(client_from_args(args), options)
+    try:
+        transport.open()  # bind the notification listener now: a busy port is an error, not a half run
+    except OSError as exc:
+        raise CommandError(f"cannot listen for notifications on {args.listen}, {args.notify_url}: {exc.strerror}") from None
 
     models = []
     line = None if args.quiet else StatusLine(sys.stderr)
@@ -58,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         models.append(model)
 
         def stop(signum: int, _frame: object) -> None:
-            env.call_soon(model.stop)
+            env.call_from_signal(model.stop)
 
         signal.signal(signal.SIGINT, stop)
         signal.signal(signal.SIGTERM, stop)

@@ -20,7 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError
-    from transports.orion.transport import motion_message
+    from vcran.build import motion_message
     from vcran.codec import encode_entity_json, split_batch
     from vcran.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
     from vcran.sim.ran import description

@@ -38,7 +38,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"replayed {trace}: {result.summary['sim_time']:g} s simulated in {result.wall_seconds:.3f} s")
     if not args.verify:
         return 0
-    difference = verify(trace.parent, args.out)
+    try:
+        difference = verify(trace, args.out)
+    except (OSError, ValueError) as exc:
+        print(f"vcran replay --verify: {exc}", file=sys.stderr)
+        return 2
     if difference is not None:
         print(f"vcran replay --verify: {difference}", file=sys.stderr)
         return 1

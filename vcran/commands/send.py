@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
                 failures += 1
                 hint = " (run vcran orion init first)" if exc.status == 404 else ""
                 print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}{hint}", file=sys.stderr)
-            except OrionError as exc:
+            except (OrionError, ValueError) as exc:  # ValueError: a raw value with NaN is no JSON to send
                 failures += 1
                 print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}", file=sys.stderr)
             else:

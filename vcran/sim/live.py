@@ -37,7 +37,7 @@ class LiveEnvironment(RealtimeEnvironment):
     def __init__(self, speed: float = 1.0) -> None:
         if not speed > 0:
             raise ValueError(f"speed factor must be positive, got {speed}")
-        super().__init__(0, factor=1.0 / speed, strict=False)
+        super().__init__(0.0, factor=1.0 / speed, strict=False)
         self.speed = speed
         self._calls: SimpleQueue[Callable[[], Any]] = SimpleQueue()
         self._wake = threading.Event()
@@ -45,10 +45,15 @@ class LiveEnvironment(RealtimeEnvironment):
     def call_soon(self, fn: Callable[[], Any]) -> None:
         """Run ``fn()`` in the simulation thread at the simulated time of this wall-clock instant.
 
-        Thread-safe, and safe from a signal handler. Calls keep their order.
+        Thread-safe; calls keep their order. From a signal handler use :meth:`call_from_signal`.
         """
         self._calls.put(fn)
         self._wake.set()
+
+    def call_from_signal(self, fn: Callable[[], Any]) -> None:
+        """Like :meth:`call_soon`, for signal handlers: only the reentrant ``SimpleQueue.put``, no lock
+        (an Event's lock could be held by the interrupted thread); the loop notices within ``MAX_WAIT``."""
+        self._calls.put(fn)
 
     def wall_now(self) -> float:
         """The simulated time that corresponds to the wall clock now (never before ``self.now``)."""

@@ -55,7 +55,7 @@ class Model:
         an observer for a progress display, which sees the run but cannot change it. It rides on the tick
         rather than on events of its own, so a run with a progress bar schedules exactly the same events."""
         self.scenario = scenario
-        self.env = env if env is not None else simpy.Environment()
+        self.env = env if env is not None else simpy.Environment(0.0)  # times are floats from the start
         self.transport = transport
         self.events = events
         s = scenario.settings

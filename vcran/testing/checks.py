@@ -234,7 +234,7 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
                 return [f"{name} differs between two runs of the same scenario (§5)"]
         trace = work / "a" / "trace.jsonl"
         run_to(scenario_from_trace(trace), work / "c", ReplayTransport(trace))
-        difference = verify(work / "a", work / "c")
+        difference = verify(trace, work / "c")
         return [f"replay verification (§6): {difference}"] if difference is not None else []
     except Exception as exc:  # noqa: BLE001 - any crash on input is the finding
         return [f"crash: {type(exc).__name__}: {exc}"]
