@@ -20,7 +20,7 @@ def test_r7_timer_at_exactly_the_deadline_cancels():
     """Mutation ``now > task.deadline`` in on_timer: the deadline instant must cancel (R7)."""
     state = RanLogicMachine()
     state.configure(limit=2)
-    plans_0 = state.first_plan(plan=TaskPlan(task='A', length=1, motions=0))
+    plans_0 = state.first_plan(plan=TaskPlan(task='A', length=1, motions=0))  # noqa: F841 - pasted verbatim from hypothesis
     plans_1 = state.plan(plan=TaskPlan(task='A', length=2, motions=0))
     state.send(plan=plans_1, pos=1, variant='planned')
     state.advance(dt=10.0)

@@ -20,6 +20,7 @@ from vcran.scenario import parse
 from vcran.testing.checks import run_variant
 from vcran.testing.scripts import fleets, load_text, perturbations, perturbed_toml
 
+
 @st.composite
 def perturbed_fleets(draw: st.DrawFn, malformed: bool) -> str:
     base = parse(draw(fleets()), "<generated>")

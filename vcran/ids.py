@@ -63,8 +63,7 @@ class Id:
     @property
     def canonical(self) -> str:
         """The canonical lower-case uuid string, e.g. ``05030602-0907-0300-0608-010107040503``."""
-        h = self.uuid.hex()
-        return f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:]}"
+        return canonical_uuid(self.uuid)
 
     @property
     def label(self) -> str:
@@ -100,6 +99,12 @@ class Id:
     @property
     def octets(self) -> list[int]:
         return list(self.uuid)
+
+
+def canonical_uuid(octets: bytes) -> str:
+    """Sixteen bytes as the canonical lower-case 8-4-4-4-12 uuid string."""
+    h = octets.hex()
+    return f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:]}"
 
 
 NIL = Id(bytes(16))

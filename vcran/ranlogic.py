@@ -14,8 +14,8 @@ deadline`` when the timer fires, and the driver delivers inputs of an instant be
 from __future__ import annotations
 
 from collections import OrderedDict, deque
-from itertools import islice
 from collections.abc import Callable
+from itertools import islice
 
 from vcran.effects import (
     ActionFinished,
@@ -224,8 +224,7 @@ class RanLogic:
                 self._new_task(now, a)
             elif not ended.has_identical(a):
                 code = "task_completed" if ended.reason is None else "task_cancelled"
-                what = "completed" if ended.reason is None else f"cancelled, reason {ended.reason.value}"
-                self._reject(code, f"task {a.task_id.label} was already {what} [R9]", a)
+                self._reject(code, f"task {a.task_id.label} was already {_how(ended)} [R9]", a)
             return
         pos = task.lookup(a)
         if pos is not None and same_content(task.slots[pos], a):
@@ -292,9 +291,8 @@ class RanLogic:
             )
         elif ended.cancel != c:
             ended.cancel = c
-            what = "completed" if ended.reason is None else f"cancelled, reason {ended.reason.value}"
             self._error(
-                Rejected, "cancel_finished_task", f"cancel for task {c.task_id.label}, already {what} [R8]",
+                Rejected, "cancel_finished_task", f"cancel for task {c.task_id.label}, already {_how(ended)} [R8]",
                 c.task_id, severity="warning",
             )
 
@@ -419,3 +417,7 @@ class RanLogic:
     def _end(self) -> list[Effect]:
         out, self._out = self._out, []
         return out
+
+
+def _how(ended: Ended) -> str:
+    return "completed" if ended.reason is None else f"cancelled, reason {ended.reason.value}"

@@ -15,11 +15,11 @@ from typing import IO, Any
 
 import simpy
 
-from transports.base import Transport
 from transports.record import RecordingTransport
 from vcran.scenario import Scenario
 from vcran.sim.model import Model
 from vcran.trace import TraceWriter, dumps
+from vcran.wire import Transport
 
 
 class EventLog:

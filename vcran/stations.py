@@ -12,7 +12,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from vcran.messages import ActionKind
+from vcran.messages import ActionKind, MotionAssignment
 
 
 @dataclass(slots=True)
@@ -145,3 +145,9 @@ def area_problem(points: list[tuple[float, float]], x: float, y: float) -> str |
     if not covers(shape, Point(x, y)):
         return f"target {x}, {y} is outside its motion_area"
     return None
+
+
+def motion_area_problem(motion: MotionAssignment) -> str | None:
+    """R12: why a motion's target lies outside its own non-empty motion_area, or None."""
+    points = motion.motion_area.xy()
+    return area_problem(points, motion.point.x, motion.point.y) if points else None

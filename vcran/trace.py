@@ -24,6 +24,7 @@ from typing import IO, Any
 import numpy as np
 import orjson
 
+from vcran.ids import canonical_uuid
 from vcran.wire import Frame, Inbound, Publish
 
 FORMAT = "vcran-trace"
@@ -44,8 +45,7 @@ def _default(value: Any) -> Any:
     if isinstance(value, bytes) and len(value) == 16:
         if len(_CANONICAL) >= 8_192:
             _CANONICAL.clear()
-        h = value.hex()
-        text = _CANONICAL[value] = f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:]}"
+        text = _CANONICAL[value] = canonical_uuid(value)
         return text
     raise TypeError(f"cannot render {type(value).__name__} in an output file")
 

@@ -12,17 +12,16 @@ from typing import Any, Protocol
 
 import simpy
 
-from transports.base import Transport
 from vcran.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
-from vcran.messages import Message, MotionAssignment
+from vcran.messages import Message
 from vcran.motion import FleetKinematics
 from vcran.ranlogic import RanLogic
 from vcran.scenario import Scenario
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
 from vcran.sim.timing import END, PRODUCTION, at
-from vcran.stations import Station, StationMap, area_problem
-from vcran.wire import Inbound
+from vcran.stations import Station, StationMap, motion_area_problem
+from vcran.wire import Inbound, Transport
 
 
 class EventSink(Protocol):
@@ -33,12 +32,6 @@ def default_decode(attribute: str, raw: Any) -> Message:
     from vcran.codec import decode_attribute  # imported on first raw payload only
 
     return decode_attribute(attribute, raw)
-
-
-def motion_area_check(m: MotionAssignment) -> str | None:
-    """R12: a target outside a non-empty motion_area."""
-    points = m.motion_area.xy()
-    return area_problem(points, m.point.x, m.point.y) if points else None
 
 
 class Model:
@@ -74,7 +67,7 @@ class Model:
         self.robots: list[RobotNode] = []
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
-                             area_check=motion_area_check)
+                             area_check=motion_area_problem)
             self.robots.append(RobotNode(self.env, i, config, logic, self.fleet, station_map, s.durations,
                                          self._log, self._changed))
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)

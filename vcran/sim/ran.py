@@ -16,7 +16,6 @@ from typing import Any
 
 import simpy
 
-from transports.base import Transport
 from vcran.build import CATEGORY_OF
 from vcran.effects import ErrorReport
 from vcran.ids import id_for
@@ -33,7 +32,7 @@ from vcran.messages import (
 from vcran.scenario import RobotConfig
 from vcran.sim.robot import Decoded, Malformed, RobotNode
 from vcran.sim.timing import TELEMETRY, at
-from vcran.wire import Frame, Inbound, Publish
+from vcran.wire import Frame, Inbound, Publish, Transport
 
 Decode = Callable[[str, Any], Message]
 

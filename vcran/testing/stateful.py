@@ -22,8 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from hypothesis import event
-from hypothesis.control import currently_in_test_context
 from hypothesis import strategies as st
+from hypothesis.control import currently_in_test_context
 from hypothesis.stateful import Bundle, RuleBasedStateMachine, initialize, invariant, precondition, rule
 
 from vcran import build
@@ -46,18 +46,13 @@ from vcran.effects import (
 from vcran.ids import NIL, Id
 from vcran.messages import ActionAssignment, Assignment, MotionAssignment
 from vcran.ranlogic import TRANSITIONS, RanLogic
-from vcran.stations import area_problem
+from vcran.stations import motion_area_problem
 from vcran.testing.model import ReferenceRan, motions_complete, observe
 from vcran.testing.plans import AREA, TaskPlan, task_plans, variants
 
 TIMEOUT = 10.0
 #: Time steps: 10.0 lands exactly on a deadline set 10 s earlier (R7's boundary).
 STEPS = (0.0, 1.0, 2.5, 5.0, 10.0)
-
-
-def area_check(m: MotionAssignment) -> str | None:
-    """RanLogic's R12 check, as the SimPy model wires it."""
-    return area_problem(m.motion_area.xy(), m.point.x, m.point.y)
 
 
 def outside_box(m: MotionAssignment) -> str | None:
@@ -94,14 +89,14 @@ class RanLogicMachine(RuleBasedStateMachine):
         self.now = 0.0
         self.driver = Driver()
         self.limit = 10_000
-        self.logic = RanLogic("r", task_timeout=TIMEOUT, area_check=area_check)
+        self.logic = RanLogic("r", task_timeout=TIMEOUT, area_check=motion_area_problem)
         self.model = ReferenceRan(TIMEOUT, area=outside_box)
 
     @initialize(limit=st.sampled_from([2, 10_000]))
     def configure(self, limit: int) -> None:
         """A small history limit in some runs, so that R9's bound and forgetting are exercised."""
         self.limit = limit
-        self.logic = RanLogic("r", task_timeout=TIMEOUT, history_limit=limit, area_check=area_check)
+        self.logic = RanLogic("r", task_timeout=TIMEOUT, history_limit=limit, area_check=motion_area_problem)
         self.model = ReferenceRan(TIMEOUT, history_limit=limit, area=outside_box)
 
     @initialize(target=plans, plan=task_plans())
