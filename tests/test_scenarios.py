@@ -283,3 +283,17 @@ def test_raw_value_that_is_not_json_fails_to_load():
     text = script('t = 1\nkind = "raw"\nattribute = "cancel_order"\nvalue = {when = 1979-05-27T07:32:00}')
     with pytest.raises(ScenarioError, match="script\\[0\\].*field 'value': not a JSON value"):
         parse(tomllib.loads(text), "x.toml")
+
+
+def test_scripted_transport_holds_the_final_entity_state_like_orion(tmp_path):
+    from transports.scripted import ScriptedTransport
+    from vcran.runner import run_to
+
+    scenario = load(ROOT / "scenarios" / "demo.toml")
+    transport = ScriptedTransport(scenario.messages())
+    run_to(scenario, tmp_path, transport)
+    status = transport.latest[("robot_1", "ran_status")]
+    assert status.state == "WAITING" and [i.description for i in status.completed] == ["100", "200", "300"]
+    assert transport.last_frame is not None and transport.last_frame.t == 57.0
+    assert transport.counts["current_motion"] == 58  # one per tick, t = 0 .. 57
+    assert transport.counts["robot_description"] == 1

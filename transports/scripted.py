@@ -1,8 +1,10 @@
 """The scripted transport: the scenario's message script plays the fleet manager (the seed's JMeter file).
 
 Inbound messages enter at their script times, as fast as the simulation runs. Outbound messages are kept
-the way Orion keeps them: the latest value per robot and attribute (plus counts), so memory stays flat
-however long the run; the full outbound stream is the recording wrapper's business.
+the way Orion keeps them, as the fleet's entities: the latest value per robot and attribute (``latest``,
+``last_frame``), plus how many of each were sent (``counts``), so memory stays flat however long the
+run; the full outbound stream is the recording wrapper's business. A test or a user embedding vcran
+reads the final entity state from here.
 """
 
 from __future__ import annotations
@@ -24,7 +26,6 @@ class ScriptedTransport(Transport):
         """``script`` must be in time order (``Scenario.messages()`` is); it is consumed lazily."""
         self._script: Iterator[ScriptEntry] = iter(script)
         self._exhausted = False
-        self._delivered = 0
         self.latest: dict[tuple[str, str], Message] = {}
         self.last_frame: Frame | None = None
         self.counts: Counter[str] = Counter()
@@ -37,7 +38,6 @@ class ScriptedTransport(Transport):
             if entry.t > env.now:
                 yield at(env, entry.t, INBOUND)
             deliver(Inbound(entry.robot, entry.attribute, entry.message, entry.raw))
-            self._delivered += 1
         self._exhausted = True
 
     @property

@@ -51,7 +51,8 @@ def motion(
     area: list[tuple[float, float]] | None = None,
     stamp: float = 0.0,
 ) -> MotionAssignment:
-    """A motion assignment; ``is_waypoint`` defaults to "not the last point of the path"."""
+    """A motion assignment; ``is_waypoint`` defaults to "not the task's last position" (give it
+    explicitly for the last motion of a task that has actions: only the caller knows it is last)."""
     return MotionAssignment(
         header=Header(0, Time.from_seconds(stamp), ""),
         point_id=_id(name),

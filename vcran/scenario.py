@@ -406,8 +406,8 @@ def task_entries(time: float, robot: str, task: str, spec: TaskSpec, every: floa
     for i, (x, y, theta) in enumerate(spec.path, start=1):
         at = time + (i - 1) * every
         last_with_theta = i == len(spec.path) and theta is not None
-        m = build.motion(task, f"{task}_m{i}", i, length, x, y, theta or 0.0,
-                         use_orientation=last_with_theta, max_velocity=speed, stamp=at)
+        m = build.motion(task, f"{task}_m{i}", i, length, x, y, theta or 0.0, use_orientation=last_with_theta,
+                         is_waypoint=i < len(spec.path), max_velocity=speed, stamp=at)
         yield ScriptEntry(at, robot, "motion_assignment", m)
     for j, kind in enumerate(spec.actions, start=1):
         pos = len(spec.path) + j

@@ -58,8 +58,6 @@ class Listener:
         self.path = path
         self.max_body = max_body
         self._on = on_notification
-        self.received = 0
-        self.refused = 0
         self._lock = threading.Lock()
         self._server = ThreadingHTTPServer((host, port), Handler)
         self._server.daemon_threads = True
@@ -85,7 +83,6 @@ class Listener:
             return self._refuse(400, "not an NGSI v2 notification: need subscriptionId and data")
         try:
             with self._lock:
-                self.received += 1
                 self._on(body["subscriptionId"], [e for e in body["data"] if isinstance(e, dict)])
         except Exception:  # a bug downstream must not kill the listener
             log.exception("notification handling failed")
@@ -93,8 +90,6 @@ class Listener:
         return 204, ""
 
     def _refuse(self, status: int, problem: str) -> tuple[int, str]:
-        with self._lock:
-            self.refused += 1
         log.warning("notification refused (%s): %s", status, problem)
         return status, problem
 
