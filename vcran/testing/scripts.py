@@ -95,6 +95,42 @@ class InjectMalformed:
 Perturbation = Delay | Swap | Duplicate | Drop | InjectCancel | InjectMalformed
 
 #: Payloads that are wrong in shape, type or content, whatever the rendering (R12).
+def _nested(depth: int) -> Any:
+    value: Any = 0
+    for _ in range(depth):
+        value = [value]
+    return value
+
+
+def _near_valid() -> tuple[Any, ...]:
+    """Real encodings of valid messages with one field broken: what a buggy fleet manager sends."""
+    from vcran.codec import encode_attribute
+
+    def motion(mutate: Any) -> Any:
+        attr = encode_attribute("motion_assignment", build.motion("M", "M_m1", 1, 2, 1.0, 2.0))
+        mutate(attr["value"])
+        return attr
+
+    def set_path(*path: str, to: Any) -> Any:
+        def mutate(value: Any) -> None:
+            for key in path[:-1]:
+                value = value[key]["value"] if isinstance(value[key], dict) and "value" in value[key] else value[key]
+            value[path[-1]] = to
+        return mutate
+
+    return (
+        motion(set_path("point", "x", to={"type": "number", "value": float("nan")})),
+        motion(set_path("point", "x", to={"type": "string", "value": "1.0"})),
+        motion(set_path("sequence", "sequence_number", to={"type": "number", "value": 3})),
+        motion(set_path("task_id", "uuid", to={"type": "array", "value": [{"type": "number", "value": 1}] * 15})),
+        motion(set_path("task_id", "uuid", to={"type": "array", "value": [{"type": "number", "value": 256}] * 16})),
+        motion(lambda value: value.pop("sequence")),
+    )
+
+
+#: Payloads the RAN must reject (R12) without crashing, recording them exactly for replay (§6): wrong
+#: shapes, values no message can hold (NaN, a 100-digit integer, nesting deeper than orjson writes),
+#: and near-valid encodings with one field broken.
 MALFORMED: tuple[Any, ...] = (
     "garbage",
     42,
@@ -102,6 +138,10 @@ MALFORMED: tuple[Any, ...] = (
     {},
     {"type": "mars_agent_physical_robot_msgs.MotionAssignment", "value": {"task_id": 7}},
     {"type": "mars_agent_physical_robot_msgs.CancelTask", "value": {"task_id": {"uuid": [1, 2, 3]}}},
+    {"type": "x", "value": float("nan")},
+    {"type": "x", "value": {"task_id": 10**100}},
+    {"type": "x", "value": _nested(300)},
+    *_near_valid(),
 )
 
 
