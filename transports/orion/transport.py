@@ -27,6 +27,7 @@ import math
 import statistics
 import threading
 from collections.abc import Callable, Iterator
+from functools import partial
 from dataclasses import dataclass
 from time import monotonic
 from typing import Any
@@ -360,7 +361,7 @@ class OrionTransport(Transport):
                     self._last[key] = value
                     self._forwarded[key] = self._forwarded.get(key, 0) + 1
                     inbound = Inbound(robot, attribute, raw=value)
-                    env.call_soon(lambda inbound=inbound: self._enter(inbound, arrived))
+                    env.call_soon(partial(self._enter, inbound, arrived))
 
     def _enter(self, inbound: Inbound, arrived: float) -> None:
         assert self._deliver is not None

@@ -23,6 +23,7 @@ from time import monotonic
 from typing import Any
 
 import simpy.core
+import simpy.events
 from simpy.rt import RealtimeEnvironment
 
 from vcran.sim.timing import INBOUND, at
@@ -82,4 +83,9 @@ class LiveEnvironment(RealtimeEnvironment):
                 fn = self._calls.get_nowait()
             except Empty:
                 return
-            at(self, self.wall_now(), INBOUND).callbacks.append(lambda _, fn=fn: fn())
+            at(self, self.wall_now(), INBOUND).callbacks.append(_runner(fn))
+
+
+def _runner(fn: Callable[[], Any]) -> Callable[[simpy.events.Event], None]:
+    """An event callback that calls ``fn`` (a closure per call: a lambda in a loop would share ``fn``)."""
+    return lambda _event: fn()

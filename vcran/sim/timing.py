@@ -34,7 +34,7 @@ def after(env: simpy.Environment, delay: float, priority: int) -> Event:
     event = Event(env)
     event._ok = True
     event._value = None
-    env.schedule(event, priority, delay)
+    env.schedule(event, priority, delay)  # type: ignore[arg-type]  # any int orders the heap
     return event
 
 
@@ -51,5 +51,5 @@ def at(env: simpy.Environment, when: float, priority: int) -> Event:
     event = Event(env)
     event._ok = True
     event._value = None
-    heappush(env._queue, (when, priority, next(env._eid), event))  # type: ignore[attr-defined]
+    heappush(env._queue, (when, priority, next(env._eid), event))  # type: ignore[attr-defined,misc]
     return event
