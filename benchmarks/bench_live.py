@@ -53,7 +53,11 @@ def bench(robots: int, seconds: float, factor: float, work: Path) -> dict[str, s
         time.sleep(1.5)  # subscription in place before the first message
         sender = subprocess.Popen([*VCRAN, "send", str(scenario), "--orion", url, "--factor", str(factor), "--quiet"],
                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
-        out, err = live.communicate(timeout=seconds * 3 + 60)
+        try:
+            out, err = live.communicate(timeout=seconds * 3 + 60)
+        except subprocess.TimeoutExpired:
+            live.kill()
+            raise
         sender.send_signal(signal.SIGINT)
         sender.wait(timeout=10)
     finally:

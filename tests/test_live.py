@@ -67,8 +67,18 @@ def broker_process():
     line = proc.stdout.readline()
     assert str(port) in line, line + proc.stderr.read()
     yield f"http://127.0.0.1:{port}"
+    stop(proc)
+
+
+def stop(proc: subprocess.Popen) -> tuple[str, str]:
+    """SIGINT, as a user's Ctrl-C; a process that does not exit in time is killed, never left behind."""
     proc.send_signal(signal.SIGINT)
-    proc.wait(timeout=10)
+    try:
+        return proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        raise AssertionError(f"{proc.args} did not stop on SIGINT:\n{err}") from None
 
 
 def ran_status(url: str, robot: str = "robot_1") -> dict | None:
@@ -102,8 +112,7 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
         done = lambda: [i.description for i in ran_status(url).completed] == ["100", "200", "300"]  # noqa: E731
         assert wait_until(done, 20), ran_status(url)
     finally:
-        live.send_signal(signal.SIGINT)
-        stdout, stderr = live.communicate(timeout=20)
+        stdout, stderr = stop(live)
     assert live.returncode == 0, stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["robots"]["robot_1"]["completed"] == ["100", "200", "300"]
