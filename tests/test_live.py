@@ -213,6 +213,8 @@ def test_broker_restart_mid_run(tmp_path):
         result = run.stop()
         broker.stop()
     assert result.summary["robots"]["robot_1"]["completed"] == ["after"]
+    # what was recorded through the outage replays exactly (§6)
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
@@ -239,6 +241,7 @@ def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
         elapsed = time.monotonic() - start
         run.stop()
     assert progressed >= 10 * elapsed * 0.8  # kept pace with real time at x10 despite 503s and 300 ms answers
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
     downs = [r for r in caplog.records if "retrying in the background" in r.getMessage()]
     assert len(downs) == 1  # logged once, not once per tick
     assert any("is back" in r.getMessage() for r in caplog.records)
