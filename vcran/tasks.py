@@ -10,6 +10,7 @@ from __future__ import annotations
 import pickle
 from dataclasses import dataclass, field, replace
 from hashlib import blake2b
+from collections.abc import Callable
 from typing import Any
 
 from vcran.effects import Reason
@@ -26,27 +27,46 @@ def same_content(a: Assignment, b: Assignment) -> bool:
     return a == b
 
 
-def _flat(message: Any, out: list[Any], skip: str = "") -> None:
-    """Append every primitive of ``message`` in schema order; an id counts by its uuid only (SPEC §2)."""
-    for spec in specs(type(message)):
-        if spec.name == skip:
-            continue
-        value = getattr(message, spec.name)
-        if spec.kind == "prim":
-            out.append(value)
-        elif spec.kind == "id":
-            out.append(value.uuid)
-        elif spec.kind == "msg":
-            _flat(value, out)
-        else:
-            out.append(len(value))
-            for item in value:
+_FLATTENERS: dict[type, Callable[[Any], tuple[Any, ...]]] = {}
+
+
+def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
+    """A function returning every primitive of a ``cls`` in schema order, ids by their uuid only
+    (SPEC §2), without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
+    costs several times more, and this runs for every assignment of every ended task."""
+    key = (cls, skip)
+    found = _FLATTENERS.get(key)  # type: ignore[call-overload]
+    if found is not None:
+        return found
+    helpers: dict[str, Any] = {}
+    parts: list[str] = []
+
+    def walk(c: type, path: str, omit: str = "") -> None:
+        for spec in specs(c):
+            if spec.name == omit:
+                continue
+            here = f"{path}.{spec.name}"
+            if spec.kind == "prim":
+                parts.append(here)
+            elif spec.kind == "id":
+                parts.append(f"{here}.uuid")
+            elif spec.kind == "msg":
+                walk(spec.cls, here)  # type: ignore[arg-type]
+            else:
+                name = f"_a{len(helpers)}"
                 if spec.cls is None:
-                    out.append(item)
+                    helpers[name] = lambda items: (len(items), *items)
                 elif spec.cls is Id:
-                    out.append(item.uuid)
+                    helpers[name] = lambda items: (len(items), *(i.uuid for i in items))
                 else:
-                    _flat(item, out)
+                    inner = _flattener(spec.cls)
+                    helpers[name] = lambda items, inner=inner: (len(items), *(v for i in items for v in inner(i)))
+                parts.append(f"*{name}({here})")
+
+    walk(cls, "m", skip)
+    found = eval(f"lambda m: ({', '.join(parts)},)", helpers)  # noqa: S307 - source built from specs only
+    _FLATTENERS[key] = found  # type: ignore[index]
+    return found
 
 
 def fingerprint(a: Assignment) -> bytes:
@@ -58,9 +78,8 @@ def fingerprint(a: Assignment) -> bytes:
     collide with probability 2**-128, and even then only a re-read that should have been reported (R9)
     would go silent: an ended task applies nothing either way.
     """
-    out: list[Any] = [type(a).__name__]
-    _flat(a, out, skip="header")  # only MotionAssignment has one
-    return blake2b(pickle.dumps(out, protocol=5), digest_size=16).digest()
+    content = (type(a).__name__, *_flattener(type(a), "header")(a))  # only MotionAssignment has one
+    return blake2b(pickle.dumps(content, protocol=5), digest_size=16).digest()
 
 
 def assignment_id(a: Assignment) -> Id:
