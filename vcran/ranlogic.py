@@ -135,7 +135,7 @@ class RanLogic:
         """The AGV reached the point of ``motion_id`` (the next leg of the current path)."""
         self._begin(now)
         task = self._current()
-        if task is None or self.state is not State.MOTION or task.m is None or task.motions_done >= task.m:
+        if task is None or not self._driving(task):
             raise LocalProtocolError(f"{self.robot}: motion {motion_id.label} finished but no leg was running")
         expected = assignment_id(task.slots[task.motions_done + 1])
         if expected != motion_id:
@@ -189,7 +189,7 @@ class RanLogic:
     @property
     def current_motion(self) -> Id:
         task = self._current()
-        if task is None or self.state is not State.MOTION or task.m is None or task.motions_done >= task.m:
+        if task is None or not self._driving(task):
             return NIL
         return assignment_id(task.slots[task.motions_done + 1])
 
@@ -301,7 +301,7 @@ class RanLogic:
         if task is not self._current():
             self._cancel_now(now, task, reason, cancel)
             return
-        driving = self.state is State.MOTION and task.m is not None and task.motions_done < task.m
+        driving = self._driving(task)
         if driving or task.action_running:
             task.ending = reason
             task.cancel = cancel
@@ -377,6 +377,10 @@ class RanLogic:
         self.version += 1
 
     # --- helpers ----------------------------------------------------------------------------------------
+
+    def _driving(self, task: Task) -> bool:
+        """The AGV is on a leg of ``task``'s path (``task`` being the current task)."""
+        return self.state is State.MOTION and task.m is not None and task.motions_done < task.m
 
     def _current(self) -> Task | None:
         return next(iter(self.queue.values()), None)

@@ -109,12 +109,14 @@ class Ran:
             k += 1
 
     def descriptions(self, period: float) -> Generator[simpy.events.Event, Any, None]:
+        """``robot_description`` of every robot at start and every ``period``: built once, it never changes."""
+        messages = [(robot.id, description(robot.config, robot.footprint)) for robot in self.robots]
         j = 0
         while True:
             t = j * period
             yield at(self.env, t, TELEMETRY)
-            for robot in self.robots:
-                self.transport.send(Publish(t, robot.id, "robot_description", description(robot.config, robot.footprint)))
+            for robot_id, message in messages:
+                self.transport.send(Publish(t, robot_id, "robot_description", message))
             j += 1
 
     def _publish_if_new(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
