@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vcran.scenario import Scenario, ScenarioError, parse
-from vcran.trace import TELEMETRY_FILE, read_header, records, telemetry
+from vcran.trace import TELEMETRY_FILE, lines, read_header, telemetry
 from vcran.wire import Frame
 
 
@@ -93,13 +93,14 @@ def verify(recorded: Path, replayed: Path) -> Difference | None:
     )
 
 
-def _outbound(trace: Path) -> Iterator[dict[str, Any]]:
-    return (r for r in records(trace) if r.get("dir") in ("out", "end"))
+def _outbound(trace: Path) -> Iterator[tuple[str, dict[str, Any]]]:
+    return ((line, r) for line, r in lines(trace) if r.get("dir") in ("out", "end"))
 
 
 def _compare_records(expected: Path, got: Path) -> Difference | None:
-    for a, b in zip_longest(_outbound(expected), _outbound(got)):
-        if a == b and _same_json(a, b):
+    """Record by record, as written: text, not Python values (where 1 == 1.0 == True)."""
+    for (line_a, a), (line_b, b) in zip_longest(_outbound(expected), _outbound(got), fillvalue=("", None)):
+        if line_a == line_b:
             continue
         ref = a or b
         assert ref is not None
@@ -139,11 +140,6 @@ def _compare_events(expected: Path, got: Path) -> Difference | None:
             path, x, y = first_mismatch(a, b)
             return Difference("events.jsonl", ref.get("t"), ref.get("robot"), ref.get("event"), path, x, y)
     return None
-
-
-def _same_json(a: Any, b: Any) -> bool:
-    """Equal as JSON text, not only as Python values (where 1 == 1.0 == True and key order is lost)."""
-    return json.dumps(a) == json.dumps(b)
 
 
 def first_mismatch(a: Any, b: Any, path: str = "") -> tuple[str, Any, Any]:

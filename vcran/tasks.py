@@ -8,9 +8,9 @@ known once R3 holds, which is also the moment the whole path can go to the AGV.
 from __future__ import annotations
 
 import pickle
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from hashlib import blake2b
-from collections.abc import Callable
 from typing import Any
 
 from vcran.effects import Reason

@@ -122,11 +122,16 @@ def read_header(path: Path) -> dict[str, Any]:
 
 def records(path: Path) -> Iterator[dict[str, Any]]:
     """The records after the header, one dict per line."""
+    return (record for _, record in lines(path))
+
+
+def lines(path: Path) -> Iterator[tuple[str, dict[str, Any]]]:
+    """The records after the header with their text as written (verification compares the text)."""
     with path.open(encoding="utf-8") as f:
         f.readline()
         for n, line in enumerate(f, start=2):
             try:
-                yield json.loads(line)
+                yield line, json.loads(line)
             except json.JSONDecodeError as exc:
                 raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
 

@@ -26,7 +26,7 @@ import logging
 import math
 import statistics
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from functools import partial
 from time import monotonic
@@ -74,10 +74,8 @@ class Health:
         self.what = what
         self.fault: str | None = None
         self.since = 0.0
-        self.failures = 0
 
     def failed(self, message: str) -> None:
-        self.failures += 1
         if self.fault is None:
             self.since = monotonic()
             log.warning("%s: %s; retrying in the background", self.what, message)
@@ -250,7 +248,7 @@ class OrionTransport(Transport):
             extra = {robot: {"ran_error": queue.pop(0)} for robot, queue in errors.items() if queue}
             yield list(self._encoded(extra.items()))
 
-    def _encoded(self, entities: Iterator[tuple[str, dict[str, Message]]] | Any) -> Iterator[bytes]:
+    def _encoded(self, entities: Iterable[tuple[str, dict[str, Message]]]) -> Iterator[bytes]:
         from vcran.codec import CodecError, encode_entity_json
         from vcran.orion_rules import MAX_REQUEST_BYTES
 
