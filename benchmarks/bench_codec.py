@@ -16,7 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from vcran.codec import (
+from vcran.core.codec import (
     decode_attribute,
     encode_attribute,
     encode_attribute_json,
@@ -24,9 +24,9 @@ from vcran.codec import (
     encode_entity_json,
     split_batch,
 )
-from vcran.ids import id_for
-from vcran.messages import AssignmentStatus, RanStatus, TaskEnd, Time
-from vcran.schema import Message
+from vcran.core.ids import id_for
+from vcran.core.messages import AssignmentStatus, RanStatus, TaskEnd, Time
+from vcran.core.schema import Message
 
 REFERENCE = Path(__file__).resolve().parent.parent / "tests" / "data" / "opil_robot_entity.json"
 

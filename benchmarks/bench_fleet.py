@@ -63,7 +63,7 @@ def child(*args: str) -> tuple[dict, float]:
 
 
 def bench(robots: int, hours: float, work: Path) -> dict:
-    from vcran.gen import generate
+    from vcran.io.gen import generate
 
     scenario = work / f"fleet-{robots}.toml"
     scenario.write_text(generate(robots, hours, 1))

@@ -36,7 +36,7 @@ def free_port() -> int:
 
 def bench(robots: int, seconds: float, factor: float, work: Path) -> dict[str, str]:
     sys.path.insert(0, str(ROOT))
-    from vcran.gen import generate
+    from vcran.io.gen import generate
 
     scenario = work / f"live-{robots}.toml"
     scenario.write_text(generate(robots, seconds * factor / 3600.0, 1))

@@ -18,8 +18,9 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 from transports.scripted import ScriptedTransport
+from vcran.core.scenario import Scenario
+from vcran.io.scenario_file import parse
 from vcran.runner import run_to
-from vcran.scenario import Scenario, parse
 
 settings.register_profile("vcran", deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("vcran")

@@ -1,5 +1,5 @@
-"""The transport interface (defined in :mod:`vcran.wire`, so the simulation needs only the core)."""
+"""The transport interface (defined in :mod:`vcran.core.wire`, so the simulation needs only the core)."""
 
-from vcran.wire import Deliver, Transport
+from vcran.core.wire import Deliver, Transport
 
 __all__ = ["Deliver", "Transport"]

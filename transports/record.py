@@ -5,8 +5,8 @@ from __future__ import annotations
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.trace import TraceWriter
-from vcran.wire import Frame, Inbound, Outbound
+from vcran.core.wire import Frame, Inbound, Outbound
+from vcran.io.trace import TraceWriter
 
 
 class RecordingTransport(Transport):

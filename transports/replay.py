@@ -13,12 +13,12 @@ from typing import Any
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.messages import INBOUND
-from vcran.plain import from_plain
+from vcran.core.messages import INBOUND
+from vcran.core.plain import from_plain
+from vcran.core.wire import Inbound, Outbound
+from vcran.io.trace import records
 from vcran.sim.timing import INBOUND as INBOUND_PRIORITY
 from vcran.sim.timing import at
-from vcran.trace import records
-from vcran.wire import Inbound, Outbound
 
 
 class TraceError(ValueError):

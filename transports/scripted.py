@@ -15,10 +15,10 @@ from collections.abc import Iterable, Iterator
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.messages import Message
-from vcran.scenario import ScriptEntry
+from vcran.core.messages import Message
+from vcran.core.scenario import ScriptEntry
+from vcran.core.wire import Frame, Inbound, Outbound, Publish
 from vcran.sim.timing import INBOUND, at
-from vcran.wire import Frame, Inbound, Outbound, Publish
 
 
 class ScriptedTransport(Transport):

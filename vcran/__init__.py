@@ -1,3 +1,84 @@
-"""vcran: a headless, deterministic re-implementation of the OPIL VC-RAN (see README.md)."""
+"""vcran: a headless, deterministic re-implementation of the OPIL VC-RAN (see README.md).
+
+This module is the public API: what users import, re-exported from the layers that define it
+(``vcran.core`` pure, ``vcran.sim`` SimPy, ``vcran.io`` files; README "Layout"). Everything else is
+internal and may move. ::
+
+    import vcran
+
+    scenario = vcran.load_scenario("scenarios/demo.toml")
+    print([robot.id for robot in scenario.robots])
+
+The names are loaded on first use (PEP 562), not at ``import vcran``: every ``import vcran.core.x``
+runs this file first, and the pure core must stay free of SimPy and httpx (an import contract and a
+test check it), while ``vcran --help`` should not pay for numpy and SimPy.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
+
+#: Public name -> (module, attribute). The one list of what ``vcran`` exports.
+_EXPORTS: dict[str, tuple[str, str]] = {
+    # scenarios: the data model and its files
+    "Scenario": ("vcran.core.scenario", "Scenario"),
+    "Settings": ("vcran.core.scenario", "Settings"),
+    "RobotConfig": ("vcran.core.scenario", "RobotConfig"),
+    "StationConfig": ("vcran.core.scenario", "StationConfig"),
+    "ScriptEntry": ("vcran.core.scenario", "ScriptEntry"),
+    "load_scenario": ("vcran.io.scenario_file", "load"),
+    "parse_scenario": ("vcran.io.scenario_file", "parse"),
+    "ScenarioError": ("vcran.io.scenario_file", "ScenarioError"),
+    # messages of the OPIL RAN interface (SPEC §2) and ids
+    "Id": ("vcran.core.ids", "Id"),
+    "id_for": ("vcran.core.ids", "id_for"),
+    "MotionAssignment": ("vcran.core.messages", "MotionAssignment"),
+    "ActionAssignment": ("vcran.core.messages", "ActionAssignment"),
+    "CancelTask": ("vcran.core.messages", "CancelTask"),
+    # the boundary between the simulation and a transport
+    "Transport": ("vcran.core.wire", "Transport"),
+    "Inbound": ("vcran.core.wire", "Inbound"),
+    "Publish": ("vcran.core.wire", "Publish"),
+    "Frame": ("vcran.core.wire", "Frame"),
+    # running a scenario into a run folder
+    "run_to": ("vcran.runner", "run_to"),
+    "RunResult": ("vcran.runner", "RunResult"),
+}
+
+#: Literal, so that type checkers and linters read it; a test checks it names exactly _EXPORTS.
+__all__ = [
+    "__version__",
+    "Scenario", "Settings", "RobotConfig", "StationConfig", "ScriptEntry",
+    "load_scenario", "parse_scenario", "ScenarioError",
+    "Id", "id_for", "MotionAssignment", "ActionAssignment", "CancelTask",
+    "Transport", "Inbound", "Publish", "Frame",
+    "run_to", "RunResult",
+]
+
+
+def __getattr__(name: str) -> Any:
+    try:
+        module, attribute = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'vcran' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), attribute)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
+    from vcran.core.ids import Id, id_for
+    from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
+    from vcran.core.scenario import RobotConfig, Scenario, ScriptEntry, Settings, StationConfig
+    from vcran.core.wire import Frame, Inbound, Publish, Transport
+    from vcran.io.scenario_file import ScenarioError
+    from vcran.io.scenario_file import load as load_scenario
+    from vcran.io.scenario_file import parse as parse_scenario
+    from vcran.runner import RunResult, run_to

@@ -12,14 +12,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-
-class CommandError(Exception):
-    """A command cannot go on: ``main`` prints ``vcran COMMAND: message`` and returns ``code``."""
-
-    def __init__(self, message: str, code: int = 2) -> None:
-        super().__init__(message)
-        self.code = code
-
+from vcran.commands import CommandError
 
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {

@@ -16,10 +16,10 @@ from typing import IO, Any
 import simpy
 
 from transports.record import RecordingTransport
-from vcran.scenario import Scenario
+from vcran.core.scenario import Scenario
+from vcran.core.wire import Transport
+from vcran.io.trace import TraceWriter, dumps
 from vcran.sim.model import Model
-from vcran.trace import TraceWriter, dumps
-from vcran.wire import Transport
 
 
 class EventLog:
@@ -63,7 +63,7 @@ def run_to(
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
 
     ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
-    (:class:`vcran.progress.ProgressBar` is one); it observes and cannot change the outputs.
+    (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
     """
     out.mkdir(parents=True, exist_ok=True)
     header = {

@@ -93,7 +93,7 @@ class OrionClient:
         return out
 
     def update(self, body: bytes) -> None:
-        """``POST /v2/op/update`` with a ready body (``vcran.codec.split_batch``)."""
+        """``POST /v2/op/update`` with a ready body (``vcran.core.codec.split_batch``)."""
         self._call("POST", "/v2/op/update", "batch update", content=body)
 
     def append_attrs(self, entity_id: str, entity_type: str, attrs: dict[str, Any]) -> None:

@@ -19,8 +19,8 @@ import threading
 from collections import deque
 from dataclasses import dataclass, field
 
-from vcran.messages import Message
-from vcran.wire import Frame
+from vcran.core.messages import Message
+from vcran.core.wire import Frame
 
 ERRORS_MAX = 10_000
 

@@ -39,10 +39,10 @@ from transports.base import Deliver, Transport
 from transports.orion.client import OrionClient, OrionError, OrionRejected
 from transports.orion.listener import Listener
 from transports.orion.outbox import Batch, Outbox
-from vcran.build import motion_message
-from vcran.messages import INBOUND, Message, Time
+from vcran.core.build import motion_message
+from vcran.core.messages import INBOUND, Message, Time
+from vcran.core.wire import Frame, Inbound, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
-from vcran.wire import Frame, Inbound, Outbound, Publish
 
 log = logging.getLogger("vcran.orion")
 
@@ -211,7 +211,7 @@ class OrionTransport(Transport):
 
     def _deliver_pending(self) -> bool:
         """Send what the outbox holds; False when Orion could not take it (it is given back)."""
-        from vcran.codec import split_batch
+        from vcran.core.codec import split_batch
 
         batch = self.outbox.take()
         if not batch:
@@ -249,8 +249,8 @@ class OrionTransport(Transport):
             yield list(self._encoded(extra.items()))
 
     def _encoded(self, entities: Iterable[tuple[str, dict[str, Message]]]) -> Iterator[bytes]:
-        from vcran.codec import CodecError, encode_entity_json
-        from vcran.orion_rules import MAX_REQUEST_BYTES
+        from vcran.core.codec import CodecError, encode_entity_json
+        from vcran.core.orion_rules import MAX_REQUEST_BYTES
 
         for robot, attrs in entities:
             while attrs:

@@ -41,7 +41,7 @@ from vcran.broker.protocol import (
 )
 from vcran.broker.scope import Scope
 from vcran.broker.subscriptions import Subscription, parse_subscription
-from vcran.orion_rules import FORBIDDEN_CHARS, MAX_REQUEST_BYTES, has_forbidden_chars
+from vcran.core.orion_rules import FORBIDDEN_CHARS, MAX_REQUEST_BYTES, has_forbidden_chars
 
 #: The Orion release whose answers this broker reproduces (tests/data/orion-4.7-exchanges.jsonl).
 ORION_VERSION = "4.7.0-next"

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from vcran.broker.protocol import bad_request
-from vcran.orion_rules import default_attribute_type, has_forbidden_chars, identifier_error
+from vcran.core.orion_rules import default_attribute_type, has_forbidden_chars, identifier_error
 
 #: Attribute type that skips the forbidden-character check on the value (Orion's escape hatch).
 TEXT_UNRESTRICTED = "TextUnrestricted"

@@ -20,7 +20,7 @@ from typing import Any
 
 from vcran.broker.model import Entity
 from vcran.broker.protocol import Request, bad_request
-from vcran.orion_rules import (
+from vcran.core.orion_rules import (
     SERVICE_PATH_MAX_PATHS,
     identifier_error,
     service_path_error,

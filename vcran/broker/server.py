@@ -25,7 +25,7 @@ from vcran import __version__
 from vcran.broker.engine import Broker
 from vcran.broker.notifier import DEFAULT_TIMEOUT, Notifier
 from vcran.broker.protocol import Notification, Request, Response, json_response
-from vcran.orion_rules import MAX_REQUEST_BYTES
+from vcran.core.orion_rules import MAX_REQUEST_BYTES
 
 log = logging.getLogger("vcran.broker")
 

@@ -24,7 +24,7 @@ from urllib.parse import urlsplit
 from vcran.broker.model import Change, Entity, render_entity
 from vcran.broker.protocol import bad_request, not_implemented
 from vcran.broker.scope import EntitySelector, parse_selector, path_covers
-from vcran.orion_rules import has_forbidden_chars
+from vcran.core.orion_rules import has_forbidden_chars
 
 ATTRS_FORMATS = ("normalized", "keyValues", "values")
 STATUSES = ("active", "inactive", "oneshot")

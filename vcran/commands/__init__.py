@@ -6,13 +6,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from vcran.scenario import Scenario
+    from vcran.core.scenario import Scenario
+
+
+class CommandError(Exception):
+    """A command cannot go on: ``main`` prints ``vcran COMMAND: message`` and returns ``code``."""
+
+    def __init__(self, message: str, code: int = 2) -> None:
+        super().__init__(message)
+        self.code = code
 
 
 def load_scenario(path: Path) -> Scenario:
     """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field."""
-    from vcran.cli import CommandError
-    from vcran.scenario import ScenarioError, load
+    from vcran.io.scenario_file import ScenarioError, load
 
     try:
         return load(path)

@@ -21,8 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vcran.codec import decode_entity, unknown_attributes
-    from vcran.plain import to_plain
+    from vcran.core.codec import decode_entity, unknown_attributes
+    from vcran.core.plain import to_plain
 
     try:
         entity = _load(args.file)

@@ -41,8 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from hypothesis import HealthCheck, find, settings
     from hypothesis.errors import NoSuchExample
 
-    from vcran.cli import CommandError
-    from vcran.commands import load_scenario
+    from vcran.commands import CommandError, load_scenario
     from vcran.testing.checks import run_variant
     from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
 
@@ -54,9 +53,9 @@ def run(args: argparse.Namespace) -> int:
         perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
     except ValueError as exc:
         raise CommandError(str(exc)) from None
-    malformed = importlib.util.find_spec("vcran.codec") is not None
+    malformed = importlib.util.find_spec("vcran.core.codec") is not None
     if not malformed:
-        print("vcran fuzz: vcran.codec is not installed; malformed payloads are not injected", file=sys.stderr)
+        print("vcran fuzz: vcran.core.codec is not installed; malformed payloads are not injected", file=sys.stderr)
     strategy = perturbations(entries, [r.id for r in base.robots], window=args.window,
                              malformed=malformed, max_ops=args.max_ops)
     calls = {"generated": 0, "shrinking": 0}

@@ -15,7 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from vcran.gen import generate
+    from vcran.io.gen import generate
 
     try:
         sys.stdout.write(generate(args.robots, args.hours, args.seed))

@@ -7,8 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
-from vcran.cli import CommandError
-from vcran.commands import load_scenario
+from vcran.commands import CommandError, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
@@ -34,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from transports.orion.transport import LiveOptions, OrionTransport
-    from vcran.progress import LiveStatus, StatusLine
+    from vcran.io.progress import LiveStatus, StatusLine
     from vcran.runner import run_to
     from vcran.sim.live import LiveEnvironment
 

@@ -20,9 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError
-    from vcran.build import motion_message
-    from vcran.codec import encode_entity_json, split_batch
-    from vcran.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
+    from vcran.core.build import motion_message
+    from vcran.core.codec import encode_entity_json, split_batch
+    from vcran.core.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
     from vcran.sim.ran import description
 
     setup_logging()

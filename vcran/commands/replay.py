@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.replay import ReplayTransport, TraceError
-    from vcran.replay import scenario_from_trace, verify
+    from vcran.io.verify import scenario_from_trace, verify
     from vcran.runner import run_to
 
     trace: Path = args.trace

@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
 def write(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None, quiet: bool = False) -> int:
     """Write the report and print the KPI table and the files (unless quiet). A folder that is no run's
     output, or no matplotlib, is a CommandError: one line on stderr and exit status 2."""
-    from vcran.cli import CommandError
+    from vcran.commands import CommandError
     from vcran.report import ReportError, write_report
     from vcran.report.tables import console
 

@@ -21,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.scripted import ScriptedTransport
-    from vcran.progress import progress_bar
+    from vcran.io.progress import progress_bar
     from vcran.runner import run_to
 
     scenario = load_scenario(args.scenario)

@@ -28,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError, OrionRejected
-    from vcran.codec import encode_attribute
+    from vcran.core.codec import encode_attribute
 
     setup_logging(args.quiet)
     if not args.factor > 0:

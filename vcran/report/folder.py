@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import orjson
 
-from vcran.trace import read_header, telemetry
+from vcran.io.trace import read_header, telemetry
 
 FILES = ("summary.json", "events.jsonl", "trace.jsonl", "telemetry.bin")
 #: The fields the report reads from each kind of event (strings all).
@@ -202,8 +202,8 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
 
 
 def _decoded(raw: Any) -> dict[str, Any] | None:
-    from vcran.codec import decode_attribute
-    from vcran.plain import to_plain
+    from vcran.core.codec import decode_attribute
+    from vcran.core.plain import to_plain
 
     try:
         return to_plain(decode_attribute("motion_assignment", raw))

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from vcran.effects import Reason, State
+from vcran.core.effects import Reason, State
 from vcran.report.folder import Run
 
 WAITING = State.WAITING.value

@@ -1,1 +1,6 @@
-"""The SimPy model: thin processes around the pure core (DESIGN.md, layer 2)."""
+"""The SimPy model: thin processes around the pure core (DESIGN.md, layer 2).
+
+The processes wait on stores and timeouts, hand what arrives to the core and carry out the effects it
+returns; they make no decisions. They import the core only: never a transport implementation, a file
+module, a command or a report (the import contracts in pyproject.toml check it in CI).
+"""

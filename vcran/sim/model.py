@@ -12,16 +12,16 @@ from typing import Any, Protocol
 
 import simpy
 
-from vcran.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
-from vcran.messages import Message
-from vcran.motion import FleetKinematics
-from vcran.ranlogic import RanLogic
-from vcran.scenario import Scenario
+from vcran.core.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
+from vcran.core.messages import Message
+from vcran.core.motion import FleetKinematics
+from vcran.core.ranlogic import RanLogic
+from vcran.core.scenario import Scenario
+from vcran.core.stations import Station, StationMap, motion_area_problem
+from vcran.core.wire import Inbound, Transport
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
 from vcran.sim.timing import END, PRODUCTION, at
-from vcran.stations import Station, StationMap, motion_area_problem
-from vcran.wire import Inbound, Transport
 
 
 class EventSink(Protocol):
@@ -29,7 +29,7 @@ class EventSink(Protocol):
 
 
 def default_decode(attribute: str, raw: Any) -> Message:
-    from vcran.codec import decode_attribute  # imported on first raw payload only
+    from vcran.core.codec import decode_attribute  # imported on first raw payload only
 
     return decode_attribute(attribute, raw)
 

@@ -16,10 +16,10 @@ from typing import Any
 
 import simpy
 
-from vcran.build import CATEGORY_OF
-from vcran.effects import ErrorReport
-from vcran.ids import id_for
-from vcran.messages import (
+from vcran.core.build import CATEGORY_OF
+from vcran.core.effects import ErrorReport
+from vcran.core.ids import id_for
+from vcran.core.messages import (
     ActionKind,
     AssignmentStatus,
     Message,
@@ -29,10 +29,10 @@ from vcran.messages import (
     RobotAgentProperties,
     Time,
 )
-from vcran.scenario import RobotConfig
+from vcran.core.scenario import RobotConfig
+from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.sim.robot import Decoded, Malformed, RobotNode
 from vcran.sim.timing import TELEMETRY, at
-from vcran.wire import Frame, Inbound, Publish, Transport
 
 Decode = Callable[[str, Any], Message]
 

@@ -1,7 +1,7 @@
 """One robot's three processes: RanLogic, AGV and AgvAction, talking through mailboxes (seed §2).
 
 The processes decide nothing. RanLogic's process hands each arriving signal to the pure
-:class:`~vcran.ranlogic.RanLogic` and carries out the effects it returns; the AGV drives the legs it is
+:class:`~vcran.core.ranlogic.RanLogic` and carries out the effects it returns; the AGV drives the legs it is
 given (analytically, one event per leg however long the leg); AgvAction waits out an action's duration
 and applies it to the stations.
 """
@@ -14,7 +14,7 @@ from typing import Any
 
 import simpy
 
-from vcran.effects import (
+from vcran.core.effects import (
     ClearTimer,
     DispatchAction,
     DispatchPath,
@@ -23,14 +23,14 @@ from vcran.effects import (
     StartTimer,
     StopAfterLeg,
 )
-from vcran.ids import Id
-from vcran.messages import ActionAssignment, ActionKind, CancelTask, Message, MotionAssignment, PolygonStamped
-from vcran.motion import FleetKinematics, Leg, Limits
-from vcran.ranlogic import RanLogic
-from vcran.scenario import RobotConfig
+from vcran.core.ids import Id
+from vcran.core.messages import ActionAssignment, ActionKind, CancelTask, Message, MotionAssignment, PolygonStamped
+from vcran.core.motion import FleetKinematics, Leg, Limits
+from vcran.core.ranlogic import RanLogic
+from vcran.core.scenario import RobotConfig
+from vcran.core.stations import StationMap, perform
 from vcran.sim.mailbox import Mailbox
 from vcran.sim.timing import COMPLETION, DEADLINE, after, at
-from vcran.stations import StationMap, perform
 
 Process = Generator[simpy.events.Event, Any, None]
 

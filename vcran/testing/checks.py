@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from vcran.effects import Reason, State
-from vcran.ranlogic import TRANSITIONS
-from vcran.scenario import Scenario
-from vcran.trace import read_header, records, telemetry
+from vcran.core.effects import Reason, State
+from vcran.core.ranlogic import TRANSITIONS
+from vcran.core.scenario import Scenario
+from vcran.io.trace import read_header, records, telemetry
 
 _TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}
 _REASONS = {r.value for r in Reason}
@@ -218,7 +218,7 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
     """
     from transports.replay import ReplayTransport
     from transports.scripted import ScriptedTransport
-    from vcran.replay import scenario_from_trace, verify
+    from vcran.io.verify import scenario_from_trace, verify
     from vcran.runner import run_to
 
     try:

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 from hypothesis import strategies as st
 
-from vcran import build
-from vcran.messages import Assignment
+from vcran.core import build
+from vcran.core.messages import Assignment
 
 #: How :meth:`TaskPlan.assignment` may deviate from the plan, and the rule each deviation exercises.
 VARIANTS: dict[str, str] = {

@@ -7,12 +7,12 @@ list of small operations (:class:`Delay`, :class:`Swap`, :class:`Duplicate`, :cl
 frozen dataclasses with plain reprs and name entries by index, so hypothesis shrinks a failure to the
 few operations that matter, and :func:`perturbed_toml` turns the result into a scenario file that
 ``vcran run`` re-runs. :func:`fleets` draws small generated scenarios (robots, stations, tasks) as the
-plain data that :func:`vcran.scenario.parse` reads.
+plain data that :func:`vcran.io.scenario_file.parse` reads.
 
 Example, a property of your own over perturbed versions of a scenario::
 
     from hypothesis import given, strategies as st
-    from vcran.scenario import load
+    from vcran.io.scenario_file import load
     from vcran.testing.scripts import perturbations, perturbed_toml
 
     base = load("scenarios/demo.toml")
@@ -31,10 +31,11 @@ from typing import Any
 
 from hypothesis import strategies as st
 
-from vcran import build
-from vcran.messages import ActionAssignment, CancelTask, MotionAssignment
-from vcran.scenario import Scenario, ScriptEntry, parse
-from vcran.scenario_toml import dumps, name_of, scenario_dict
+from vcran.core import build
+from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
+from vcran.core.scenario import Scenario, ScriptEntry
+from vcran.io.scenario_file import parse
+from vcran.io.scenario_toml import dumps, name_of, scenario_dict
 from vcran.testing.plans import KINDS
 
 # --- perturbations ------------------------------------------------------------------------------------------
@@ -104,7 +105,7 @@ def _nested(depth: int) -> Any:
 
 def _near_valid() -> tuple[Any, ...]:
     """Real encodings of valid messages with one field broken: what a buggy fleet manager sends."""
-    from vcran.codec import encode_attribute
+    from vcran.core.codec import encode_attribute
 
     def motion(mutate: Any) -> Any:
         attr = encode_attribute("motion_assignment", build.motion("M", "M_m1", 1, 2, 1.0, 2.0))
@@ -207,7 +208,7 @@ def perturbations(
 
     ``window`` bounds how far a swap reorders; ``horizon`` (default: the last entry's time plus
     20 s) bounds when injected messages arrive; ``malformed`` adds undecodable payloads (needs
-    :mod:`vcran.codec` at run time).
+    :mod:`vcran.core.codec` at run time).
     """
     n = max(len(entries), 1)
     end = horizon if horizon is not None else max((e.t for e in entries), default=0.0) + 20.0

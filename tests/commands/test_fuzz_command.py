@@ -1,0 +1,51 @@
+"""``vcran fuzz`` (SPEC §8): clean on the demo, deterministic per seed, and a shrunk failure is a scenario
+file that reproduces the violation with ``vcran run``."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import ROOT
+from vcran.cli import main
+from vcran.core.ranlogic import RanLogic
+from vcran.testing.checks import run_variant
+from vcran.testing.scripts import load_text
+
+DEMO = str(ROOT / "scenarios" / "demo.toml")
+
+
+def test_demo_runs_clean_and_says_how_many_examples(capsys):
+    assert main(["fuzz", DEMO, "--examples", "15", "--seed", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "15 examples of" in out and "ran clean (seed 3)" in out and "examples/min" in out
+
+
+@pytest.fixture
+def r7_bug(monkeypatch):
+    """A deliberate R7 bug: the timer only fires after the deadline, so it never cancels anything."""
+
+    def on_timer(self, now, task_id):
+        self._begin(now)
+        return self._end()
+
+    monkeypatch.setattr(RanLogic, "on_timer", on_timer)
+
+
+def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
+    saved = tmp_path / "fail.toml"
+    assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(saved)]) == 1
+    text = saved.read_text()
+    assert "(R7)" in text and text in capsys.readouterr().out
+    with tempfile.TemporaryDirectory() as work:  # the saved file is a scenario that fails the same way
+        assert any("(R7)" in p for p in run_variant(load_text(text), Path(work), again=False))
+    again = tmp_path / "again.toml"
+    assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(again)]) == 1
+    assert again.read_text().replace("again.toml", "") == text.replace("fail.toml", "")  # same seed, same result
+
+
+def test_bad_scenario_is_a_usage_error(tmp_path, capsys):
+    assert main(["fuzz", str(tmp_path / "missing.toml")]) == 2
+    assert "no such file" in capsys.readouterr().err

@@ -1,0 +1,102 @@
+"""Leg kinematics (SPEC §4): analytic poses, and the scalar and vectorised paths agreeing bit for bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vcran.core.motion import SCALAR_BELOW, FleetKinematics, Leg, Limits, wrap
+
+finite = st.floats(-50, 50, allow_nan=False)
+positive = st.floats(0.05, 5)
+rate = st.one_of(st.just(0.0), st.floats(0.1, 3))
+angle = st.floats(-math.pi, math.pi)
+
+
+@st.composite
+def legs(draw):
+    limits = Limits(draw(positive), draw(st.one_of(st.just(0.0), positive)), draw(st.one_of(st.just(0.0), positive)), draw(rate))
+    goal = draw(st.one_of(st.none(), angle))
+    return Leg(draw(st.floats(0, 100)), draw(finite), draw(finite), draw(angle), draw(finite), draw(finite), goal, limits)
+
+
+def test_straight_leg_without_limits_is_distance_over_speed():
+    leg = Leg(0.0, 0, 0, 0, 3, 4, None, Limits(2.0))
+    assert leg.duration == 2.5
+    assert leg.pose_at(1.25)[:2] == pytest.approx((1.5, 2.0), abs=1e-12)
+    assert leg.pose_at(99) == (3, 4, math.atan2(4, 3), 0.0, 0.0)
+
+
+def test_trapezoid_and_triangle_profiles():
+    long = Leg(0.0, 0, 0, 0, 10, 0, None, Limits(1.0, 0.5, 0.5))  # 1 m ramps each side
+    assert long.peak == 1.0 and long.t_drive == 2 + 8 + 2
+    short = Leg(0.0, 0, 0, 0, 1, 0, None, Limits(1.0, 0.5, 0.5))  # never reaches 1 m/s
+    assert short.peak == math.sqrt(0.5) and math.isclose(short.t_drive, 2 * math.sqrt(0.5) / 0.5)
+    assert short.pose_at(short.t_drive / 2)[0] == pytest.approx(0.5, abs=1e-12)  # half way at peak
+
+
+def test_turns_in_place_before_and_after():
+    leg = Leg(0.0, 0, 0, 0, 0, 2, math.pi, Limits(1.0, 0, 0, 1.0))  # face +y, drive, turn to pi
+    assert leg.t_turn1 == math.pi / 2 and leg.t_turn2 == math.pi / 2
+    x, y, theta, v, w = leg.pose_at(math.pi / 4)
+    assert (x, y, v, w) == (0, 0, 0.0, 1.0) and math.isclose(theta, math.pi / 4)
+    assert leg.pose_at(leg.t_end) == (0, 2, math.pi, 0.0, 0.0)
+
+
+def test_goal_theta_is_reached_exactly():
+    leg = Leg(5.0, 1.1, 2.2, 0.3, -3.3, 4.4, 0.0, Limits(0.7, 0.3, 0.4, 0.9))
+    assert leg.pose_at(leg.t_end)[:3] == (-3.3, 4.4, 0.0)
+
+
+def test_cost_of_a_pose_does_not_depend_on_leg_length():
+    short = Leg(0.0, 0, 0, 0, 1, 0, None, Limits(1.0, 0.5, 0.5))
+    long = Leg(0.0, 0, 0, 0, 1e6, 0, None, Limits(1.0, 0.5, 0.5))
+    # one closed-form evaluation, no stepping: the middle and the end of a 1000 km leg are exact
+    assert long.pose_at(long.t_drive / 2)[0] == pytest.approx(5e5)
+    assert long.pose_at(long.t_end)[0] == 1e6 and short.pose_at(short.t_end)[0] == 1
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(legs(), min_size=1, max_size=40), st.floats(0, 200))
+def test_scalar_and_vector_paths_are_bit_identical(leg_list, t):
+    fleet = FleetKinematics([(0.0, 0.0, 0.0)] * len(leg_list))
+    for i, leg in enumerate(leg_list):
+        fleet.start(i, leg)
+    vector = fleet.sample(t) if len(leg_list) >= SCALAR_BELOW else None
+    from vcran.core.motion import _sample_moving
+
+    vec = _sample_moving(fleet.legs[: len(leg_list)], t)
+    for i, leg in enumerate(leg_list):
+        scalar = np.array(leg.pose_at(t))
+        assert np.array_equal(vec[i], scalar), (i, t, vec[i], scalar)
+        if vector is not None:
+            assert np.array_equal(vector[i], scalar)
+
+
+@given(legs())
+def test_pose_stays_on_the_segment_and_theta_is_wrapped(leg):
+    for k in range(11):
+        t = leg.t0 + leg.duration * k / 10
+        x, y, theta, v, w = leg.pose_at(t)
+        assert -math.pi < theta <= math.pi
+        assert min(leg.x0, leg.x1) - 1e-9 <= x <= max(leg.x0, leg.x1) + 1e-9
+        assert v <= leg.limits.speed + 1e-9
+
+
+def test_wrap():
+    assert wrap(math.pi) == math.pi and wrap(-math.pi) == math.pi and wrap(3 * math.pi) == math.pi
+    assert wrap(0.5) == 0.5
+
+
+def test_fleet_odometer_banks_finished_legs():
+    fleet = FleetKinematics([(0.0, 0.0, 0.0)])
+    leg = Leg(0.0, 0, 0, 0, 4, 0, None, Limits(1.0))
+    fleet.start(0, leg)
+    assert fleet.distance(0, 1.0) == 1.0
+    fleet.finish(0)
+    assert fleet.distance(0, 10.0) == 4.0
+    assert tuple(fleet.sample(10.0)[0]) == (4.0, 0.0, 0.0, 0.0, 0.0)

@@ -1,0 +1,461 @@
+"""RanLogic, rule by rule (SPEC §3). Pure: no SimPy, inputs are method calls, outputs are effect lists."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vcran.core.build import action, cancel, motion
+from vcran.core.effects import (
+    ClearTimer,
+    DispatchAction,
+    DispatchPath,
+    Failed,
+    MotionFinished,
+    Reason,
+    Rejected,
+    StartTimer,
+    State,
+    StateChanged,
+    StopAfterLeg,
+    TaskCancelled,
+    TaskCompleted,
+    TaskQueued,
+)
+from vcran.core.ids import id_for
+from vcran.core.ranlogic import TRANSITIONS, LocalProtocolError, RanLogic
+
+T = id_for
+
+
+def of(effects, cls):
+    return [e for e in effects if isinstance(e, cls)]
+
+
+def states(effects):
+    return [(e.from_.value, e.to.value) for e in of(effects, StateChanged)]
+
+
+def codes(effects):
+    return [e.code for e in of(effects, Rejected)]
+
+
+def two_motion_task(logic, t0, task="A", load="dummy"):
+    """Feed a 3-position task (two motions, one action) at t0, t0+1, t0+2; return all effects."""
+    out = logic.on_motion(t0, motion(task, f"{task}_m1", 1, 3, 1, 0))
+    out += logic.on_motion(t0 + 1, motion(task, f"{task}_m2", 2, 3, 2, 0))
+    out += logic.on_action(t0 + 2, action(task, f"{task}_a1", 3, 3, load))
+    return out
+
+
+def drive_all(logic, now):
+    """Report every leg of the current path finished at ``now``."""
+    out = []
+    while logic.current_motion.uuid != bytes(16):
+        out += logic.on_motion_finished(now, logic.current_motion)
+    return out
+
+
+# --- R1 ---------------------------------------------------------------------------------------------------
+
+
+def test_r1_first_assignment_creates_task_and_makes_it_current():
+    logic = RanLogic("r")
+    out = logic.on_motion(5.0, motion("A", "A_m1", 1, 2, 1, 0))
+    assert of(out, TaskQueued)[0].task == T("A")
+    assert states(out) == [("WAITING", "TASK")]
+    assert logic.current_task == T("A")
+    assert of(out, StartTimer) == [StartTimer(T("A"), 35.0)]  # first_seen + default timeout
+
+
+def test_r1_tasks_run_in_first_seen_order_not_assembly_order():
+    logic = RanLogic("r")
+    logic.on_motion(1, motion("A", "A_m1", 1, 2, 1, 0))  # A first seen at 1, not yet assembled
+    two_motion_task(logic, 2, "B")  # B assembled at 4
+    assert list(logic.queue) == [T("A"), T("B")]
+    assert logic.current_task == T("A")
+    assert logic.state is State.TASK  # B must wait although it is complete
+    out = logic.on_action(5, action("A", "A_a1", 2, 2))
+    assert of(out, DispatchPath)[0].task == T("A")
+
+
+# --- R2 ---------------------------------------------------------------------------------------------------
+
+
+def test_r2_length_is_fixed_by_first_assignment():
+    logic = RanLogic("r")
+    logic.on_motion(1, motion("A", "A_m1", 1, 3, 1, 0))
+    out = logic.on_motion(2, motion("A", "A_m2", 2, 4, 2, 0))
+    assert codes(out) == ["length_mismatch"]
+    assert len(logic.queue[T("A")].slots) == 1
+
+
+def test_r2_a_position_holds_one_assignment():
+    logic = RanLogic("r")
+    logic.on_motion(1, motion("A", "A_m1", 1, 3, 1, 0))
+    out = logic.on_motion(2, motion("A", "A_other", 1, 3, 5, 5))
+    assert codes(out) == ["position_taken"]
+    assert out[0].motion == T("A_other") and out[0].task == T("A")
+
+
+def test_r2_motions_before_actions():
+    logic = RanLogic("r")
+    logic.on_action(1, action("A", "A_a1", 2, 3))
+    out = logic.on_motion(2, motion("A", "A_m3", 3, 3, 1, 0))
+    assert codes(out) == ["kind_order"]
+    out = logic.on_action(3, action("A", "A_a0", 1, 3))  # fine: actions may start at 1 (m = 0)
+    assert codes(out) == []
+
+
+def test_r2_rejection_leaves_rest_of_task_untouched():
+    logic = RanLogic("r")
+    logic.on_motion(1, motion("A", "A_m1", 1, 2, 1, 0))
+    before = dict(logic.queue[T("A")].slots)
+    logic.on_action(2, action("A", "A_bad", 1, 2))  # position taken
+    out = logic.on_action(3, action("A", "A_a1", 2, 2))
+    assert logic.queue[T("A")].slots[1] == before[1]
+    assert of(out, DispatchPath)
+
+
+# --- R3, R4, R5 -------------------------------------------------------------------------------------------
+
+
+def test_r3_path_waits_for_first_action_position():
+    logic = RanLogic("r")
+    out = logic.on_motion(1, motion("A", "A_m1", 1, 3, 1, 0))
+    out += logic.on_motion(2, motion("A", "A_m2", 2, 3, 2, 0))
+    assert not of(out, DispatchPath)  # m is unknown until position 3 is an action
+    out = logic.on_action(3, action("A", "A_a1", 3, 3))
+    (path,) = of(out, DispatchPath)
+    assert [m.motion_id for m in path.motions] == [T("A_m1"), T("A_m2")]
+
+
+def test_r3_out_of_order_motions_dispatch_in_sequence_order():
+    logic = RanLogic("r")
+    logic.on_action(1, action("A", "A_a1", 3, 3))
+    logic.on_motion(2, motion("A", "A_m2", 2, 3, 2, 0))
+    out = logic.on_motion(3, motion("A", "A_m1", 1, 3, 1, 0))
+    (path,) = of(out, DispatchPath)
+    assert [m.sequence.sequence_number for m in path.motions] == [1, 2]
+
+
+def test_r3_all_motion_task_dispatches_when_every_position_is_a_motion():
+    logic = RanLogic("r")
+    logic.on_motion(1, motion("A", "A_m1", 1, 2, 1, 0))
+    out = logic.on_motion(2, motion("A", "A_m2", 2, 2, 2, 0))
+    assert of(out, DispatchPath)
+    out = drive_all(logic, 10)
+    # empty action phase passes at once (R6)
+    assert states(out) == [("MOTION", "ACTION"), ("ACTION", "WAITING")]
+    assert of(out, TaskCompleted)
+
+
+def test_r4_actions_wait_until_every_action_is_received():
+    logic = RanLogic("r")
+    logic.on_motion(1, motion("A", "A_m1", 1, 3, 1, 0))
+    logic.on_action(2, action("A", "A_a1", 2, 3))
+    out = drive_all(logic, 5)
+    assert logic.state is State.MOTION and not of(out, DispatchAction)  # position 3 missing
+    out = logic.on_action(6, action("A", "A_a2", 3, 3))
+    assert states(out) == [("MOTION", "ACTION")]
+    assert [d.action.action_id for d in of(out, DispatchAction)] == [T("A_a1")]
+
+
+def test_r4_actions_one_at_a_time_in_sequence_order():
+    logic = RanLogic("r")
+    logic.on_action(1, action("A", "A_a2", 2, 2))
+    out = logic.on_action(2, action("A", "A_a1", 1, 2))
+    assert states(out) == [("TASK", "MOTION"), ("MOTION", "ACTION")]  # empty motion phase
+    assert [d.action.action_id for d in of(out, DispatchAction)] == [T("A_a1")]
+    out = logic.on_action_finished(3, T("A_a1"))
+    assert [d.action.action_id for d in of(out, DispatchAction)] == [T("A_a2")]
+    out = logic.on_action_finished(4, T("A_a2"))
+    assert of(out, TaskCompleted)
+
+
+def test_r5_assembled_task_clears_its_timer():
+    logic = RanLogic("r")
+    out = two_motion_task(logic, 1)
+    assert of(out, ClearTimer) == [ClearTimer(T("A"))]
+
+
+# --- R6 ---------------------------------------------------------------------------------------------------
+
+
+def test_r6_full_cycle_and_nothing_else():
+    logic = RanLogic("r")
+    out = two_motion_task(logic, 1)
+    out += drive_all(logic, 10)
+    out += logic.on_action_finished(15, T("A_a1"))
+    assert states(out) == [("WAITING", "TASK"), ("TASK", "MOTION"), ("MOTION", "ACTION"), ("ACTION", "WAITING")]
+    assert set(states(out)) <= {(a.value, b.value) for a, b in TRANSITIONS}
+    assert logic.idle
+
+
+def test_r6_next_task_starts_right_after_completion():
+    logic = RanLogic("r")
+    two_motion_task(logic, 1, "A")
+    two_motion_task(logic, 4, "B")
+    drive_all(logic, 10)
+    out = logic.on_action_finished(15, T("A_a1"))
+    assert states(out) == [("ACTION", "WAITING"), ("WAITING", "TASK"), ("TASK", "MOTION")]
+    assert of(out, DispatchPath)[0].task == T("B")
+
+
+# --- R7 ---------------------------------------------------------------------------------------------------
+
+
+def test_r7_queued_task_times_out_at_exactly_its_deadline():
+    logic = RanLogic("r", task_timeout=10)
+    two_motion_task(logic, 0, "A")
+    logic.on_motion(3, motion("B", "B_m1", 1, 2, 1, 0))  # B never assembled, deadline 13
+    assert logic.on_timer(12.999, T("B")) == []  # early call: nothing
+    out = logic.on_timer(13.0, T("B"))
+    assert of(out, TaskCancelled) == [TaskCancelled(T("B"), Reason.TIMEOUT)]
+    assert T("B") not in logic.queue and logic.current_task == T("A")
+
+
+def test_r7_current_task_times_out_after_its_running_leg():
+    logic = RanLogic("r", task_timeout=10)
+    logic.on_motion(0, motion("A", "A_m1", 1, 3, 1, 0))
+    logic.on_action(1, action("A", "A_a1", 2, 3))  # R3 holds (m = 1), R4 does not: 3 is missing
+    out = logic.on_timer(10, T("A"))
+    assert out == [StopAfterLeg(T("A"))]  # leg A_m1 is running (R8 applies)
+    out = logic.on_motion_finished(12, T("A_m1"))
+    assert of(out, TaskCancelled) == [TaskCancelled(T("A"), Reason.TIMEOUT)]
+    assert states(out) == [("MOTION", "WAITING")]
+
+
+def test_r7_assembled_task_never_times_out():
+    logic = RanLogic("r", task_timeout=10)
+    two_motion_task(logic, 0)
+    assert logic.on_timer(10, T("A")) == []
+    assert logic.current_task == T("A")
+
+
+# --- R8 ---------------------------------------------------------------------------------------------------
+
+
+def test_r8_cancel_queued_task_removes_it():
+    logic = RanLogic("r")
+    two_motion_task(logic, 0, "A")
+    two_motion_task(logic, 3, "B")
+    out = logic.on_cancel(10, cancel("B"))
+    assert of(out, TaskCancelled) == [TaskCancelled(T("B"), Reason.CANCELLED)]
+    assert list(logic.queue) == [T("A")] and not states(out)
+
+
+def test_r8_cancel_current_task_waits_for_running_leg_then_next_starts():
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 4, 1, 0))
+    logic.on_motion(0, motion("A", "A_m2", 2, 4, 2, 0))
+    logic.on_motion(0, motion("A", "A_m3", 3, 4, 3, 0))
+    logic.on_action(0, action("A", "A_a1", 4, 4))
+    two_motion_task(logic, 1, "B")
+    logic.on_motion_finished(5, T("A_m1"))
+    out = logic.on_cancel(6, cancel("A"))
+    assert out == [StopAfterLeg(T("A"))]  # A_m2 is running: it finishes
+    out = logic.on_motion_finished(8, T("A_m2"))
+    assert of(out, MotionFinished)[0].motion == T("A_m2")
+    assert of(out, TaskCancelled) == [TaskCancelled(T("A"), Reason.CANCELLED)]
+    assert not [d for d in of(out, DispatchPath) if d.task == T("A")]  # A_m3 never dispatched
+    assert states(out) == [("MOTION", "WAITING"), ("WAITING", "TASK"), ("TASK", "MOTION")]
+    assert of(out, DispatchPath)[0].task == T("B")
+
+
+def test_r8_cancel_during_action_waits_for_it():
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 3, 1, 0))
+    logic.on_action(0, action("A", "A_a1", 2, 3))
+    logic.on_action(0, action("A", "A_a2", 3, 3))
+    drive_all(logic, 2)
+    assert logic.current_action == T("A_a1")
+    assert logic.on_cancel(3, cancel("A")) == []
+    out = logic.on_action_finished(4, T("A_a1"))
+    assert not of(out, DispatchAction)  # A_a2 never dispatched
+    assert of(out, TaskCancelled) == [TaskCancelled(T("A"), Reason.CANCELLED)]
+
+
+def test_r8_cancel_with_nothing_running_is_immediate():
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 2, 1, 0))  # TASK: nothing dispatched
+    out = logic.on_cancel(1, cancel("A"))
+    assert of(out, TaskCancelled) and states(out) == [("TASK", "WAITING")]
+
+
+def test_r8_cancel_for_unknown_task_is_remembered_and_warned():
+    logic = RanLogic("r")
+    out = logic.on_cancel(1, cancel("X"))
+    (w,) = of(out, Rejected)
+    assert w.code == "cancel_unknown_task" and w.severity == "warning" and w.task == T("X")
+    out = logic.on_motion(2, motion("X", "X_m1", 1, 1, 1, 0))
+    assert codes(out) == ["task_cancelled"]
+    assert not logic.queue
+
+
+def test_r8_partial_cancel_is_rejected_not_widened():
+    logic = RanLogic("r")
+    two_motion_task(logic, 0)
+    out = logic.on_cancel(3, cancel("A", action="A_a1"))
+    assert codes(out) == ["partial_cancel_unsupported"]
+    assert logic.current_task == T("A")
+
+
+def test_r8_nil_ids_in_cancel_mean_whole_task():
+    from vcran.core.ids import NIL
+    from vcran.core.messages import CancelTask
+
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 2, 1, 0))
+    out = logic.on_cancel(1, CancelTask(T("A"), NIL, NIL))
+    assert of(out, TaskCancelled)
+
+
+# --- R9 ---------------------------------------------------------------------------------------------------
+
+
+def test_r9_assignment_for_completed_task_is_rejected():
+    logic = RanLogic("r")
+    two_motion_task(logic, 0)
+    drive_all(logic, 5)
+    logic.on_action_finished(6, T("A_a1"))
+    out = logic.on_motion(7, motion("A", "A_new", 1, 3, 9, 9))
+    assert codes(out) == ["task_completed"] and not logic.queue
+
+
+def test_r9_history_is_bounded():
+    logic = RanLogic("r", history_limit=3)
+    for i in range(5):
+        logic.on_motion(i, motion(f"T{i}", f"T{i}_m", 1, 2, 1, 0))
+        logic.on_cancel(i, cancel(f"T{i}"))
+    assert list(logic.history) == [T("T2"), T("T3"), T("T4")]
+    # forgotten ids start a new task again
+    out = logic.on_motion(10, motion("T0", "T0_m", 1, 2, 1, 0))
+    assert of(out, TaskQueued)
+
+
+# --- R10 --------------------------------------------------------------------------------------------------
+
+
+def test_r10_identical_duplicate_is_silent():
+    logic = RanLogic("r")
+    m = motion("A", "A_m1", 1, 3, 1, 0)
+    logic.on_motion(0, m)
+    version = logic.version
+    assert logic.on_motion(1, m) == []
+    assert logic.version == version and logic.error_count == 0
+
+
+def test_r10_identical_re_read_after_completion_is_silent():
+    logic = RanLogic("r")
+    two_motion_task(logic, 0)
+    drive_all(logic, 5)
+    logic.on_action_finished(6, T("A_a1"))
+    assert logic.on_action(7, action("A", "A_a1", 3, 3)) == []  # polling re-reads the attribute
+    assert logic.on_cancel(8, cancel("B")) != []  # a new cancel is news
+    assert logic.on_cancel(9, cancel("B")) == []  # its re-read is not
+
+
+def test_r10_new_content_before_dispatch_replaces():
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 2, 1, 0))
+    logic.on_motion(1, motion("A", "A_m1", 1, 2, 7, 7))  # same id, new point
+    out = logic.on_action(2, action("A", "A_a1", 2, 2))
+    (path,) = of(out, DispatchPath)
+    assert path.motions[0].point.x == 7
+
+
+def test_r10_new_content_after_dispatch_is_rejected():
+    logic = RanLogic("r")
+    two_motion_task(logic, 0)
+    out = logic.on_motion(5, motion("A", "A_m1", 1, 3, 9, 9))
+    assert codes(out) == ["already_dispatched"]
+
+
+def test_r10_replacement_obeys_position_rules():
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 3, 1, 0))
+    logic.on_motion(0, motion("A", "A_m2", 2, 3, 1, 0))
+    out = logic.on_motion(1, motion("A", "A_m1", 2, 3, 1, 0))  # moving onto A_m2's position
+    assert codes(out) == ["position_taken"]
+    assert logic.queue[T("A")].slots[1].motion_id == T("A_m1")
+
+
+# --- failures and misuse ------------------------------------------------------------------------------------
+
+
+def test_failed_action_cancels_task_with_reason_and_error():
+    logic = RanLogic("r")
+    two_motion_task(logic, 0, load="load")
+    drive_all(logic, 5)
+    out = logic.on_action_finished(6, T("A_a1"), ok=False, code="load_no_part", message="no part")
+    (f,) = of(out, Failed)
+    assert f.code == "load_no_part" and f.count == 1
+    assert of(out, TaskCancelled) == [TaskCancelled(T("A"), Reason.ACTION_FAILED)]
+
+
+def test_error_count_runs_over_all_errors():
+    logic = RanLogic("r")
+    logic.on_malformed(0, "motion_assignment", "x: missing")
+    out = logic.on_cancel(1, cancel("nope"))
+    assert of(out, Rejected)[0].count == 2
+
+
+def test_time_going_backwards_is_a_local_error():
+    logic = RanLogic("r")
+    logic.on_motion(5, motion("A", "A_m1", 1, 2, 1, 0))
+    with pytest.raises(LocalProtocolError, match="backwards"):
+        logic.on_motion(4, motion("A", "A_m2", 2, 2, 1, 0))
+
+
+def test_completion_nobody_dispatched_is_a_local_error():
+    logic = RanLogic("r")
+    with pytest.raises(LocalProtocolError, match="no leg was running"):
+        logic.on_motion_finished(1, T("x"))
+
+
+def test_core_imports_neither_simpy_nor_httpx():
+    import subprocess
+    import sys
+
+    # Every module of the core package (the import contracts check the same statically, in .ci/run).
+    code = (
+        "import importlib, pkgutil, sys, vcran.core; "
+        "[importlib.import_module(m.name) for m in pkgutil.walk_packages(vcran.core.__path__, 'vcran.core.')]; "
+        "bad = [m for m in ('simpy', 'httpx') if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_r10_resend_with_new_header_stamp_is_a_duplicate():
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 3, 1, 0, stamp=0.0))
+    version = logic.version
+    assert logic.on_motion(1, motion("A", "A_m1", 1, 3, 1, 0, stamp=1.0)) == []
+    assert logic.version == version
+    assert logic.on_motion(2, motion("A", "A_m1", 1, 3, 1, 0.5, stamp=2.0)) == []  # new point: replaced
+    assert logic.version == version + 1
+    assert logic.queue[T("A")].slots[1].point.y == 0.5
+
+
+@settings(max_examples=150)
+@given(st.data())
+def test_r10_fingerprint_agrees_with_identity(data):
+    """Ended tasks keep fingerprints (R9 history): equal exactly when R10 calls two assignments identical."""
+    from vcran.core.tasks import fingerprint, same_content
+    from vcran.testing.strategies import action_assignments, motion_assignments
+
+    kind = data.draw(st.sampled_from([motion_assignments, action_assignments]))
+    a = data.draw(kind())
+    b = data.draw(st.one_of(kind(), st.just(a), st.builds(lambda: _restamped(a))))
+    assert (fingerprint(a) == fingerprint(b)) == same_content(a, b)
+
+
+def _restamped(a):
+    from dataclasses import replace
+
+    from vcran.core.messages import Header, MotionAssignment, Time
+
+    return replace(a, header=Header(a.header.seq + 1, Time(7, 0), "x")) if isinstance(a, MotionAssignment) else a

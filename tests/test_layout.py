@@ -1,0 +1,31 @@
+"""README's "Layout" table names every file of the package, and only those (issue 9)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+
+from tests.conftest import ROOT
+
+
+def _readme_files() -> set[str]:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Layout"):]
+    section = section[:section.index("\n## ", 1)]
+    files = set()
+    for folder, modules in re.findall(r"^\| `(vcran/[^`]*)` \| ([^|]+) \|", section, flags=re.M):
+        for name in re.findall(r"`([^`]+)`", modules):
+            files.add(folder + (name if "." in name else name + ".py"))
+    return files
+
+
+def _package_files() -> set[str]:
+    out = subprocess.run(["git", "ls-files", "vcran"], cwd=ROOT, capture_output=True, text=True, check=True)
+    return set(out.stdout.split())
+
+
+def test_readme_layout_lists_exactly_the_package_files():
+    readme, package = _readme_files(), _package_files()
+    assert package, "git ls-files vcran found nothing"
+    assert sorted(package - readme) == [], "files missing from README's Layout table"
+    assert sorted(readme - package) == [], "README's Layout table names files that do not exist"

@@ -1,0 +1,321 @@
+"""Live mode over real loopback HTTP (SPEC §7): vcran broker, orion init, live, send, replay --verify.
+
+The end-to-end tests run the CLI commands as separate processes, exactly as a user would. The fault
+tests run the live transport in-process, so that they can stop the broker under it, look at its state
+and time what matters.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import tomllib
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.conftest import ROOT
+from vcran.cli import main
+
+pytest.importorskip("vcran.core.codec")
+
+from transports.orion.client import OrionClient  # noqa: E402
+from transports.orion.transport import LiveOptions, OrionTransport  # noqa: E402
+from vcran.broker import start_broker  # noqa: E402
+from vcran.core.codec import decode_attribute, encode_attribute  # noqa: E402
+from vcran.io.scenario_file import parse  # noqa: E402
+from vcran.runner import run_to  # noqa: E402
+from vcran.sim.live import LiveEnvironment  # noqa: E402
+
+DEMO = ROOT / "scenarios" / "demo.toml"
+
+
+def wait_until(predicate, timeout: float, step: float = 0.02) -> bool:
+    """Poll ``predicate`` until it is true or ``timeout`` wall seconds have passed."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(step)
+    return predicate()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def vcran(*args: str, **kw) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    return subprocess.Popen([sys.executable, "-m", "vcran", *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+@pytest.fixture
+def broker_process():
+    """``vcran broker`` as its own process, as a user would start it."""
+    port = free_port()
+    proc = vcran("broker", "--port", str(port))
+    line = proc.stdout.readline()
+    assert str(port) in line, line + proc.stderr.read()
+    yield f"http://127.0.0.1:{port}"
+    stop(proc)
+
+
+def stop(proc: subprocess.Popen) -> tuple[str, str]:
+    """SIGINT, as a user's Ctrl-C; a process that does not exit in time is killed, never left behind."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        return proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        raise AssertionError(f"{proc.args} did not stop on SIGINT:\n{err}") from None
+
+
+def ran_status(url: str, robot: str = "robot_1") -> dict | None:
+    r = httpx.get(f"{url}/v2/entities/{robot}/attrs/ran_status")
+    if r.status_code != 200:
+        return None
+    return decode_attribute("ran_status", r.json())
+
+
+def live_time(url: str, robot: str = "robot_1") -> float:
+    """The stamp of the robot's current_motion: proof that a live run is publishing (and so polling)."""
+    r = httpx.get(f"{url}/v2/entities/{robot}/attrs/current_motion")
+    if r.status_code != 200:
+        return -1.0
+    return decode_attribute("current_motion", r.json()).current_position.header.stamp.to_seconds()
+
+
+@pytest.mark.parametrize("inbound", ["subscription", "polling"])
+def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
+    url = broker_process
+    assert main(["orion", "init", str(DEMO), "--orion", url]) == 0
+    out = tmp_path / "live"
+    extra = ["--notify-url", f"http://127.0.0.1:{free_port()}/notify"] if inbound == "subscription" else []
+    live = vcran("live", str(DEMO), "--orion", url, "--out", str(out), "--factor", "20", *extra)
+    try:
+        assert wait_until(lambda: live_time(url) >= 1.0, 15)  # the live run ticks (init wrote t = 0)
+        if inbound == "subscription":  # values overwritten before the subscription exists are gone (SPEC §7)
+            assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)
+        sender = vcran("send", str(DEMO), "--orion", url, "--factor", "20", "--quiet")
+        assert sender.wait(timeout=30) == 0, sender.stderr.read()
+        done = lambda: [i.description for i in ran_status(url).completed] == ["100", "200", "300"]  # noqa: E731
+        assert wait_until(done, 20), ran_status(url)
+    finally:
+        stdout, stderr = stop(live)
+    assert live.returncode == 0, stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["robots"]["robot_1"]["completed"] == ["100", "200", "300"]
+    assert summary["robots"]["robot_1"]["cancelled"] == []
+    assert summary["stations"]["conveyor_2"]["parts"] == 1
+    assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
+
+
+# --- in-process: faults --------------------------------------------------------------------------------
+
+FLEET = """
+[simulation]
+duration = 10000.0
+task_timeout = {timeout}
+[[robots]]
+id = "robot_1"
+max_velocity = 2.0
+"""
+
+
+class LiveRun:
+    """``run_to`` with the Orion transport in a background thread; ``stop()`` ends it like SIGINT does."""
+
+    def __init__(self, tmp_path: Path, url: str, *, speed: float = 10.0, timeout: float = 30.0,
+                 notify: bool = True, poll: float = 0.25, client: OrionClient | None = None) -> None:
+        self.scenario = parse(tomllib.loads(FLEET.format(timeout=timeout)), "<live test>")
+        self.env = LiveEnvironment(speed)
+        notify_url = f"http://127.0.0.1:{free_port()}/notify" if notify else None
+        self.transport = OrionTransport(client or OrionClient(url), LiveOptions(
+            "ROBOT", ("robot_1",), notify_url=notify_url, poll_interval=poll, backoff_cap=0.5, keepalive=0.3))
+        self.out = tmp_path / "live"
+        self.model = None
+        self.result = None
+        self.error: BaseException | None = None
+
+        def target() -> None:
+            try:
+                self.result = run_to(self.scenario, self.out, self.transport, env=self.env,
+                                     on_start=lambda m: setattr(self, "model", m))
+            except BaseException as exc:  # surfaced by stop()
+                self.error = exc
+
+        self.thread = threading.Thread(target=target, daemon=True)
+        self.thread.start()
+        assert wait_until(lambda: self.model is not None, 10)
+
+    def events(self, name: str) -> list[dict]:
+        path = self.out / "events.jsonl"
+        return [e for e in map(json.loads, path.read_text().splitlines()) if e["event"] == name]
+
+    def stop(self):
+        self.env.call_soon(self.model.stop)
+        self.thread.join(timeout=20)
+        assert not self.thread.is_alive()
+        if self.error:
+            raise self.error
+        return self.result
+
+
+def write(url: str, attribute: str, message, robot: str = "robot_1") -> None:
+    r = httpx.post(f"{url}/v2/entities/{robot}/attrs", json={attribute: encode_attribute(attribute, message)})
+    assert r.status_code == 204, r.text
+
+
+def task(name: str, n: int = 2):
+    from vcran.core.build import action, motion
+
+    return [motion(name, f"{name}_m{i}", i, n, i, 0) for i in range(1, n)] + [action(name, f"{name}_a", n, n)]
+
+
+def init(url: str) -> None:
+    r = httpx.post(f"{url}/v2/op/update", json={"actionType": "append", "entities": [{"id": "robot_1", "type": "ROBOT"}]})
+    assert r.status_code == 204
+
+
+def test_broker_restart_mid_run(tmp_path):
+    broker = start_broker(port=0)
+    port, url = broker.port, broker.url
+    init(url)
+    run = LiveRun(tmp_path, url)
+    try:
+        assert wait_until(lambda: ran_status(url) is not None, 10)
+        broker.stop()  # Orion gone: the simulation goes on, outbound state is kept
+        t_down = run.env.now
+        time.sleep(1.0)
+        assert run.env.now > t_down + 5  # x10: the simulation did not stall
+        assert run.transport.outbound.fault is not None
+        broker = start_broker(port=port)  # a fresh, empty Orion on the same port
+        # outbound state delivered again (op/update append recreates the entity) ...
+        assert wait_until(lambda: ran_status(url) is not None, 10)
+        # ... and the subscription re-created: a write after the restart reaches the simulation
+        assert wait_until(lambda: run.transport.inbound.fault is None and
+                          httpx.get(f"{url}/v2/subscriptions").json() != [], 10)
+        for m in task("after"):
+            write(url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert wait_until(lambda: [i.description for i in ran_status(url).completed] == ["after"], 10)
+    finally:
+        result = run.stop()
+        broker.stop()
+    assert result.summary["robots"]["robot_1"]["completed"] == ["after"]
+    # what was recorded through the outage replays exactly (§6)
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+
+
+def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
+    calls = {"n": 0}
+    lock = threading.Lock()
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        with lock:
+            calls["n"] += 1
+            n = calls["n"]
+        if request.url.path == "/v2/op/update":
+            if n < 30:
+                return httpx.Response(503, json={"error": "ServiceUnavailable", "description": "down"})
+            time.sleep(0.3)  # slow, but answering
+            return httpx.Response(204)
+        return httpx.Response(200, json=[])
+
+    client = OrionClient("http://orion.invalid", transport=httpx.MockTransport(handler))
+    with caplog.at_level("WARNING", logger="vcran.orion"):
+        run = LiveRun(tmp_path, "http://orion.invalid", notify=False, client=client)
+        start = time.monotonic()
+        time.sleep(1.5)
+        progressed = run.env.now
+        elapsed = time.monotonic() - start
+        run.stop()
+    assert progressed >= 10 * elapsed * 0.8  # kept pace with real time at x10 despite 503s and 300 ms answers
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    downs = [r for r in caplog.records if "retrying in the background" in r.getMessage()]
+    assert len(downs) == 1  # logged once, not once per tick
+    assert any("is back" in r.getMessage() for r in caplog.records)
+
+
+def test_listener_refuses_bad_notifications_and_ignores_unknown_subscriptions(tmp_path):
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        listener = run.transport._listener
+        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        base = f"http://127.0.0.1:{listener.port}{listener.path}"
+        big = httpx.post(base, content=b"{" + b" " * (listener.max_body + 1) + b"}",
+                         headers={"Content-Type": "application/json"})
+        assert big.status_code == 413
+        assert httpx.post(base, content=b'{"subscriptionId": ', headers={"Content-Type": "application/json"}).status_code == 400
+        assert httpx.post(base, json={"hello": "world"}).status_code == 400
+        from vcran.core.build import motion
+
+        stray = {"subscriptionId": "not-ours", "data": [
+            {"id": "robot_1", "type": "ROBOT", "motion_assignment": encode_attribute("motion_assignment", motion("X", "X_m", 1, 2, 1, 0))}]}
+        assert httpx.post(base, json=stray).status_code == 204
+        time.sleep(0.3)
+    finally:
+        run.stop()
+        broker.stop()
+    assert run.events("task_queued") == []  # the stray notification entered nothing
+
+
+@pytest.mark.parametrize("inbound,expected", [("polling", "timeout"), ("subscription", "completed")])
+def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inbound, expected):
+    """Two motions written to the same attribute between two polls: polling sees only the second, so the
+    task never assembles and R7 cancels it; notifications deliver both."""
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url, speed=10, timeout=3.0, notify=inbound == "subscription", poll=30.0)
+    try:
+        if inbound == "subscription":
+            assert wait_until(lambda: run.transport._subscription is not None and run.transport.requests >= 1, 10)
+        else:
+            assert wait_until(lambda: run.transport.requests >= 1, 10)  # the first poll is done; next in 3 s
+        m1, m2, a = task("T", 3)
+        write(broker.url, "motion_assignment", m1)
+        write(broker.url, "motion_assignment", m2)
+        write(broker.url, "action_assignment", a)
+        if inbound == "polling":
+            assert wait_until(lambda: run.model.cancelled["robot_1"] != [], 15)
+        else:
+            assert wait_until(lambda: run.model.completed["robot_1"] != [], 15)
+    finally:
+        run.stop()
+        broker.stop()
+    robot = run.result.summary["robots"]["robot_1"]
+    if expected == "timeout":
+        assert robot["cancelled"] == [{"task": "T", "reason": "timeout"}] and robot["completed"] == []
+    else:
+        assert robot["completed"] == ["T"]
+
+
+def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
+    """Orion keeps its data but loses vcran's subscription: the keeper re-creates it and reads the entity
+    again, so an assignment written in between still reaches the simulation (SPEC §7)."""
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        first = run.transport._subscription
+        assert httpx.delete(f"{broker.url}/v2/subscriptions/{first}").status_code == 204
+        for m in task("gap"):  # written while nobody is subscribed: no notification
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["gap"], 15)
+        assert run.transport._subscription not in (None, first)
+    finally:
+        run.stop()
+        broker.stop()

@@ -1,0 +1,144 @@
+"""Build inbound messages from names and numbers: what scenario scripts, tests and users write.
+
+Ids come from names through the stable mapping of :func:`vcran.core.ids.id_for`. Actions are named by kind
+(``"load"``, ``"unload"``, ``"dummy"``), encoded with OPIL's categories (10, 20, 5), which is what OPIL's
+task planner sends; a raw ``(category, action)`` pair can be given instead.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from vcran.core.ids import NIL, NOT_SUPPORTED, Id, id_for
+from vcran.core.messages import (
+    Accel,
+    ActionAssignment,
+    ActionKind,
+    CancelTask,
+    Header,
+    Motion,
+    MotionAssignment,
+    Point,
+    PolygonStamped,
+    Pose,
+    Pose2D,
+    PoseStamped,
+    Quaternion,
+    RobotAction,
+    Sequence,
+    Time,
+    Twist,
+    Vector3,
+)
+
+#: The category each kind is sent with (OPIL ``RobotAction`` constants).
+CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20}
+
+
+def motion(
+    task: str | Id,
+    name: str | Id,
+    seq: int,
+    length: int,
+    x: float,
+    y: float,
+    theta: float = 0.0,
+    *,
+    use_orientation: bool = False,
+    is_waypoint: bool | None = None,
+    max_velocity: float = 0.0,
+    max_acceleration: float = 0.0,
+    area: list[tuple[float, float]] | None = None,
+    stamp: float = 0.0,
+) -> MotionAssignment:
+    """A motion assignment; ``is_waypoint`` defaults to "not the task's last position" (give it
+    explicitly for the last motion of a task that has actions: only the caller knows it is last)."""
+    return MotionAssignment(
+        header=Header(0, Time.from_seconds(stamp), ""),
+        point_id=_id(name),
+        task_id=_id(task),
+        motion_id=_id(name),
+        point=_pose(float(x), float(y), float(theta)),
+        is_waypoint=(seq < length) if is_waypoint is None else is_waypoint,
+        use_orientation=use_orientation,
+        max_velocity=_twist(float(max_velocity)),
+        max_acceleration=_accel(float(max_acceleration)),
+        motion_area=_area(tuple(area or ())),
+        sequence=_sequence(seq, length),
+    )
+
+
+# Messages are immutable, so the parts a script repeats (a cycle's points, limits, areas) are shared:
+# building hours of generated assignments stays cheap.
+@lru_cache(maxsize=4096)
+def _pose(x: float, y: float, theta: float) -> Pose2D:
+    return Pose2D(x, y, theta)
+
+
+@lru_cache(maxsize=64)
+def _twist(linear: float) -> Twist:
+    return Twist(Vector3(linear, 0.0, 0.0), Vector3())
+
+
+@lru_cache(maxsize=64)
+def _accel(linear: float) -> Accel:
+    return Accel(Vector3(linear, 0.0, 0.0), Vector3())
+
+
+@lru_cache(maxsize=256)
+def _area(points: tuple[tuple[float, float], ...]) -> PolygonStamped:
+    return PolygonStamped.from_xy(points)
+
+
+@lru_cache(maxsize=1024)
+def _sequence(number: int, length: int) -> Sequence:
+    return Sequence(number, length)
+
+
+def action(
+    task: str | Id,
+    name: str | Id,
+    seq: int,
+    length: int,
+    kind: str | ActionKind = ActionKind.DUMMY,
+    *,
+    category: int | None = None,
+    code: int | None = None,
+    description: str = "",
+) -> ActionAssignment:
+    """An action assignment by kind, or by raw ``category``/``code`` when either is given."""
+    if category is None and code is None:
+        category, code = CATEGORY_OF[ActionKind(kind)], 0
+    return ActionAssignment(
+        action_id=_id(name),
+        task_id=_id(task),
+        sequence=_sequence(seq, length),
+        robot_action=_robot_action(category or 0, code or 0, description),
+    )
+
+
+@lru_cache(maxsize=256)
+def _robot_action(category: int, code: int, description: str) -> RobotAction:
+    return RobotAction(category, code, (), description)
+
+
+def cancel(task: str | Id, *, motion: str | Id | None = None, action: str | Id | None = None) -> CancelTask:
+    """A whole-task cancel as OPIL sends it (unused ids "not supported"), or a partial one if named."""
+    unused = Id(NIL.uuid[:-1] + b"\x01", NOT_SUPPORTED)
+    return CancelTask(
+        task_id=_id(task),
+        action_id=unused if action is None else _id(action),
+        motion_id=unused if motion is None else _id(motion),
+    )
+
+
+def _id(name: str | Id) -> Id:
+    return name if isinstance(name, Id) else id_for(name)
+
+
+def motion_message(stamp: Time, x: float, y: float, theta: float, v: float, w: float) -> Motion:
+    """``current_motion`` of one robot: pose in the map frame and body velocities (SPEC §2)."""
+    return Motion(
+        PoseStamped(Header(0, stamp, "/map"), Pose(Point(x, y, 0.0), Quaternion.from_yaw(theta))),
+        Twist(Vector3(v, 0.0, 0.0), Vector3(0.0, 0.0, w)),
+    )

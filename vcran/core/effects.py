@@ -1,0 +1,189 @@
+"""What RanLogic asks the world to do, and what it reports: frozen, slotted values.
+
+RanLogic never acts; every input returns a list of these, in the order they happen. Commands
+(:class:`DispatchPath`, :class:`StopAfterLeg`, :class:`DispatchAction`, :class:`StartTimer`,
+:class:`ClearTimer`) are carried out by the SimPy model; events (the rest) are logged to ``events.jsonl``
+and, for errors, published as ``ran_error``. Keeping both in one ordered list is what makes a
+state transition and the command that caused it impossible to reorder by accident.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import Any
+
+from vcran.core.ids import NIL, Id
+from vcran.core.messages import ActionAssignment, MotionAssignment
+
+
+class State(enum.Enum):
+    """RanLogic's states (R6)."""
+
+    WAITING = "WAITING"
+    TASK = "TASK"
+    MOTION = "MOTION"
+    ACTION = "ACTION"
+
+
+class Reason(enum.Enum):
+    """Why a task was cancelled (SPEC §8)."""
+
+    TIMEOUT = "timeout"
+    CANCELLED = "cancelled"
+    ACTION_FAILED = "action_failed"
+
+
+
+# --- commands -------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class DispatchPath:
+    """Send every motion of the task to the AGV at once, as one path (R6 MOTION)."""
+
+    task: Id
+    motions: tuple[MotionAssignment, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class StopAfterLeg:
+    """The current task is being cancelled: finish the running leg, then stop (R8)."""
+
+    task: Id
+
+
+@dataclass(frozen=True, slots=True)
+class DispatchAction:
+    """Send one action to AgvAction (R6 ACTION: one at a time, in sequence order)."""
+
+    task: Id
+    action: ActionAssignment
+
+
+@dataclass(frozen=True, slots=True)
+class StartTimer:
+    """Call :meth:`RanLogic.on_timer` for ``task`` at simulated time ``at`` (R7)."""
+
+    task: Id
+    at: float
+
+
+@dataclass(frozen=True, slots=True)
+class ClearTimer:
+    """The R7 timer of ``task`` no longer matters (assembled or ended)."""
+
+    task: Id
+
+
+Command = DispatchPath | StopAfterLeg | DispatchAction | StartTimer | ClearTimer
+
+# --- events ---------------------------------------------------------------------------------------------
+
+
+class Event:
+    """Something to log. ``fields()`` is the event-specific part of its ``events.jsonl`` line."""
+
+    __slots__ = ()
+    NAME = ""
+
+    def fields(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, slots=True)
+class StateChanged(Event):
+    NAME = "state"
+    from_: State
+    to: State
+
+    def fields(self) -> dict[str, Any]:
+        return {"from": self.from_.value, "to": self.to.value}
+
+
+@dataclass(frozen=True, slots=True)
+class TaskQueued(Event):
+    NAME = "task_queued"
+    task: Id
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task.label}
+
+
+@dataclass(frozen=True, slots=True)
+class TaskCompleted(Event):
+    NAME = "task_completed"
+    task: Id
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task.label}
+
+
+@dataclass(frozen=True, slots=True)
+class TaskCancelled(Event):
+    NAME = "task_cancelled"
+    task: Id
+    reason: Reason
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task.label, "reason": self.reason.value}
+
+
+@dataclass(frozen=True, slots=True)
+class MotionFinished(Event):
+    NAME = "motion_finished"
+    task: Id
+    motion: Id
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task.label, "motion": self.motion.label}
+
+
+@dataclass(frozen=True, slots=True)
+class ActionFinished(Event):
+    NAME = "action_finished"
+    task: Id
+    action: Id
+    ok: bool
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task.label, "action": self.action.label, "ok": self.ok}
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorReport(Event):
+    """Published as ``ran_error``. ``count`` is the robot's running error count including this one."""
+
+    code: str
+    message: str
+    severity: str = "error"
+    task: Id = NIL
+    motion: Id = NIL
+    action: Id = NIL
+    count: int = 0
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"code": self.code, "severity": self.severity}
+        for name in ("task", "motion", "action"):
+            ident: Id = getattr(self, name)
+            if not ident.is_nil:
+                out[name] = ident.label
+        out["message"] = self.message
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class Rejected(ErrorReport):
+    """An input that was refused (R2, R8, R9, R10, R11, R12); nothing of it was applied."""
+
+    NAME = "rejected"
+
+
+@dataclass(frozen=True, slots=True)
+class Failed(ErrorReport):
+    """An action that failed (§4); the task is cancelled with reason ``action_failed``."""
+
+    NAME = "failed"
+
+
+Effect = Command | Event

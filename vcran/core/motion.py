@@ -1,0 +1,266 @@
+"""Leg kinematics: where an AGV is at any instant, computed, never stepped (SPEC §4).
+
+A leg goes from the AGV's pose to one motion assignment's point in three phases: turn in place to face
+the point, drive a straight line with a trapezoidal speed profile (or a triangle when the leg is too short
+to reach cruise speed), and, for a goal with ``use_orientation``, turn in place to ``theta``. Every phase is
+closed-form, so the cost of a pose does not depend on the leg's length or on how often it is sampled.
+
+:class:`Leg` answers for one robot (the AGV process uses its duration to schedule the arrival);
+:class:`FleetKinematics` holds every robot's current leg in numpy arrays and samples the whole fleet in
+one vectorised sweep, which is how the 1 Hz telemetry of a thousand robots stays cheap.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+TAU = 2.0 * math.pi
+
+
+def wrap(angle: float) -> float:
+    """Angle in (-pi, pi]; an angle already in range is returned unchanged (bit for bit)."""
+    if -math.pi < angle <= math.pi:
+        return angle
+    a = math.fmod(angle + math.pi, TAU)
+    if a <= 0.0:
+        a += TAU
+    return a - math.pi
+
+
+@dataclass(frozen=True, slots=True)
+class Limits:
+    """Speed limits of one leg: linear speed, acceleration and deceleration, angular speed.
+
+    A non-positive acceleration, deceleration or angular speed means "instantaneous" (the seed's
+    interpolating AGV has none); the linear speed must be positive.
+    """
+
+    speed: float
+    accel: float = 0.0
+    decel: float = 0.0
+    turn_rate: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.speed) and self.speed > 0):
+            raise ValueError(f"leg speed must be a positive finite number, got {self.speed}")
+
+
+@dataclass(frozen=True, slots=True)
+class Leg:
+    """One straight leg from ``(x0, y0, theta0)`` to ``(x1, y1)``, starting at ``t0``."""
+
+    t0: float
+    x0: float
+    y0: float
+    theta0: float
+    x1: float
+    y1: float
+    theta_goal: float | None
+    limits: Limits
+
+    # Derived once in __post_init__ (frozen: set through object.__setattr__).
+    distance: float = 0.0
+    heading: float = 0.0
+    ux: float = 1.0  # cos(heading), sin(heading): computed once, in scalar libm (see module notes)
+    uy: float = 0.0
+    turn1: float = 0.0  # signed angle of the first turn
+    rate1: float = 0.0  # signed angular speed of the first turn
+    t_turn1: float = 0.0
+    peak: float = 0.0  # highest speed reached
+    t_acc: float = 0.0
+    t_dec: float = 0.0
+    t_drive: float = 0.0
+    turn2: float = 0.0
+    rate2: float = 0.0
+    t_turn2: float = 0.0
+    end_theta: float = 0.0
+    t_end: float = 0.0
+
+    def __post_init__(self) -> None:
+        dx, dy = self.x1 - self.x0, self.y1 - self.y0
+        distance = math.hypot(dx, dy)
+        heading = wrap(math.atan2(dy, dx) if distance > 0 else self.theta0)  # atan2 may return -pi
+        turn1 = wrap(heading - self.theta0) if distance > 0 else 0.0
+        lim = self.limits
+        peak, t_acc, t_dec, t_drive = _profile(distance, lim.speed, lim.accel, lim.decel)
+        turn2 = wrap(self.theta_goal - heading) if self.theta_goal is not None else 0.0
+        t_turn1, t_turn2 = _turn_time(turn1, lim.turn_rate), _turn_time(turn2, lim.turn_rate)
+        # Exactly the goal's theta when it has one, so a goal pose is reached bit for bit.
+        end_theta = wrap(self.theta_goal) if self.theta_goal is not None else heading
+        derived = {
+            "distance": distance, "heading": heading, "ux": math.cos(heading), "uy": math.sin(heading),
+            "turn1": turn1, "rate1": math.copysign(lim.turn_rate, turn1), "t_turn1": t_turn1,
+            "peak": peak, "t_acc": t_acc, "t_dec": t_dec, "t_drive": t_drive,
+            "turn2": turn2, "rate2": math.copysign(lim.turn_rate, turn2), "t_turn2": t_turn2,
+            "end_theta": end_theta, "t_end": self.t0 + (t_turn1 + t_drive + t_turn2),
+        }
+        for name, value in derived.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def duration(self) -> float:
+        return self.t_turn1 + self.t_drive + self.t_turn2
+
+    def pose_at(self, t: float) -> tuple[float, float, float, float, float]:
+        """``(x, y, theta, linear speed, angular speed)`` at ``t``, clamped to the leg.
+
+        The same operations, in the same order, as :func:`_sample_moving`, so that the scalar and the
+        vectorised paths agree to the last bit.
+        """
+        if t >= self.t_end:
+            return self.x1, self.y1, self.end_theta, 0.0, 0.0
+        tau = t - self.t0
+        if tau < 0.0:
+            tau = 0.0
+        if tau < self.t_turn1:
+            return self.x0, self.y0, wrap(self.theta0 + self.rate1 * tau), 0.0, self.rate1
+        d = tau - self.t_turn1
+        if d < self.t_drive:
+            s, v = _along(d, self.distance, self.peak, self.t_acc, self.t_dec, self.t_drive)
+            return self.x0 + self.ux * s, self.y0 + self.uy * s, self.heading, v, 0.0
+        return self.x1, self.y1, wrap(self.heading + self.rate2 * (d - self.t_drive)), 0.0, self.rate2
+
+    def distance_at(self, t: float) -> float:
+        tau = t - self.t0 - self.t_turn1
+        if tau <= 0.0:
+            return 0.0
+        if tau >= self.t_drive:
+            return self.distance
+        return _along(tau, self.distance, self.peak, self.t_acc, self.t_dec, self.t_drive)[0]
+
+
+def _turn_time(angle: float, rate: float) -> float:
+    return abs(angle) / rate if rate > 0 and angle != 0.0 else 0.0
+
+
+def _profile(distance: float, speed: float, accel: float, decel: float) -> tuple[float, float, float, float]:
+    """Peak speed, acceleration time, deceleration time and total time of a straight drive."""
+    if distance <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    inv_a = 1.0 / accel if accel > 0 else 0.0
+    inv_d = 1.0 / decel if decel > 0 else 0.0
+    ramps = 0.5 * speed * speed * (inv_a + inv_d)  # distance spent accelerating and braking
+    if ramps <= distance:
+        peak = speed
+        cruise = (distance - ramps) / speed
+    else:  # triangle: never reaches cruise speed
+        peak = math.sqrt(distance / (0.5 * (inv_a + inv_d)))
+        cruise = 0.0
+    t_acc, t_dec = peak * inv_a, peak * inv_d
+    return peak, t_acc, t_dec, t_acc + cruise + t_dec
+
+
+def _along(d: float, distance: float, peak: float, t_acc: float, t_dec: float, t_drive: float) -> tuple[float, float]:
+    """Distance covered and speed ``d`` seconds into a drive (trapezoid or triangle profile)."""
+    if d < t_acc:
+        s, v = 0.5 * peak * d * d / t_acc, peak * d / t_acc
+    elif d <= t_drive - t_dec:
+        s, v = 0.5 * peak * t_acc + peak * (d - t_acc), peak
+    else:
+        rest = t_drive - d
+        s, v = distance - 0.5 * peak * rest * rest / t_dec, peak * rest / t_dec
+    return min(max(s, 0.0), distance), v
+
+
+#: Below this many moving robots a tick is sampled leg by leg in Python: numpy's per-call overhead
+#: would dominate. Both paths give bit-identical results (tests/core/test_motion.py).
+SCALAR_BELOW = 24
+
+# Columns of FleetKinematics.legs, one row per robot: the parameters of its current leg.
+_COLUMNS = "t0 x0 y0 theta0 x1 y1 end_theta distance heading ux uy rate1 t_turn1 peak t_acc t_dec t_drive rate2 t_end".split()
+C = {name: i for i, name in enumerate(_COLUMNS)}
+
+
+class FleetKinematics:
+    """Every robot's current leg, sampled for the whole fleet at once.
+
+    A robot at rest has no leg; ``rest`` holds its pose. :meth:`start` (the AGV process, once per leg)
+    and :meth:`finish` keep the arrays current; :meth:`sample` (the telemetry sweep, once per tick)
+    costs a few numpy calls for the whole fleet, or a short Python loop when few robots move.
+    """
+
+    def __init__(self, poses: list[tuple[float, float, float]]) -> None:
+        n = len(poses)
+        self.legs = np.zeros((n, len(_COLUMNS)), dtype=np.float64)
+        self.legs[:, C["t_end"]] = -np.inf
+        #: x, y, theta, v, w of every robot at rest (v = w = 0); rows of moving robots are overwritten.
+        self.rest = np.zeros((n, 5), dtype=np.float64)
+        self.rest[:, :3] = np.asarray(poses, dtype=np.float64).reshape(n, 3)
+        self.rest[:, 2] = [wrap(theta) for _, _, theta in poses]
+        self.odometer = np.zeros(n, dtype=np.float64)  # distance of finished legs
+        self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
+
+    def __len__(self) -> int:
+        return len(self.rest)
+
+    def start(self, i: int, leg: Leg) -> None:
+        row = self.legs[i]
+        for name in _COLUMNS:
+            row[C[name]] = getattr(leg, name)
+        self.current[i] = leg
+
+    def finish(self, i: int) -> None:
+        """The leg of robot ``i`` is over: bank its distance and rest at its end pose."""
+        leg = self.current.pop(i)
+        self.odometer[i] += leg.distance
+        self.rest[i, :3] = (leg.x1, leg.y1, leg.end_theta)
+        self.legs[i, C["t_end"]] = -np.inf
+
+    def distance(self, i: int, t: float) -> float:
+        """Odometer of robot ``i`` at ``t``, including the driven part of its current leg."""
+        leg = self.current.get(i)
+        return float(self.odometer[i] + (leg.distance_at(t) if leg is not None else 0.0))
+
+    def sample(self, t: float) -> np.ndarray:
+        """A (robots, 5) array of ``x, y, theta, v, w`` at ``t`` (legs not started count as at rest)."""
+        out = self.rest.copy()
+        if len(self.current) < SCALAR_BELOW:
+            for i, leg in self.current.items():
+                out[i] = leg.pose_at(t)
+            return out
+        idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
+        out[idx] = _sample_moving(self.legs[idx], t)
+        return out
+
+
+def _wrap_array(a: np.ndarray) -> np.ndarray:
+    """:func:`wrap` elementwise, with the same fmod steps (fmod is exact, so results agree)."""
+    r = np.fmod(a + math.pi, TAU)
+    r = np.where(r <= 0.0, r + TAU, r)
+    return np.where((-math.pi < a) & (a <= math.pi), a, r - math.pi)
+
+
+def _sample_moving(L: np.ndarray, t: float) -> np.ndarray:
+    """Poses of legs that are under way at ``t``; mirrors :meth:`Leg.pose_at` operation by operation."""
+    col = lambda name: L[:, C[name]]  # noqa: E731
+    tau = np.maximum(t - col("t0"), 0.0)
+    t1, td, ta, tdec = col("t_turn1"), col("t_drive"), col("t_acc"), col("t_dec")
+    peak, dist = col("peak"), col("distance")
+    turning1 = tau < t1
+    d = tau - t1
+    driving = ~turning1 & (d < td)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        accelerating = d < ta
+        cruising = ~accelerating & (d <= td - tdec)
+        rest = td - d
+        s = np.where(
+            accelerating, 0.5 * peak * d * d / ta,
+            np.where(cruising, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / tdec),
+        )
+        v = np.where(accelerating, peak * d / ta, np.where(cruising, peak, peak * rest / tdec))
+    s = np.minimum(np.maximum(s, 0.0), dist)
+    out = np.empty((len(L), 5))
+    out[:, 0] = np.where(turning1, col("x0"), np.where(driving, col("x0") + col("ux") * s, col("x1")))
+    out[:, 1] = np.where(turning1, col("y0"), np.where(driving, col("y0") + col("uy") * s, col("y1")))
+    theta_turn1 = _wrap_array(col("theta0") + col("rate1") * tau)
+    theta_turn2 = _wrap_array(col("heading") + col("rate2") * (d - td))
+    out[:, 2] = np.where(turning1, theta_turn1, np.where(driving, col("heading"), theta_turn2))
+    out[:, 3] = np.where(driving, v, 0.0)
+    out[:, 4] = np.where(turning1, col("rate1"), np.where(driving, 0.0, col("rate2")))
+    ended = t >= col("t_end")
+    if ended.any():  # a leg whose completion has not been processed yet: at its end pose
+        out[ended] = np.column_stack((col("x1"), col("y1"), col("end_theta"), np.zeros(len(L)), np.zeros(len(L))))[ended]
+    return out

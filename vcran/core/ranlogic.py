@@ -1,0 +1,427 @@
+"""RanLogic: one robot's task queue and state machine (SPEC §3, R1–R10), as a pure object.
+
+Inputs are method calls carrying the simulated time ``now``; outputs are the returned effects
+(:mod:`vcran.core.effects`), in order. Nothing here knows SimPy, HTTP or a clock, so the rules can be tested by
+calling methods and reading lists, and the same object runs under the scripted, replay and live
+transports. The driver's one obligation: deliver :meth:`on_timer` at every :class:`StartTimer` instant
+before any input with a later ``now``, and report each dispatched leg and action exactly once.
+
+Tie order inside one instant is the driver's business (docs/determinism.md); RanLogic only requires
+``now`` never to decrease. A task assembled exactly at its deadline is on time (R7 checks ``now >=
+deadline`` when the timer fires, and the driver delivers inputs of an instant before its timers).
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict, deque
+from collections.abc import Callable
+from itertools import islice
+
+from vcran.core.effects import (
+    ActionFinished,
+    ClearTimer,
+    DispatchAction,
+    DispatchPath,
+    Effect,
+    ErrorReport,
+    Failed,
+    MotionFinished,
+    Reason,
+    Rejected,
+    StartTimer,
+    State,
+    StateChanged,
+    StopAfterLeg,
+    TaskCancelled,
+    TaskCompleted,
+    TaskQueued,
+)
+from vcran.core.ids import NIL, Id
+from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment, RanStatus, TaskEnd, Time
+from vcran.core.tasks import Ended, Task, assignment_id, kind_of, same_content
+
+#: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
+TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
+    {
+        (State.WAITING, State.TASK),
+        (State.TASK, State.MOTION),
+        (State.MOTION, State.ACTION),
+        (State.ACTION, State.WAITING),
+        (State.TASK, State.WAITING),
+        (State.MOTION, State.WAITING),
+    }
+)
+
+#: How many recently completed / cancelled tasks ``ran_status`` shows.
+RECENT = 10
+#: How many queued task ids ``ran_status`` lists (it also says how many are queued in all).
+QUEUE_SHOWN = 50
+
+
+class LocalProtocolError(RuntimeError):
+    """The driver misused RanLogic (time going backwards, a completion nobody dispatched)."""
+
+
+class RanLogic:
+    """The rules of one robot. Construct once per robot; feed it inputs in time order."""
+
+    def __init__(
+        self,
+        robot: str,
+        *,
+        task_timeout: float = 30.0,
+        history_limit: int = 10_000,
+        area_check: Callable[[MotionAssignment], str | None] | None = None,
+    ) -> None:
+        if task_timeout <= 0:
+            raise ValueError(f"task_timeout must be positive, got {task_timeout}")
+        if history_limit < 1:
+            raise ValueError(f"history_limit must be at least 1, got {history_limit}")
+        self.robot = robot
+        self.task_timeout = task_timeout
+        self.history_limit = history_limit
+        #: Returns why a motion's target is outside its motion area (R12), or None.
+        self._area_check = area_check
+        self.state = State.WAITING
+        self.queue: OrderedDict[Id, Task] = OrderedDict()
+        self.history: OrderedDict[Id, Ended] = OrderedDict()
+        self.recent_completed: deque[Id] = deque(maxlen=RECENT)
+        self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
+        self.last_finished_motion: Id = NIL
+        self.last_finished_action: Id = NIL
+        self.error_count = 0
+        #: Bumped whenever anything ``ran_status`` or ``assignment_status`` shows changes.
+        self.version = 0
+        self._now = float("-inf")
+        self._arrivals = 0
+        self._out: list[Effect] = []
+
+    # --- inputs -----------------------------------------------------------------------------------------
+
+    def on_motion(self, now: float, motion: MotionAssignment) -> list[Effect]:
+        self._begin(now)
+        problem = self._area_check(motion) if self._area_check else None
+        if problem:
+            self._reject("outside_motion_area", problem, motion)
+        else:
+            self._on_assignment(now, motion)
+        return self._end()
+
+    def on_action(self, now: float, action: ActionAssignment) -> list[Effect]:
+        self._begin(now)
+        self._on_assignment(now, action)
+        return self._end()
+
+    def on_cancel(self, now: float, cancel: CancelTask) -> list[Effect]:
+        self._begin(now)
+        self._on_cancel(now, cancel)
+        return self._end()
+
+    def on_malformed(self, now: float, attribute: str, detail: str) -> list[Effect]:
+        """A payload for this robot that could not be decoded (R12): report it, apply nothing."""
+        self._begin(now)
+        self._error(Rejected, "malformed", f"{attribute}: {detail}")
+        return self._end()
+
+    def on_timer(self, now: float, task_id: Id) -> list[Effect]:
+        """The R7 deadline of ``task_id`` is due."""
+        self._begin(now)
+        task = self.queue.get(task_id)
+        if task is not None and not task.assembled and task.ending is None and now >= task.deadline:
+            self._end_task(now, task, Reason.TIMEOUT)
+        return self._end()
+
+    def on_motion_finished(self, now: float, motion_id: Id) -> list[Effect]:
+        """The AGV reached the point of ``motion_id`` (the next leg of the current path)."""
+        self._begin(now)
+        task = self._current()
+        if task is None or not self._driving(task):
+            raise LocalProtocolError(f"{self.robot}: motion {motion_id.label} finished but no leg was running")
+        expected = assignment_id(task.slots[task.motions_done + 1])
+        if expected != motion_id:
+            raise LocalProtocolError(
+                f"{self.robot}: motion {motion_id.label} finished, expected {expected.label}"
+            )
+        task.motions_done += 1
+        self.last_finished_motion = motion_id
+        self.version += 1
+        self._emit(MotionFinished(task.id, motion_id))
+        if task.ending is not None:
+            self._finish_cancel(now, task)
+        else:
+            self._advance(now)
+        return self._end()
+
+    def on_action_finished(
+        self, now: float, action_id: Id, ok: bool = True, code: str = "", message: str = ""
+    ) -> list[Effect]:
+        """AgvAction finished ``action_id``; a failure carries the error ``code`` and ``message`` (§4)."""
+        self._begin(now)
+        task = self._current()
+        if task is None or not task.action_running:
+            raise LocalProtocolError(f"{self.robot}: action {action_id.label} finished but none was running")
+        running = task.action_at(task.next_action)
+        if running.action_id != action_id:
+            raise LocalProtocolError(
+                f"{self.robot}: action {action_id.label} finished, expected {running.action_id.label}"
+            )
+        task.action_running = False
+        task.next_action += 1
+        self.last_finished_action = action_id
+        self.version += 1
+        self._emit(ActionFinished(task.id, action_id, ok))
+        if not ok:
+            self._error(Failed, code or "action_failed", message, task.id, NIL, action_id)
+            self._finish_cancel(now, task, Reason.ACTION_FAILED)
+        elif task.ending is not None:
+            self._finish_cancel(now, task)
+        else:
+            self._advance(now)
+        return self._end()
+
+    # --- status -----------------------------------------------------------------------------------------
+
+    @property
+    def current_task(self) -> Id:
+        task = self._current()
+        return task.id if task is not None else NIL
+
+    @property
+    def current_motion(self) -> Id:
+        task = self._current()
+        if task is None or not self._driving(task):
+            return NIL
+        return assignment_id(task.slots[task.motions_done + 1])
+
+    @property
+    def current_action(self) -> Id:
+        task = self._current()
+        if task is None or not task.action_running:
+            return NIL
+        return task.action_at(task.next_action).action_id
+
+    def ran_status(self) -> RanStatus:
+        return RanStatus(
+            state=self.state.value,
+            current_task_id=self.current_task,
+            queue=tuple(islice(self.queue, QUEUE_SHOWN)),
+            queued=len(self.queue),
+            completed=tuple(self.recent_completed),
+            cancelled=tuple(self.recent_cancelled),
+        )
+
+    @property
+    def idle(self) -> bool:
+        return self.state is State.WAITING and not self.queue
+
+    # --- assignments (R1, R2, R9, R10) ------------------------------------------------------------------
+
+    def _on_assignment(self, now: float, a: Assignment) -> None:
+        task = self.queue.get(a.task_id)
+        if task is None:
+            ended = self.history.get(a.task_id)
+            if ended is None:
+                self._new_task(now, a)
+            elif not ended.has_identical(a):
+                code = "task_completed" if ended.reason is None else "task_cancelled"
+                self._reject(code, f"task {a.task_id.label} was already {_how(ended)} [R9]", a)
+            return
+        pos = task.lookup(a)
+        if pos is not None and same_content(task.slots[pos], a):
+            return  # R10: an identical re-read (polling, notifications carrying every attribute)
+        if task.ending is not None:
+            self._reject("task_cancelled", f"task {task.id.label} is being cancelled [R8]", a)
+            return
+        if pos is not None and task.dispatched(pos):
+            self._reject("already_dispatched", f"{kind_of(a)} {assignment_id(a).label} was already dispatched [R10]", a)
+            return
+        if pos is not None and task.m is not None and pos != a.sequence.sequence_number:
+            self._reject("position_changed", f"{kind_of(a)} {assignment_id(a).label} cannot move once the path is dispatched [R10]", a)
+            return
+        problem = task.position_problem(a, pos)
+        if problem is not None:
+            self._reject(problem[0], problem[1], a)
+            return
+        task.put(a, pos)
+        self.version += 1
+        if task is self._current():
+            self._advance(now)
+        if task.assembled:
+            self._emit(ClearTimer(task.id))
+
+    def _new_task(self, now: float, a: Assignment) -> None:
+        """R1: the first assignment of an unseen task id creates it; first_seen = now."""
+        self._arrivals += 1
+        task = Task(a.task_id, now, self._arrivals, a.sequence.length, now + self.task_timeout)
+        task.put(a, None)
+        self.queue[task.id] = task
+        self.version += 1
+        self._emit(TaskQueued(task.id))
+        if not task.assembled:
+            self._emit(StartTimer(task.id, task.deadline))
+        if len(self.queue) == 1:
+            self._set_state(State.TASK)
+            self._advance(now)
+
+    # --- cancel (R8) ------------------------------------------------------------------------------------
+
+    def _on_cancel(self, now: float, c: CancelTask) -> None:
+        for name, ident in (("action_id", c.action_id), ("motion_id", c.motion_id)):
+            if not ident.is_unused:
+                self._error(
+                    Rejected,
+                    "partial_cancel_unsupported",
+                    f"cancel_order.{name} {ident.label}: cancelling single assignments is not supported; "
+                    "send a nil or not-supported id to cancel the whole task [R8]",
+                    c.task_id,
+                )
+                return
+        task = self.queue.get(c.task_id)
+        if task is not None:
+            if task.ending is None:  # else it is already ending; the earlier reason stands
+                self._end_task(now, task, Reason.CANCELLED, c)
+            return
+        ended = self.history.get(c.task_id)
+        if ended is None:
+            self._remember(c.task_id, Ended.of(None, Reason.CANCELLED, now, c))
+            self._error(
+                Rejected, "cancel_unknown_task",
+                f"cancel for unknown task {c.task_id.label}: remembered, its assignments will be rejected [R8]",
+                c.task_id, severity="warning",
+            )
+        elif ended.cancel != c:
+            ended.cancel = c
+            self._error(
+                Rejected, "cancel_finished_task", f"cancel for task {c.task_id.label}, already {_how(ended)} [R8]",
+                c.task_id, severity="warning",
+            )
+
+    def _end_task(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None = None) -> None:
+        """Cancel ``task`` now if nothing of it runs, else once its running leg or action finishes (R8)."""
+        if task is not self._current():
+            self._cancel_now(now, task, reason, cancel)
+            return
+        driving = self._driving(task)
+        if driving or task.action_running:
+            task.ending = reason
+            task.cancel = cancel
+            if driving:
+                self._emit(StopAfterLeg(task.id))
+            return
+        self._finish_cancel(now, task, reason, cancel)
+
+    def _finish_cancel(
+        self, now: float, task: Task, reason: Reason | None = None, cancel: CancelTask | None = None
+    ) -> None:
+        reason = reason or task.ending or Reason.CANCELLED
+        cancel = cancel or task.cancel
+        self._cancel_now(now, task, reason, cancel)
+        self._start_next(now)
+
+    def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
+        del self.queue[task.id]
+        self._remember(task.id, Ended.of(task, reason, now, cancel))
+        self.recent_cancelled.append(TaskEnd(task.id, reason.value, Time.from_seconds(now)))
+        self.version += 1
+        if not task.assembled:
+            self._emit(ClearTimer(task.id))
+        self._emit(TaskCancelled(task.id, reason))
+
+    # --- the state machine (R3-R6) ----------------------------------------------------------------------
+
+    def _advance(self, now: float) -> None:
+        """Move the current task as far as what has been received allows."""
+        task = self._current()
+        assert task is not None
+        if self.state is State.TASK:
+            m = task.motion_count()
+            if m is None:
+                return
+            task.m = m
+            task.next_action = m + 1
+            self._set_state(State.MOTION)
+            if m > 0:
+                self._emit(DispatchPath(task.id, task.path()))
+        if self.state is State.MOTION:
+            if task.motions_done < (task.m or 0) or not task.actions_complete():
+                return
+            self._set_state(State.ACTION)
+        if self.state is State.ACTION and not task.action_running:
+            if task.next_action <= task.length:
+                task.action_running = True
+                self.version += 1
+                self._emit(DispatchAction(task.id, task.action_at(task.next_action)))
+            else:
+                self._complete(now, task)
+
+    def _complete(self, now: float, task: Task) -> None:
+        del self.queue[task.id]
+        self._remember(task.id, Ended.of(task, None, now))
+        self.recent_completed.append(task.id)
+        self.version += 1
+        self._emit(TaskCompleted(task.id))
+        self._start_next(now)
+
+    def _start_next(self, now: float) -> None:
+        if self.state is not State.WAITING:
+            self._set_state(State.WAITING)
+        if self.queue:
+            self._set_state(State.TASK)
+            self._advance(now)
+
+    def _set_state(self, to: State) -> None:
+        if (self.state, to) not in TRANSITIONS:
+            raise AssertionError(f"{self.robot}: transition {self.state.value} -> {to.value} does not exist (R6)")
+        self._emit(StateChanged(self.state, to))
+        self.state = to
+        self.version += 1
+
+    # --- helpers ----------------------------------------------------------------------------------------
+
+    def _driving(self, task: Task) -> bool:
+        """The AGV is on a leg of ``task``'s path (``task`` being the current task)."""
+        return self.state is State.MOTION and task.m is not None and task.motions_done < task.m
+
+    def _current(self) -> Task | None:
+        return next(iter(self.queue.values()), None)
+
+    def _remember(self, task_id: Id, ended: Ended) -> None:
+        """R9: keep the latest ``history_limit`` ended task ids."""
+        self.history[task_id] = ended
+        self.history.move_to_end(task_id)
+        while len(self.history) > self.history_limit:
+            self.history.popitem(last=False)
+
+    def _reject(self, code: str, message: str, a: Assignment) -> None:
+        motion = a.motion_id if isinstance(a, MotionAssignment) else NIL
+        action = a.action_id if isinstance(a, ActionAssignment) else NIL
+        self._error(Rejected, code, message, a.task_id, motion, action)
+
+    def _error(
+        self,
+        cls: type[ErrorReport],
+        code: str,
+        message: str,
+        task: Id = NIL,
+        motion: Id = NIL,
+        action: Id = NIL,
+        severity: str = "error",
+    ) -> None:
+        self.error_count += 1
+        self._emit(cls(code, message, severity, task, motion, action, self.error_count))
+
+    def _emit(self, effect: Effect) -> None:
+        self._out.append(effect)
+
+    def _begin(self, now: float) -> None:
+        if now < self._now:
+            raise LocalProtocolError(f"{self.robot}: time went backwards from {self._now} to {now}")
+        self._now = now
+
+    def _end(self) -> list[Effect]:
+        out, self._out = self._out, []
+        return out
+
+
+def _how(ended: Ended) -> str:
+    return "completed" if ended.reason is None else f"cancelled, reason {ended.reason.value}"

@@ -1,0 +1,86 @@
+"""What crosses the boundary between the simulation and a transport (SPEC §1, §6), and the interface.
+
+Inbound: an attribute of an entity changed, carrying either a decoded message (scripted, replay) or the
+raw NGSI attribute (live, and scripts that exercise R12), which the RAN decodes. Outbound: a
+:class:`Publish` of one attribute of one robot, or a :class:`Frame`, the whole fleet's ``current_motion``
+at one telemetry tick as columns. The time is always the simulated time of the environment.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vcran.core.messages import Message
+
+if TYPE_CHECKING:
+    import simpy
+
+
+@dataclass(frozen=True, slots=True)
+class Inbound:
+    """``attribute`` of entity ``entity`` was written with ``message`` (decoded) or ``raw`` (NGSI JSON)."""
+
+    entity: str
+    attribute: str
+    message: Message | None = None
+    raw: Any = None
+
+
+@dataclass(frozen=True, slots=True)
+class Publish:
+    """Write ``attribute`` of robot ``robot`` at simulated time ``t``."""
+
+    t: float
+    robot: str
+    attribute: str
+    message: Message
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Frame:
+    """``current_motion`` of every robot at tick ``t``: a (robots, 5) float64 array in fleet order."""
+
+    t: float
+    robots: tuple[str, ...]
+    columns: np.ndarray
+
+    #: Column order of :attr:`columns` and of the telemetry file.
+    FIELDS = ("x", "y", "theta", "v", "w")
+
+
+Outbound = Publish | Frame
+
+Deliver = Callable[[Inbound], None]
+
+
+class Transport:
+    """The transport interface: two methods and ``close()``, after httpx's ``BaseTransport``.
+
+    A transport is attached to a running SimPy environment once. From then on it hands inbound messages
+    to ``deliver`` at the simulated time they enter (a scripted transport schedules them; a live one
+    stamps them with ``env.now`` when they arrive), and it receives every outbound message through
+    :meth:`send`, already stamped with simulated time. Everything else (recording, verification) is a
+    wrapper around another transport, never a flag inside one. It lives here, in the core, so that the
+    simulation depends on the interface only; the implementations are in the top-level ``transports``
+    package.
+    """
+
+    def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
+        """Start delivering inbound messages into ``env`` through ``deliver``."""
+        raise NotImplementedError
+
+    def send(self, out: Outbound) -> None:
+        """Take one outbound message (a Publish or a telemetry Frame)."""
+        raise NotImplementedError
+
+    @property
+    def exhausted(self) -> bool:
+        """True once no further inbound message can come (lets a run stop when idle)."""
+        return False
+
+    def close(self) -> None:
+        """Release what the transport holds; called once, after the run."""

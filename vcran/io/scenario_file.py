@@ -1,0 +1,274 @@
+"""Scenario files (TOML): read the fleet, the stations, the settings and the message script into a
+:class:`~vcran.core.scenario.Scenario`.
+
+The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
+an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
+the entry and the field, before anything runs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from vcran.core import build
+from vcran.core.ids import IdError
+from vcran.core.messages import INBOUND
+from vcran.core.orion_rules import identifier_error
+from vcran.core.scenario import (
+    ACTION_KINDS,
+    Cycle,
+    RobotConfig,
+    Scenario,
+    ScriptEntry,
+    Settings,
+    StationConfig,
+    TaskSpec,
+    task_entries,
+)
+from vcran.core.schema import MessageError
+from vcran.io.toml_table import ScenarioError, Table, is_number
+
+__all__ = ["ScenarioError", "load", "parse"]
+
+
+def load(path: str | Path) -> Scenario:
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            data = tomllib.load(f)
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    return parse(data, str(path), default_name=path.stem)
+
+
+def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = "scenario") -> Scenario:
+    top = Table(data, source, "")
+    settings = _settings(top.table("simulation"), default_name)
+    robots = tuple(_robot(t) for t in top.tables("robots"))
+    if not robots:
+        raise ScenarioError(f"{source}: at least one [[robots]] entry is needed")
+    stations = tuple(_station(t) for t in top.tables("stations"))
+    script_tables = top.tables("script")
+    top.done()
+    _unique(source, "robots", [r.id for r in robots])
+    _unique(source, "stations", [s.id for s in stations])
+    known = {r.id for r in robots}
+    script: list[ScriptEntry] = []
+    cycles: list[Cycle] = []
+    for t in script_tables:
+        entry = _script_entry(t, known)
+        if isinstance(entry, Cycle):
+            cycles.append(entry)
+        else:
+            script.extend(entry)
+    script.sort(key=lambda e: e.t)  # stable: equal times keep file order
+    if settings.duration is None and not settings.until_idle:
+        raise ScenarioError(f"{source}: [simulation]: set duration, or until_idle = true")
+    if cycles and settings.duration is None:
+        raise ScenarioError(f"{source}: [simulation]: a scenario with cycles needs a duration")
+    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles))
+
+
+# --- sections -------------------------------------------------------------------------------------------
+
+
+def _settings(t: Table, default_name: str) -> Settings:
+    durations = t.table("action_durations")
+    d = {k: durations.number(k, Settings().durations[k], minimum=0.0) for k in ACTION_KINDS}
+    durations.done()
+    s = Settings(
+        name=t.string("name", default_name),
+        seed=t.integer("seed", 0),
+        duration=t.number("duration", None, minimum=0.0),
+        until_idle=t.boolean("until_idle", False),
+        task_timeout=t.number("task_timeout", 30.0, positive=True),
+        history_limit=t.integer("history_limit", 10_000, minimum=1),
+        telemetry_period=t.number("telemetry_period", 1.0, positive=True),
+        description_period=t.number("description_period", 60.0, positive=True),
+        entity_type=t.string("entity_type", "ROBOT"),
+        durations=d,
+    )
+    problem = identifier_error("entity type", s.entity_type)
+    if problem:
+        t.fail("entity_type", problem)
+    t.done()
+    return s
+
+
+def _robot(t: Table) -> RobotConfig:
+    rid = t.string("id")
+    problem = identifier_error("entity id", rid)
+    if problem:
+        t.fail("id", f"{problem}: robot ids are Orion entity ids")
+    for other in ("agv_id", "ranlogic_id"):
+        value = t.string(other, rid)
+        if value != rid:
+            t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
+    accel = t.number("max_acceleration", 0.0, minimum=0.0)
+    actions = t.strings("actions", list(ACTION_KINDS))
+    for a in actions:
+        if a not in ACTION_KINDS:
+            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
+    r = RobotConfig(
+        id=rid,
+        pose=t.triple("pose", (0.0, 0.0, 0.0)),
+        max_velocity=t.number("max_velocity", 1.0, positive=True),
+        max_acceleration=accel,
+        max_deceleration=t.number("max_deceleration", accel, minimum=0.0),
+        max_angular_velocity=t.number("max_angular_velocity", 0.0, minimum=0.0),
+        footprint=tuple(footprint),
+        actions=tuple(actions),
+        capacity=t.integer("capacity", 1, minimum=0),
+        carrying=t.integer("carrying", 0, minimum=0),
+        vendor=t.text("vendor", "vcran"),
+    )
+    if r.carrying > r.capacity:
+        t.fail("carrying", f"{r.carrying} exceeds capacity {r.capacity}")
+    t.done()
+    return r
+
+
+def _station(t: Table) -> StationConfig:
+    area = t.points("area", [])
+    if area and len(area) < 3:
+        t.fail("area", "a polygon needs at least 3 points")
+    s = StationConfig(
+        id=t.string("id"),
+        position=t.pair("position"),
+        reach=t.number("reach", 1.0, positive=True),
+        area=tuple(area),
+        parts=t.integer("parts", 0, minimum=0),
+        capacity=t.integer("capacity", 1_000_000, minimum=0),
+        produce_every=t.number("produce_every", 0.0, minimum=0.0),
+        produce_start=t.number("produce_start", None, minimum=0.0),
+        produce_limit=t.integer("produce_limit", 0, minimum=0),
+    )
+    if s.parts > s.capacity:
+        t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
+    t.done()
+    return s
+
+
+def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
+    time = t.number("t", minimum=0.0)
+    robot = t.string("robot")
+    if robot not in robots:
+        t.fail("robot", f"no robot {robot!r} in this scenario (R11); robots: {', '.join(sorted(robots))}")
+    kind = t.string("kind")
+    try:
+        entries = _EXPANDERS[kind](t, time, robot) if kind in _EXPANDERS else None
+    except (MessageError, IdError) as exc:
+        t.fail(kind, str(exc))
+    if entries is None:
+        t.fail("kind", f"unknown kind {kind!r}; known: {', '.join(_EXPANDERS)}")
+    t.done()
+    return entries
+
+
+def _motion(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    seq, length = t.sequence("seq")
+    x, y, theta = t.triple("point")
+    m = build.motion(
+        t.name("task"), t.name("id"), seq, length, x, y, theta,
+        use_orientation=t.boolean("use_orientation", False),
+        is_waypoint=t.boolean("is_waypoint", seq < length),
+        max_velocity=t.number("max_velocity", 0.0, minimum=0.0),
+        max_acceleration=t.number("max_acceleration", 0.0, minimum=0.0),
+        area=t.points("area", []),
+        stamp=time,
+    )
+    return [ScriptEntry(time, robot, "motion_assignment", m)]
+
+
+def _action(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    seq, length = t.sequence("seq")
+    category, code = t.integer("category", None), t.integer("code", None)
+    if category is not None or code is not None:
+        a = build.action(t.name("task"), t.name("id"), seq, length, category=category or 0, code=code or 0)
+    else:
+        kind = t.string("action")
+        if kind not in ACTION_KINDS:
+            t.fail("action", f"unknown action {kind!r}; known: {', '.join(ACTION_KINDS)} (or give category/code)")
+        a = build.action(t.name("task"), t.name("id"), seq, length, kind)
+    return [ScriptEntry(time, robot, "action_assignment", a)]
+
+
+def _cancel(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    motion, action = t.name("motion", None), t.name("action", None)
+    return [ScriptEntry(time, robot, "cancel_order", build.cancel(t.name("task"), motion=motion, action=action))]
+
+
+def _raw(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    attribute = t.string("attribute")
+    if attribute not in INBOUND:
+        t.fail("attribute", f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+    value = t.raw("value")
+    if isinstance(value, str):
+        try:
+            value = json.loads(value)
+        except (json.JSONDecodeError, RecursionError) as exc:
+            t.fail("value", f"not valid JSON: {exc}")
+    try:  # what Orion could hold: TOML dates and times have no JSON form (NaN is kept, to test R12)
+        json.dumps(value, allow_nan=True)
+    except (TypeError, ValueError, RecursionError) as exc:
+        t.fail("value", f"not a JSON value: {exc}")
+    return [ScriptEntry(time, robot, attribute, raw=value)]
+
+
+def _task(t: Table, time: float, robot: str) -> list[ScriptEntry]:
+    """A whole task in one entry: its path's motions, then its actions, ``every`` seconds apart."""
+    task = t.name("task")
+    spec = _task_spec(t)
+    every = t.number("every", 0.0, minimum=0.0)
+    return list(task_entries(time, robot, task, spec, every, t.number("max_velocity", 0.0, minimum=0.0)))
+
+
+def _cycle(t: Table, time: float, robot: str) -> Cycle:
+    every = t.number("every", positive=True)
+    tasks = t.raw("tasks")
+    if not isinstance(tasks, list):
+        t.fail("tasks", "expected a list of tables {path = [...], actions = [...]}")
+    specs = []
+    for i, v in enumerate(tasks):
+        sub = Table(v, t.source, f"{t.where}.tasks[{i}]")
+        specs.append(_task_spec(sub))
+        sub.done()
+    if not specs:
+        t.fail("tasks", "a cycle needs at least one task")
+    return Cycle(time, robot, every, t.number("until", math.inf, minimum=0.0), t.name("prefix", robot),
+                 tuple(specs), t.number("max_velocity", 0.0, minimum=0.0))
+
+
+def _task_spec(t: Table) -> TaskSpec:
+    path = t.list_of("path", lambda i, v: _point(t, f"path[{i}]", v))
+    actions = t.strings("actions", [])
+    for a in actions:
+        if a not in ACTION_KINDS:
+            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    if not path and not actions:
+        t.fail("path", "a task needs at least one point or one action")
+    return TaskSpec(tuple(path), tuple(actions))
+
+
+def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
+    if not (isinstance(v, list) and len(v) in (2, 3) and all(is_number(c) for c in v)):
+        t.fail(where, f"expected [x, y] or [x, y, theta], got {v!r}")
+    return float(v[0]), float(v[1]), (float(v[2]) if len(v) == 3 else None)
+
+
+_EXPANDERS: dict[str, Any] = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle}
+
+
+def _unique(source: str, section: str, ids: list[str]) -> None:
+    seen: set[str] = set()
+    for i, x in enumerate(ids):
+        if x in seen:
+            raise ScenarioError(f"{source}: {section}[{i}]: field 'id': duplicate id {x!r}")
+        seen.add(x)
