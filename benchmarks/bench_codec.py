@@ -94,8 +94,8 @@ def main() -> None:
             id_for("task_1"), id_for("motion_3"), id_for("action_0"), id_for("motion_2"), id_for("action_9"), footprint
         ),
         "ran_status": RanStatus(
-            "MOTION", id_for("task_1"), (id_for("task_1"), id_for("task_2")), (id_for("task_0"),),
-            (TaskEnd(id_for("task_x"), "timeout", Time(12, 0)),),
+            state="MOTION", current_task_id=id_for("task_1"), queue=(id_for("task_1"), id_for("task_2")), queued=2,
+            completed=(id_for("task_0"),), cancelled=(TaskEnd(id_for("task_x"), "timeout", Time(12, 0)),),
         ),
     }  # fmt: skip
     robots = [f"robot_{i}" for i in range(1000)]
