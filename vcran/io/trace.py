@@ -26,6 +26,7 @@ import orjson
 
 from vcran.core.ids import canonical_uuid
 from vcran.core.wire import Frame, Inbound, Publish
+from vcran.io.render import converter, to_json_value
 
 FORMAT = "vcran-trace"
 VERSION = 1
@@ -83,13 +84,14 @@ class TraceWriter:
     def inbound(self, t: float, inbound: Inbound) -> None:
         record: dict[str, Any] = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
         if inbound.message is not None:
-            record["value"] = inbound.message
+            record["value"] = to_json_value(inbound.message)
             self._jsonl.write(dumps(record) + b"\n")
         else:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
             self._jsonl.write(dumps(record)[:-1] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
 
     def publish(self, out: Publish) -> None:
-        record = {"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute, "value": out.message}
+        record = {"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute,
+                  "value": converter(type(out.message))(out.message)}
         self._jsonl.write(dumps(record) + b"\n")
 
     def frame(self, frame: Frame) -> None:
