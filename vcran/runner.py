@@ -6,9 +6,11 @@ same way. Only simulated quantities go into them (SPEC §5); wall-clock figures 
 
 from __future__ import annotations
 
+import gc
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -20,6 +22,28 @@ from vcran.core.scenario import Scenario
 from vcran.core.wire import Transport
 from vcran.io.trace import TraceWriter, dumps
 from vcran.sim.model import Model
+
+#: Allocations between young-generation collections while a run is under way (CPython's default: 700).
+GC_THRESHOLD = 50_000
+
+
+@contextmanager
+def _quiet_collector() -> Iterator[None]:
+    """Freeze what exists once the model is built and collect the young generation rarely.
+
+    A run allocates millions of short-lived objects that reference counting frees, and keeps a large,
+    long-lived model that the cyclic collector would otherwise walk again and again (3% of a 100-robot
+    run, 14% of a 1000-robot one). The collector's state is the process's: it is restored afterwards.
+    """
+    threshold = gc.get_threshold()
+    gc.collect()
+    gc.freeze()
+    gc.set_threshold(GC_THRESHOLD, threshold[1], threshold[2])
+    try:
+        yield
+    finally:
+        gc.set_threshold(*threshold)
+        gc.unfreeze()
 
 
 class EventLog:
@@ -80,7 +104,8 @@ def run_to(
         model = Model(scenario, recording, events, env=env, progress=progress)
         if on_start is not None:
             on_start(model)
-        model.run()
+        with _quiet_collector():
+            model.run()
         writer.end(model.env.now)
     finally:
         recording.close()

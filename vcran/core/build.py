@@ -30,6 +30,11 @@ from vcran.core.messages import (
     Twist,
     Vector3,
 )
+from vcran.core.schema import unchecked
+
+_header = unchecked(Header)  # seq 0, a valid stamp and "" need no check
+_motion_assignment = unchecked(MotionAssignment)
+_action_assignment = unchecked(ActionAssignment)
 
 #: The category each kind is sent with (OPIL ``RobotAction`` constants).
 CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20}
@@ -50,11 +55,13 @@ def motion(
     max_acceleration: float = 0.0,
     area: list[tuple[float, float]] | None = None,
     stamp: float = 0.0,
+    checked: bool = True,
 ) -> MotionAssignment:
     """A motion assignment; ``is_waypoint`` defaults to "not the task's last position" (give it
-    explicitly for the last motion of a task that has actions: only the caller knows it is last)."""
-    return MotionAssignment(
-        header=Header(0, Time.from_seconds(stamp), ""),
+    explicitly for the last motion of a task that has actions: only the caller knows it is last).
+    ``checked=False`` skips validation: for repetitions of values already checked once (script cycles)."""
+    return (MotionAssignment if checked else _motion_assignment)(
+        header=_header(0, Time.from_seconds(stamp), ""),
         point_id=_id(name),
         task_id=_id(task),
         motion_id=_id(name),
@@ -105,11 +112,13 @@ def action(
     category: int | None = None,
     code: int | None = None,
     description: str = "",
+    checked: bool = True,
 ) -> ActionAssignment:
-    """An action assignment by kind, or by raw ``category``/``code`` when either is given."""
+    """An action assignment by kind, or by raw ``category``/``code`` when either is given
+    (``checked=False``: as for :func:`motion`)."""
     if category is None and code is None:
         category, code = CATEGORY_OF[ActionKind(kind)], 0
-    return ActionAssignment(
+    return (ActionAssignment if checked else _action_assignment)(
         action_id=_id(name),
         task_id=_id(task),
         sequence=_sequence(seq, length),

@@ -38,6 +38,7 @@ from vcran.core.effects import (
 )
 from vcran.core.ids import NIL, Id
 from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment, RanStatus, TaskEnd, Time
+from vcran.core.schema import unchecked
 from vcran.core.tasks import Ended, Task, assignment_id, kind_of, same_content
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
@@ -56,6 +57,11 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
 RECENT = 10
 #: How many queued task ids ``ran_status`` lists (it also says how many are queued in all).
 QUEUE_SHOWN = 50
+
+
+# Statuses are built from RanLogic's own, already valid state: no re-validation (vcran.core.schema.unchecked).
+_ran_status = unchecked(RanStatus)
+_task_end = unchecked(TaskEnd)
 
 
 class LocalProtocolError(RuntimeError):
@@ -201,7 +207,7 @@ class RanLogic:
         return task.action_at(task.next_action).action_id
 
     def ran_status(self) -> RanStatus:
-        return RanStatus(
+        return _ran_status(
             state=self.state.value,
             current_task_id=self.current_task,
             queue=tuple(islice(self.queue, QUEUE_SHOWN)),
@@ -321,7 +327,7 @@ class RanLogic:
     def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
         del self.queue[task.id]
         self._remember(task.id, Ended.of(task, reason, now, cancel))
-        self.recent_cancelled.append(TaskEnd(task.id, reason.value, Time.from_seconds(now)))
+        self.recent_cancelled.append(_task_end(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
         if not task.assembled:
             self._emit(ClearTimer(task.id))

@@ -104,7 +104,9 @@ class Cycle:
             if start >= self.until:
                 return
             for i, spec in enumerate(self.tasks, start=1):
-                yield from task_entries(start, self.robot, f"{self.prefix}_{k}_{i}", spec, 0.0, self.max_velocity)
+                # Repetition k differs from the first, checked one only in names and times.
+                yield from task_entries(start, self.robot, f"{self.prefix}_{k}_{i}", spec, 0.0, self.max_velocity,
+                                        checked=k == 0)
             k += 1
 
 
@@ -163,7 +165,9 @@ def _drop_none(value: Any) -> Any:
     return value
 
 
-def task_entries(time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float) -> Iterator[ScriptEntry]:
+def task_entries(
+    time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float, *, checked: bool = True
+) -> Iterator[ScriptEntry]:
     """The messages of one task: motions ``{task}_m{i}`` then actions ``{task}_a{j}``, ``every`` apart.
 
     Only the last point's theta is used (with use_orientation); intermediate points are passed through.
@@ -173,9 +177,10 @@ def task_entries(time: float, robot: str, task: str, spec: TaskSpec, every: floa
         at = time + (i - 1) * every
         last_with_theta = i == len(spec.path) and theta is not None
         m = build.motion(task, f"{task}_m{i}", i, length, x, y, theta or 0.0, use_orientation=last_with_theta,
-                         is_waypoint=i < len(spec.path), max_velocity=speed, stamp=at)
+                         is_waypoint=i < len(spec.path), max_velocity=speed, stamp=at, checked=checked)
         yield ScriptEntry(at, robot, "motion_assignment", m)
     for j, kind in enumerate(spec.actions, start=1):
         pos = len(spec.path) + j
-        yield ScriptEntry(time + (pos - 1) * every, robot, "action_assignment", build.action(task, f"{task}_a{j}", pos, length, kind))
+        yield ScriptEntry(time + (pos - 1) * every, robot, "action_assignment", build.action(task, f"{task}_a{j}", pos, length, kind,
+                                                                                   checked=checked))
 

@@ -1,0 +1,52 @@
+"""Cheaper construction paths (issue 14 item 5) give exactly what the checked paths give."""
+
+from __future__ import annotations
+
+import dataclasses
+import uuid
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from vcran.core.ids import VCRAN_NAMESPACE, id_for, uuid5_bytes
+from vcran.core.messages import Header, MotionAssignment, RanStatus, Sequence, Time
+from vcran.core.schema import MessageError, unchecked
+from vcran.testing.strategies import attribute_messages
+
+
+@given(st.text(min_size=1))
+def test_uuid5_from_prehashed_state_is_rfc4122_uuid5(name):  # docs/ids.md: the mapping never changes
+    assert uuid5_bytes(name) == uuid.uuid5(VCRAN_NAMESPACE, name).bytes
+
+
+def test_id_for_known_value():  # pinned by hand: python -c "uuid.uuid5(uuid.uuid5(NAMESPACE_URL, URL), 'robot_1')"
+    expected = uuid.uuid5(uuid.uuid5(uuid.NAMESPACE_URL, "https://github.com/vcran/vcran/ids"), "robot_1")
+    assert id_for("robot_1").uuid == expected.bytes
+
+
+@given(attribute_messages())
+def test_unchecked_constructor_builds_the_same_message(pair):
+    _, message = pair
+    values = {f.name: getattr(message, f.name) for f in dataclasses.fields(message)}
+    copy = unchecked(type(message))(**values)
+    assert type(copy) is type(message)
+    assert copy == message
+
+
+def test_unchecked_defaults_match_the_dataclass():
+    assert unchecked(RanStatus)() == RanStatus()
+    assert unchecked(MotionAssignment)() == MotionAssignment()
+    assert unchecked(Header)(seq=3).stamp == Time()
+
+
+def test_unchecked_skips_validation_and_the_checked_path_does_not():
+    with pytest.raises(MessageError):
+        Sequence(5, 1)
+    assert unchecked(Sequence)(5, 1).sequence_number == 5
+
+
+def test_time_from_seconds_still_refuses_what_int32_cannot_hold():
+    assert Time.from_seconds(1.5) == Time(1, 500_000_000)
+    with pytest.raises(MessageError):
+        Time.from_seconds(2.0**31)
