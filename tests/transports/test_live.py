@@ -289,7 +289,7 @@ def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inboun
         write(broker.url, "motion_assignment", m2)
         write(broker.url, "action_assignment", a)
         if inbound == "polling":
-            assert wait_until(lambda: run.model.cancelled["robot_1"] != [], 15)
+            assert wait_until(lambda: len(run.model.cancelled["robot_1"]) > 0, 15)
         else:
             assert wait_until(lambda: run.model.completed["robot_1"] != [], 15)
     finally:

@@ -39,7 +39,7 @@ from vcran.core.effects import (
 from vcran.core.ids import NIL, Id
 from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment, RanStatus, TaskEnd, Time
 from vcran.core.schema import unchecked
-from vcran.core.tasks import Ended, Task, assignment_id, kind_of, same_content
+from vcran.core.tasks import Ended, History, Task, assignment_id, fingerprint, kind_of, same_content
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
 TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
@@ -77,6 +77,7 @@ class RanLogic:
         *,
         task_timeout: float = 30.0,
         history_limit: int = 10_000,
+        history_bytes: int = 4 << 20,
         area_check: Callable[[MotionAssignment], str | None] | None = None,
     ) -> None:
         if task_timeout <= 0:
@@ -90,7 +91,7 @@ class RanLogic:
         self._area_check = area_check
         self.state = State.WAITING
         self.queue: OrderedDict[Id, Task] = OrderedDict()
-        self.history: OrderedDict[Id, Ended] = OrderedDict()
+        self.history = History(history_limit, history_bytes)
         self.recent_completed: deque[Id] = deque(maxlen=RECENT)
         self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
         self.last_finished_motion: Id = NIL
@@ -295,8 +296,9 @@ class RanLogic:
                 f"cancel for unknown task {c.task_id.label}: remembered, its assignments will be rejected [R8]",
                 c.task_id, severity="warning",
             )
-        elif ended.cancel != c:
-            ended.cancel = c
+        elif not ended.same_cancel(c):
+            ended.cancel = fingerprint(c)
+            self.history.replace(c.task_id, ended)
             self._error(
                 Rejected, "cancel_finished_task", f"cancel for task {c.task_id.label}, already {_how(ended)} [R8]",
                 c.task_id, severity="warning",
@@ -392,11 +394,8 @@ class RanLogic:
         return next(iter(self.queue.values()), None)
 
     def _remember(self, task_id: Id, ended: Ended) -> None:
-        """R9: keep the latest ``history_limit`` ended task ids."""
-        self.history[task_id] = ended
-        self.history.move_to_end(task_id)
-        while len(self.history) > self.history_limit:
-            self.history.popitem(last=False)
+        """R9: keep the latest ``history_limit`` ended task ids (and no more than ``history_bytes``)."""
+        self.history.remember(task_id, ended)
 
     def _reject(self, code: str, message: str, a: Assignment) -> None:
         motion = a.motion_id if isinstance(a, MotionAssignment) else NIL
