@@ -46,6 +46,9 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     # running a scenario into a run folder
     "run_to": ("vcran.runner", "run_to"),
     "RunResult": ("vcran.runner", "RunResult"),
+    # reading a run folder back (docs/outputs.md)
+    "telemetry_table": ("vcran.io.trace", "telemetry_table"),
+    "trace_records": ("vcran.io.trace", "trace_records"),
 }
 
 #: Literal, so that type checkers and linters read it; a test checks it names exactly _EXPORTS.
@@ -56,6 +59,7 @@ __all__ = [
     "Id", "id_for", "MotionAssignment", "ActionAssignment", "CancelTask",
     "Transport", "Inbound", "Publish", "Frame",
     "run_to", "RunResult",
+    "telemetry_table", "trace_records",
 ]
 
 
@@ -81,4 +85,5 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
     from vcran.io.scenario_file import ScenarioError
     from vcran.io.scenario_file import load as load_scenario
     from vcran.io.scenario_file import parse as parse_scenario
+    from vcran.io.trace import telemetry_table, trace_records
     from vcran.runner import RunResult, run_to

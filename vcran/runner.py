@@ -13,14 +13,14 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import simpy
 
 from transports.record import RecordingTransport
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Transport
-from vcran.io.trace import TraceWriter, dumps
+from vcran.io.trace import EVENTS_FILE, EventWriter, TraceWriter
 from vcran.sim.model import Model
 
 #: Allocations between young-generation collections while a run is under way (CPython's default: 700).
@@ -44,21 +44,6 @@ def _quiet_collector() -> Iterator[None]:
     finally:
         gc.set_threshold(*threshold)
         gc.unfreeze()
-
-
-class EventLog:
-    """``events.jsonl``: one object per line, ``t``, ``robot``, ``event`` and the event's fields."""
-
-    def __init__(self, path: Path) -> None:
-        self._f: IO[bytes] = path.open("wb", buffering=1 << 20)
-        self.count = 0
-
-    def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        self._f.write(dumps({"t": t, "robot": robot, "event": name, **fields}) + b"\n")
-        self.count += 1
-
-    def close(self) -> None:
-        self._f.close()
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,11 +82,12 @@ def run_to(
         "fleet": scenario.fleet_dict(),
     }
     writer = TraceWriter(out, header, tuple(r.id for r in scenario.robots))
-    events = EventLog(out / "events.jsonl")
+    events = EventWriter(out / EVENTS_FILE)
     recording = RecordingTransport(transport, writer)
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)
+        model.fleet.observer = writer.leg
         if on_start is not None:
             on_start(model)
         with _quiet_collector():

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import json
+import shutil
 import struct
 
+import numpy as np
 import pytest
 
-from tests.conftest import ROOT, run_scenario
+from tests.conftest import ROOT, read_lines, run_scenario, write_lines
 from tests.sim.test_scenarios import action, cancel, motion, script
 from vcran.cli import main
+from vcran.core.ids import id_for
 from vcran.io.scenario_file import load
 
 
@@ -25,14 +28,32 @@ def replay(trace, out, *extra):
 
 
 def test_demo_trace_replays_identically(demo_run, tmp_path):
-    assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 0
-    for name in ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json"):
-        if name == "trace.jsonl":  # the header's options name the transport; every record matches
-            a = (demo_run / name).read_text().splitlines()[1:]
-            b = (tmp_path / "rep" / name).read_text().splitlines()[1:]
-            assert a == b
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 0
+    for name in ("trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json"):
+        if name == "trace.jsonl.zst":  # the header's options name the transport; every record matches
+            assert read_lines(demo_run / name)[1:] == read_lines(tmp_path / "rep" / name)[1:]
         else:
             assert (demo_run / name).read_bytes() == (tmp_path / "rep" / name).read_bytes()
+
+
+def test_format_1_recording_replays_and_verifies(tmp_path):  # §6: v1 traces still replay
+    v1 = tmp_path / "v1"
+    shutil.copytree(ROOT / "tests" / "data" / "v1-demo", v1)
+    assert replay(v1 / "trace.jsonl", tmp_path / "rep") == 0
+    assert (tmp_path / "rep" / "trace.jsonl.zst").exists()  # the replay writes format 2
+    assert replay(v1, tmp_path / "rep2") == 0  # the folder names its trace
+
+
+def test_format_1_tampered_telemetry_is_found_against_the_replayed_legs(tmp_path, capsys):
+    v1 = tmp_path / "v1"
+    shutil.copytree(ROOT / "tests" / "data" / "v1-demo", v1)
+    data = bytearray((v1 / "telemetry.bin").read_bytes())
+    row = 6 * 8  # t + 5 fields, one robot
+    offset = 12 * row + 1 * 8  # tick 12, field x
+    data[offset:offset + 8] = struct.pack("<d", -5.0)
+    (v1 / "telemetry.bin").write_bytes(bytes(data))
+    assert replay(v1 / "trace.jsonl", tmp_path / "rep") == 1
+    assert "telemetry.bin: first difference at t=12.0 robot=robot_1 attribute=current_motion field x" in capsys.readouterr().err
 
 
 def test_rejections_timeouts_and_cancels_replay_identically(run_toml, tmp_path):
@@ -43,11 +64,11 @@ def test_rejections_timeouts_and_cancels_replay_identically(run_toml, tmp_path):
         motion(6, "C", "C_m1", 1, 2, 0, 0), motion(6, "C", "C_m1", 1, 2, 0, 0), action(6, "C", "C_a1", 2, 2),
     ))
     assert out.summary["errors"] == 2
-    assert replay(out.dir / "trace.jsonl", tmp_path / "rep") == 0
+    assert replay(out.dir / "trace.jsonl.zst", tmp_path / "rep") == 0
 
 
 def rewrite(path, change):
-    lines = path.read_text().splitlines()
+    lines = read_lines(path)
     for i, line in enumerate(lines[1:], start=1):
         record = json.loads(line)
         if change(record):
@@ -55,63 +76,70 @@ def rewrite(path, change):
             break
     else:
         raise AssertionError("nothing changed")
-    path.write_text("\n".join(lines) + "\n")
+    write_lines(path, lines)
 
 
 def test_tampered_outbound_record_is_the_first_difference(demo_run, tmp_path, capsys):
     def change(r):
-        if r.get("attr") == "assignment_status" and r["t"] > 20:
-            r["value"]["last_finished_motion"]["description"] = "forged"
+        # format 2 writes only what changed: a record where the last finished motion changed
+        if r.get("attr") == "assignment_status" and r["t"] > 20 and "last_finished_motion" in r["value"]:
+            r["value"]["last_finished_motion"] = "forged"
             return True
         return False
 
-    rewrite(demo_run / "trace.jsonl", change)
-    assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 1
+    rewrite(demo_run / "trace.jsonl.zst", change)
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 1
     err = capsys.readouterr().err
     assert "robot=robot_1" in err and "attribute=assignment_status" in err
-    assert "value.last_finished_motion.description" in err and '"forged"' in err
+    # differences are named in format 1's terms (full values, plain ids): the forged name's uuid
+    assert "value.last_finished_motion.uuid" in err and f'expected "{id_for("forged").canonical}"' in err
 
 
-def test_tampered_telemetry_names_tick_robot_and_field(demo_run, tmp_path, capsys):
-    path = demo_run / "telemetry.bin"
-    data = bytearray(path.read_bytes())
-    row = 6 * 8  # t + 5 fields, one robot
-    offset = 10 * row + 2 * 8  # tick 10, field y
-    data[offset:offset + 8] = struct.pack("<d", 123.0)
-    path.write_bytes(bytes(data))
-    assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 1
-    assert "telemetry.bin: first difference at t=10.0 robot=robot_1 attribute=current_motion field y" in capsys.readouterr().err
+def test_tampered_leg_names_leg_robot_and_column(demo_run, tmp_path, capsys):
+    path = demo_run / "legs.npy"
+    legs = np.load(path)
+    legs[1]["y"] = 123.0
+    np.save(path, legs)
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 1
+    err = capsys.readouterr().err
+    assert f"legs.npy: first difference at t={float(legs[1]['t'])!r} robot=robot_1 attribute=current_motion field leg 1.y" in err
 
 
 def test_tampered_state_transition_is_found(demo_run, tmp_path, capsys):
-    path = demo_run / "events.jsonl"
-    text = path.read_text().replace('"to":"ACTION"', '"to":"MOTION"', 1)
-    path.write_text(text)
-    assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 1
-    assert "events.jsonl" in capsys.readouterr().err
+    path = demo_run / "events.jsonl.zst"
+    write_lines(path, [line.replace('"to":"ACTION"', '"to":"MOTION"', 1) for line in read_lines(path)])
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 1
+    assert "events.jsonl.zst" in capsys.readouterr().err
 
 
 def test_truncated_recording_is_refused(demo_run, tmp_path, capsys):
-    path = demo_run / "trace.jsonl"
-    path.write_text("\n".join(path.read_text().splitlines()[:-1]) + "\n")
+    path = demo_run / "trace.jsonl.zst"
+    write_lines(path, read_lines(path)[:-1])
     assert replay(path, tmp_path / "rep") == 2
     assert "no end record" in capsys.readouterr().err
 
 
+def test_cut_off_compressed_recording_is_refused(demo_run, tmp_path, capsys):
+    path = demo_run / "trace.jsonl.zst"
+    path.write_bytes(path.read_bytes()[:-40])  # a run killed mid-write leaves an unfinished zstd frame
+    assert replay(path, tmp_path / "rep") == 2
+    assert "the recording did not finish (was it interrupted?)" in capsys.readouterr().err
+
+
 def test_malformed_inbound_record_names_the_line(demo_run, tmp_path, capsys):
-    rewrite(demo_run / "trace.jsonl", lambda r: r.get("dir") == "in" and bool(r["value"].pop("sequence")))
-    assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 2
+    rewrite(demo_run / "trace.jsonl.zst", lambda r: r.get("dir") == "in" and bool(r["value"].pop("sequence")))
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 2
     err = capsys.readouterr().err
-    assert "trace.jsonl:" in err and "sequence" in err and "missing" in err
+    assert "trace.jsonl.zst:" in err and "sequence" in err and "missing" in err
 
 
 def test_recording_without_duration_replays(demo_run, tmp_path):
     """A live run of a scenario with no duration records until_idle false and no duration (live runs
     until a signal); its end record alone says when to stop (review finding)."""
-    path = demo_run / "trace.jsonl"
-    lines = path.read_text().splitlines()
+    path = demo_run / "trace.jsonl.zst"
+    lines = read_lines(path)
     header = json.loads(lines[0])
     header["fleet"]["simulation"].pop("duration", None)
     header["fleet"]["simulation"]["until_idle"] = False
-    path.write_text("\n".join([json.dumps(header), *lines[1:]]) + "\n")
+    write_lines(path, [json.dumps(header), *lines[1:]])
     assert replay(path, tmp_path / "rep") == 0

@@ -118,7 +118,7 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
     assert summary["robots"]["robot_1"]["completed"] == ["100", "200", "300"]
     assert summary["robots"]["robot_1"]["cancelled"] == []
     assert summary["stations"]["conveyor_2"]["parts"] == 1
-    assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(out), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
 
 
 # --- in-process: faults --------------------------------------------------------------------------------
@@ -160,8 +160,9 @@ class LiveRun:
         assert wait_until(lambda: self.model is not None, 10)
 
     def events(self, name: str) -> list[dict]:
-        path = self.out / "events.jsonl"
-        return [e for e in map(json.loads, path.read_text().splitlines()) if e["event"] == name]
+        from vcran.io.trace import EVENTS_FILE, event_records
+
+        return [e for e in event_records(self.out / EVENTS_FILE) if e["event"] == name]
 
     def stop(self):
         self.env.call_soon(self.model.stop)
@@ -214,7 +215,7 @@ def test_broker_restart_mid_run(tmp_path):
         broker.stop()
     assert result.summary["robots"]["robot_1"]["completed"] == ["after"]
     # what was recorded through the outage replays exactly (§6)
-    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
@@ -241,7 +242,7 @@ def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
         elapsed = time.monotonic() - start
         run.stop()
     assert progressed >= 10 * elapsed * 0.8  # kept pace with real time at x10 despite 503s and 300 ms answers
-    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
     downs = [r for r in caplog.records if "retrying in the background" in r.getMessage()]
     assert len(downs) == 1  # logged once, not once per tick
     assert any("is back" in r.getMessage() for r in caplog.records)

@@ -10,21 +10,24 @@ HELP = "re-run a recorded trace as fast as possible; --verify exits non-zero on 
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("trace", type=Path, help="trace.jsonl of a recorded run (telemetry.bin beside it)")
+    parser.add_argument("trace", type=Path, help="a recorded run's folder or its trace (trace.jsonl.zst; format 1's trace.jsonl too)")
     parser.add_argument("--out", type=Path, required=True, help="output folder of the replay")
     parser.add_argument("--verify", action="store_true",
-                        help="compare every outbound record, telemetry row and event with the recording")
+                        help="compare every outbound record, leg (telemetry) and event with the recording")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors and differences")
 
 
 def run(args: argparse.Namespace) -> int:
     from transports.replay import ReplayTransport, TraceError
+    from vcran.io.trace import trace_in
     from vcran.io.verify import scenario_from_trace, verify
     from vcran.runner import run_to
 
-    trace: Path = args.trace
-    if trace.is_dir():
-        trace = trace / "trace.jsonl"
+    try:
+        trace = trace_in(args.trace)
+    except ValueError as exc:
+        print(f"vcran replay: {exc}", file=sys.stderr)
+        return 2
     if args.out.resolve() == trace.parent.resolve():
         print("vcran replay: --out must differ from the recording's folder", file=sys.stderr)
         return 2
@@ -47,5 +50,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"vcran replay --verify: {difference}", file=sys.stderr)
         return 1
     if not args.quiet:
-        print("verify: every outbound record, telemetry row and event matches the recording")
+        print("verify: every outbound record, leg (telemetry) and event matches the recording")
     return 0

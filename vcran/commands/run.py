@@ -54,4 +54,4 @@ def print_summary(result, out: Path) -> None:  # type: ignore[no-untyped-def]
             print(f"  {rid}: completed {', '.join(r['completed']) or 'none'}; cancelled {cancelled_text}; "
                   f"distance {r['distance']:.2f} m")
     print(f"  wall time {result.wall_seconds:.3f} s, speed {result.speed:,.0f}x real time")
-    print(f"  outputs in {out}/ (trace.jsonl, telemetry.bin, events.jsonl, summary.json)")
+    print(f"  outputs in {out}/ (trace.jsonl.zst, legs.npy, events.jsonl.zst, summary.json)")

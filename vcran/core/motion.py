@@ -13,6 +13,7 @@ one vectorised sweep, which is how the 1 Hz telemetry of a thousand robots stays
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,11 +193,15 @@ class FleetKinematics:
         self.rest[:, 2] = [wrap(theta) for _, _, theta in poses]
         self.odometer = np.zeros(n, dtype=np.float64)  # distance of finished legs
         self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
+        #: Told of every leg as it starts (the run's leg log, from which its telemetry is reproduced).
+        self.observer: Callable[[int, Leg], None] | None = None
 
     def __len__(self) -> int:
         return len(self.rest)
 
     def start(self, i: int, leg: Leg) -> None:
+        if self.observer is not None:
+            self.observer(i, leg)
         row = self.legs[i]
         for name in _COLUMNS:
             row[C[name]] = getattr(leg, name)
