@@ -1,4 +1,4 @@
-"""Run a scenario to its output folder: ``trace.jsonl`` (+ ``telemetry.bin``), ``events.jsonl``, ``summary.json``.
+"""Run a scenario to its output folder: ``trace.jsonl.zst``, ``legs.npy``, ``events.jsonl.zst``, ``summary.json``.
 
 The one function every command uses (run, replay, live, fuzz), so the three files are always produced the
 same way. Only simulated quantities go into them (SPEC §5); wall-clock figures are returned for printing.
@@ -20,7 +20,8 @@ import simpy
 from transports.record import RecordingTransport
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Transport
-from vcran.io.trace import EVENTS_FILE, EventWriter, TraceWriter
+from vcran.io.runfolder import publish, staging
+from vcran.io.trace import EVENTS_FILE, SUMMARY_FILE, EventWriter, TraceWriter
 from vcran.sim.model import Model
 
 #: Allocations between young-generation collections while a run is under way (CPython's default: 700).
@@ -71,18 +72,21 @@ def run_to(
 ) -> RunResult:
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
 
+    The files are written into ``<out>.incomplete`` and renamed to ``out`` when the run has ended
+    (:mod:`vcran.io.runfolder`); an existing ``out`` that is not a run folder raises RunFolderError.
+
     ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
     (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
     """
-    out.mkdir(parents=True, exist_ok=True)
+    work = staging(out)
     header = {
         "scenario": scenario.settings.name,
         "seed": scenario.settings.seed,
         "options": options or {},
         "fleet": scenario.fleet_dict(),
     }
-    writer = TraceWriter(out, header, tuple(r.id for r in scenario.robots))
-    events = EventWriter(out / EVENTS_FILE)
+    writer = TraceWriter(work, header, tuple(r.id for r in scenario.robots))
+    events = EventWriter(work / EVENTS_FILE)
     recording = RecordingTransport(transport, writer)
     start = time.perf_counter()
     try:
@@ -98,5 +102,6 @@ def run_to(
         events.close()
     wall = time.perf_counter() - start
     summary = model.summary()
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    (work / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    publish(work, out)
     return RunResult(summary, events.count, wall, model)

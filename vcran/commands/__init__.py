@@ -17,6 +17,17 @@ class CommandError(Exception):
         self.code = code
 
 
+def check_out(path: Path) -> None:
+    """A CommandError (exit 2) unless ``--out`` may receive a run (missing, empty or a vcran run folder)."""
+    from vcran.io.runfolder import RunFolderError
+    from vcran.io.runfolder import check_out as check
+
+    try:
+        check(path)
+    except RunFolderError as exc:
+        raise CommandError(str(exc)) from None
+
+
 def load_scenario(path: Path) -> Scenario:
     """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field."""
     from vcran.io.scenario_file import ScenarioError, load

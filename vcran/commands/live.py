@@ -7,7 +7,7 @@ import signal
 import sys
 from pathlib import Path
 
-from vcran.commands import CommandError, load_scenario
+from vcran.commands import CommandError, check_out, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
         print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
         return 2
     scenario = load_scenario(args.scenario)
+    check_out(args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from vcran.commands import load_scenario
+from vcran.commands import check_out, load_scenario
 
 HELP = "simulate a scenario with its message script, as fast as possible"
 
@@ -25,6 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from vcran.runner import run_to
 
     scenario = load_scenario(args.scenario)
+    check_out(args.out)
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
     try:
         result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()),
