@@ -143,3 +143,8 @@ def test_recording_without_duration_replays(demo_run, tmp_path):
     header["fleet"]["simulation"]["until_idle"] = False
     write_lines(path, [json.dumps(header), *lines[1:]])
     assert replay(path, tmp_path / "rep") == 0
+
+
+def test_run_without_any_leg_verifies(run_toml, tmp_path):  # an empty leg log on both sides (fuzz finding)
+    out = run_toml(script())
+    assert replay(out.dir, tmp_path / "rep") == 0

@@ -164,8 +164,8 @@ def _compare_legs(header: dict[str, Any], expected_dir: Path, got_dir: Path) -> 
     a, b = legs(expected_dir), legs(got_dir)
     rows = min(len(a), len(b))
     robots = robots_of(header)
-    ka = a[:rows].view(np.uint8).reshape(rows, -1)
-    kb = b[:rows].view(np.uint8).reshape(rows, -1)
+    ka = a[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
+    kb = b[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
     differ = np.flatnonzero(np.any(ka != kb, axis=1))
     if differ.size:
         row = int(differ[0])
