@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from vcran.core.ids import Id, canonical_uuid, id_for
-from vcran.core.schema import specs
+from vcran.core.schema import FieldSpec, specs
 
 Convert = Callable[[Any], Any]
 
@@ -89,6 +89,52 @@ def converter(cls: type, style: str = "plain") -> Convert:
     found = eval(f"lambda m: {{{', '.join(parts)}}}", helpers)  # noqa: S307 - source built from specs only
     _CONVERTERS[key] = found
     return found
+
+
+_DELTAS: dict[tuple[type, str], Callable[[Any, Any, dict[str, Any]], dict[str, Any]]] = {}
+
+
+def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, dict[str, Any]], dict[str, Any]]:
+    """``delta(message, last, full)``: the fields of ``message`` whose JSON value differs from ``full``
+    (the JSON value of ``last``, the previous message of the same stream), updating ``full`` in place.
+
+    A field holding the very object ``last`` held (a footprint, a task id: statuses share them from
+    tick to tick) is skipped without being converted, so an unchanged status costs a few identity tests.
+    """
+    key = (cls, style)
+    found = _DELTAS.get(key)
+    if found is not None:
+        return found
+    helpers: dict[str, Any] = {}
+    body = []
+    for spec in specs(cls):
+        name = spec.name
+        helpers[f"_c_{name}"] = _field_converter(spec, style)
+        body.append(
+            f" v = m.{name}\n"
+            f" if v is not last.{name}:\n"
+            f"  c = _c_{name}(v)\n"
+            f"  if c != full[{name!r}]:\n"
+            f"   full[{name!r}] = out[{name!r}] = c\n"
+        )
+    source = "def delta(m, last, full):\n out = {}\n" + "".join(body) + " return out\n"
+    exec(source, helpers)  # noqa: S102 - source built from specs only
+    found = _DELTAS[key] = helpers["delta"]
+    return found  # type: ignore[no-any-return]
+
+
+def _field_converter(spec: FieldSpec, style: str) -> Convert:
+    """The JSON value of one field, as :func:`converter` renders it."""
+    if spec.kind == "prim":
+        return lambda v: v
+    if spec.kind == "id":
+        return ID_STYLES[style]
+    if spec.kind == "msg":
+        return converter(spec.cls, style)  # type: ignore[arg-type]
+    if spec.cls is None:
+        return list
+    item = ID_STYLES[style] if spec.cls is Id else converter(spec.cls, style)
+    return lambda v: [item(i) for i in v]
 
 
 def to_json_value(message: Any, style: str = "plain") -> Any:
