@@ -319,3 +319,32 @@ def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
     finally:
         run.stop()
         broker.stop()
+
+
+def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tmp_path):
+    """A notification whose cancel_order carries "\\udc00" (valid JSON, not valid Unicode) used to kill the
+    live run in the trace writer; it is a malformed input like any other (R12), recorded and replayable."""
+    from vcran.core.build import cancel
+
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        bad = encode_attribute("cancel_order", cancel("T"))
+        bad["value"]["task_id"]["value"]["description"]["value"] = "\udc00"
+        body = json.dumps({"subscriptionId": run.transport._subscription,
+                           "data": [{"id": "robot_1", "type": "ROBOT", "cancel_order": bad}]})
+        listener = run.transport._listener
+        answer = httpx.post(f"http://127.0.0.1:{listener.port}{listener.path}", content=body,
+                            headers={"Content-Type": "application/json"})
+        assert answer.status_code == 204
+        for m in task("after"):
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["after"], 15)
+    finally:
+        result = run.stop()
+        broker.stop()
+    assert result.summary["robots"]["robot_1"]["errors"] == 1
+    assert [e["code"] for e in run.events("rejected")] == ["malformed"]
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0

@@ -67,8 +67,16 @@ def raw_json(value: Any) -> bytes:
     254 levels, integers beyond 64 bits; and it turns NaN into null, which would change the payload.
     The standard library writes all of these (NaN as the token Python reads back), and anything that
     came from ``json.loads`` or a scenario checked by the loader can be written.
+
+    Text stays readable (UTF-8) unless it holds a lone UTF-16 surrogate (``"\\udc00"`` is valid JSON,
+    but no UTF-8 file can hold it, R12): then the whole value is written with ``\\u`` escapes, which
+    ``json.loads`` reads back to the same string.
     """
-    return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode()
+    text = json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True)
+    try:
+        return text.encode()
+    except UnicodeEncodeError:
+        return json.dumps(value, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
 
 
 class TraceWriter:
