@@ -9,12 +9,12 @@ A write that applies in part still applies the part and notifies for it, then an
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from vcran.broker.context import Context
+from vcran.broker.jsontext import render_json
 from vcran.broker.model import (
     DEFAULT_ENTITY_TYPE,
     AttributeInput,
@@ -293,7 +293,7 @@ def get_value(ctx: Context, entity_id: str, name: str) -> Response:
         return json_response(value)
     if not {"*/*", "text/*", "text/plain"}.intersection(accepted_media(ctx.request)):
         raise NgsiError(406, "NotAcceptable", "accepted MIME types: text/plain")
-    return Response(200, (("Content-Type", "text/plain"),), json.dumps(value, ensure_ascii=False).encode())
+    return Response(200, (("Content-Type", "text/plain"),), render_json(value))
 
 
 def _plain_text_value(text: str) -> object:

@@ -6,7 +6,8 @@ Orion's rules as the recordings (tests/data/orion-4.7-exchanges.jsonl) show them
   ...), even when it had another type before; written without ``metadata`` it keeps the metadata it had
   (given metadata is merged into the old, ``options=overrideMetadata`` replaces it: Orion's manual);
 - a value that is JSON-equal to the stored one (object key order ignored, ``80 == 80.0``) is not a
-  change, and the stored value keeps its key order;
+  change, and the stored value keeps its key order; numbers are stored as doubles, as Orion stores
+  them, and print as Orion prints them (:mod:`vcran.broker.jsontext`);
 - attributes keep the order in which they were first written; reads always carry ``metadata`` (``{}``).
 """
 
@@ -16,6 +17,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from vcran.broker.jsontext import as_double
 from vcran.broker.protocol import bad_request
 from vcran.core.orion_rules import default_attribute_type, has_forbidden_chars, identifier_error
 
@@ -117,17 +119,6 @@ def written(
 # --- parsing request payloads ----------------------------------------------------------------------
 
 
-def _canonical_numbers(value: Any) -> Any:
-    """Integral doubles as integers, as Orion (which stores doubles) renders them: 80.0 reads back 80."""
-    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
-        return int(value)
-    if isinstance(value, dict):
-        return {k: _canonical_numbers(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_canonical_numbers(v) for v in value]
-    return value
-
-
 def _check_identifier(kind: str, name: Any) -> str:
     error = identifier_error(kind, name)
     if error is not None:
@@ -143,7 +134,7 @@ def _parse_metadata(raw: Any) -> dict[str, Metadata]:
         _check_identifier("metadata name", name)
         if not isinstance(item, dict):
             raise bad_request("metadata must be a JSON object")
-        value = _canonical_numbers(item.get("value"))
+        value = as_double(item.get("value"))
         md_type = item.get("type")
         if md_type is None:
             md_type = default_attribute_type(value)
@@ -158,7 +149,7 @@ def parse_attribute(name: Any, raw: Any, *, key_values: bool = False) -> Attribu
     """One attribute of a request payload, checked as Orion checks it (names, types, forbidden chars)."""
     _check_identifier("attribute name", name)
     if key_values:
-        given = AttributeInput(_canonical_numbers(raw))
+        given = AttributeInput(as_double(raw))
     else:
         if not isinstance(raw, dict):
             raise bad_request("attribute must be a JSON object, unless keyValues option is used")
@@ -166,7 +157,7 @@ def parse_attribute(name: Any, raw: Any, *, key_values: bool = False) -> Attribu
         if attr_type is not None:
             _check_identifier("attribute type", attr_type)
         metadata = _parse_metadata(raw["metadata"]) if "metadata" in raw else None
-        given = AttributeInput(_canonical_numbers(raw.get("value")), attr_type, metadata)
+        given = AttributeInput(as_double(raw.get("value")), attr_type, metadata)
     if given.type != TEXT_UNRESTRICTED and has_forbidden_chars(given.value):
         raise bad_request("Invalid characters in attribute value")
     return given

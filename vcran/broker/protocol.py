@@ -8,11 +8,11 @@ The engine (:mod:`vcran.broker.engine`) never touches a socket, in the manner of
 
 from __future__ import annotations
 
-import json
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
+
+from vcran.broker.jsontext import parse_json, render_json
 
 Headers = tuple[tuple[str, str], ...]
 
@@ -39,39 +39,6 @@ def accepted_media(request: Request) -> list[str]:
     if header is None or not header.strip():
         return ["*/*"]
     return [m for m in (media_type(item) for item in header.split(",")) if m]
-
-
-def render_json(value: Any) -> bytes:
-    """Compact JSON as Orion writes it: no spaces, non-ASCII characters kept as UTF-8."""
-    return json.dumps(value, ensure_ascii=False, separators=(",", ":"), allow_nan=False).encode()
-
-
-def _reject_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not JSON")
-
-
-#: A ``\\u`` escape of a UTF-16 surrogate; only such an escape can put a surrogate into parsed JSON.
-_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
-
-
-def parse_json(body: bytes) -> Any:
-    """Strict JSON: UTF-8 only, and ``NaN``/``Infinity`` are errors as in Orion's parser, as is a lone
-    UTF-16 surrogate (``"\\udc00"``): valid JSON syntax, but no string Orion can store or render."""
-    text = body.decode("utf-8")
-    value = json.loads(text, parse_constant=_reject_constant)
-    if _SURROGATE_ESCAPE.search(text) and _has_lone_surrogate(value):  # a pair decodes to one character
-        raise ValueError("a lone UTF-16 surrogate is not a Unicode string")
-    return value
-
-
-def _has_lone_surrogate(value: Any) -> bool:
-    if isinstance(value, str):
-        return not value.isascii() and any("\ud800" <= c <= "\udfff" for c in value)
-    if isinstance(value, dict):
-        return any(_has_lone_surrogate(k) or _has_lone_surrogate(v) for k, v in value.items())
-    if isinstance(value, list):
-        return any(map(_has_lone_surrogate, value))
-    return False
 
 
 @dataclass(frozen=True, slots=True)
