@@ -33,6 +33,9 @@ EXCHANGES = [json.loads(line) for line in DATA.read_text().splitlines() if line.
 RECORDED_HEADERS = ("Location", "Content-Type", "Fiware-Total-Count")
 TIMESTAMP_FIELDS = ("lastNotification", "lastSuccess", "lastFailure")
 VERSION_PLACEHOLDERS = {"uptime": "<uptime>", "compile_time": "<compile-time>", "release_date": "<release-date>"}
+#: The recorded build (git_hash c678400, "Step: 4.7.0 -> 4.7.0-next") is the 4.7.0 release's code; the broker
+#: says "4.7.0", which clients that parse the version as PEP 440 (FiLiP) accept (docs/broker.md).
+RELEASE = {"4.7.0": "4.7.0-next"}
 BIG_BODY = json.dumps({"id": "robot_big", "type": "ROBOT", "blob": {"type": "Text", "value": "a" * 1100000}})
 
 
@@ -153,6 +156,8 @@ def _with_placeholders(value: Any) -> Any:
                 item = "<timestamp>"
             elif key in VERSION_PLACEHOLDERS:
                 item = VERSION_PLACEHOLDERS[key]
+            elif key == "version" and item in RELEASE:
+                item = RELEASE[item]
             out[key] = _with_placeholders(item)
         return out
     if isinstance(value, list):

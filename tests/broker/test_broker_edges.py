@@ -59,3 +59,67 @@ def test_a_surrogate_pair_is_a_character_and_is_stored(client):
     """Only lone surrogates are refused: an escaped pair is one astral character (U+1F600)."""
     assert post_json(client, "/v2/entities", '{"id": "r1", "a": {"value": "\\ud83d\\ude00"}}').status_code == 201
     assert client.get("/v2/entities/r1/attrs/a").json()["value"] == "\U0001F600"
+
+
+# --- options (SPEC §7: every value Orion 4.7 accepts) -------------------------------------------------------
+
+#: Orion 4.7's list of valid ``options`` items (its documentation and rest/ConnectionInfo.cpp).
+ORION_OPTIONS = ["count", "normalized", "values", "keyValues", "append", "unique", "dateCreated", "dateModified",
+                 "noAttrDetail", "upsert", "forcedUpdate", "overrideMetadata", "flowControl", "skipForwarding",
+                 "fullCounters", "libVersions", "skipInitialNotification"]
+
+
+@pytest.mark.parametrize("option", ORION_OPTIONS)
+def test_every_option_orion_accepts_is_accepted(client, option):
+    assert client.post("/v2/entities", json={"id": "r1", "type": "ROBOT", "a": {"value": 1}}).status_code == 201
+    assert client.get(f"/v2/entities?options={option}").status_code == 200
+    assert client.get(f"/v2/entities/r1?options={option}").status_code == 200
+    update = {"actionType": "append", "entities": [{"id": "r1", "type": "ROBOT", "a": {"value": 2}}]}
+    assert client.post(f"/v2/op/update?options={option}", json=update).status_code == 204
+
+
+@pytest.mark.parametrize("options,status", [
+    ("normalized", 200), ("normalized,count", 200), (",count", 200),  # Orion skips leading commas
+    ("count,", 400), ("count,,values", 400), ("nope", 400),
+    ("keyValues,values", 400), ("keyValues,unique", 400), ("unique,values", 400),  # Orion's exclusions
+])
+def test_options_lists_are_split_and_checked_as_orion_does(client, options, status):
+    answer = client.get(f"/v2/entities?options={options}")
+    assert answer.status_code == status
+    if status == 400:
+        assert answer.json() == {"error": "BadRequest", "description": "Invalid value for URI param /options/"}
+
+
+def test_options_unique_lists_each_distinct_value_once(client):
+    entity = {"id": "r1", "a": {"value": 1}, "b": {"value": 1.0}, "c": {"value": "x"}, "d": {"value": {"k": 1}},
+              "e": {"value": {"k": 1}}, "f": {"value": "x"}}
+    assert client.post("/v2/entities", json=entity).status_code == 201
+    assert client.get("/v2/entities/r1?options=unique").json() == [1, "x", {"k": 1}]
+    assert client.get("/v2/entities?options=unique").json() == [[1, "x", {"k": 1}]]
+
+
+def test_builtin_dates_are_shown_when_asked_and_move_only_on_a_change():
+    import random
+
+    from vcran.broker import Broker, Request
+
+    now = [1_700_000_000.25]
+    broker = Broker(clock=lambda: now[0], rng=random.Random(1))
+
+    def call(method, target, body=None):
+        return broker.handle(Request.make(method, target, body)).response
+
+    assert call("POST", "/v2/entities", {"id": "r1", "a": {"value": 1}}).status == 201
+    now[0] += 10
+    assert call("POST", "/v2/entities/r1/attrs", {"a": {"value": 1}}).status == 204  # same value: no change
+    assert call("GET", "/v2/entities/r1?options=keyValues,dateCreated,dateModified").json() == {
+        "id": "r1", "type": "Thing", "a": 1,
+        "dateCreated": "2023-11-14T22:13:20.250Z", "dateModified": "2023-11-14T22:13:20.250Z"}
+    now[0] += 10
+    assert call("POST", "/v2/entities/r1/attrs", {"a": {"value": 2}}).status == 204
+    assert call("GET", "/v2/entities/r1?attrs=dateModified,a").json() == {
+        "id": "r1", "type": "Thing",
+        "dateModified": {"type": "DateTime", "value": "2023-11-14T22:13:40.250Z", "metadata": {}},
+        "a": {"type": "Number", "value": 2, "metadata": {}}}
+    assert call("GET", "/v2/entities/r1").json() == {"id": "r1", "type": "Thing",
+                                                     "a": {"type": "Number", "value": 2, "metadata": {}}}

@@ -122,7 +122,7 @@ def test_vcran_broker_command_prints_its_url_and_stops_on_sigterm() -> None:
         line = process.stdout.readline()
         assert "in memory only" in line
         url = line.split()[4]
-        assert httpx.get(f"{url}/version").json()["orion"]["version"] == "4.7.0-next"
+        assert httpx.get(f"{url}/version").json()["orion"]["version"] == "4.7.0"
         process.send_signal(signal.SIGTERM)
         assert process.wait(timeout=10) == 0
     finally:
