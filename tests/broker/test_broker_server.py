@@ -75,6 +75,10 @@ def test_an_unreachable_listener_marks_the_subscription_failed(broker: BrokerHan
         shown = client.get(f"/v2/subscriptions/{subscription}").json()
         assert shown["status"] == "failed"
         assert shown["notification"]["lastFailureReason"] == "Couldn't connect to server"
+        assert shown["notification"]["failsCounter"] == 1  # Orion's count of consecutive failures
+        assert client.patch("/v2/entities/r1/attrs", json={"a": {"value": 2}}).status_code == 204
+        assert broker.wait_notifications(timeout=10)
+        assert client.get(f"/v2/subscriptions/{subscription}").json()["notification"]["failsCounter"] == 2
         assert client.get("/version").status_code == 200  # and the broker carries on
 
 

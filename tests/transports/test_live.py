@@ -348,3 +348,27 @@ def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tm
     assert result.summary["robots"]["robot_1"]["errors"] == 1
     assert [e["code"] for e in run.events("rejected")] == ["malformed"]
     assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+
+
+def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
+    """Orion gives up on a notification (the listener was unreachable, or too slow in a burst) and says
+    so in the subscription's lastFailure/failsCounter; the keeper sees it and reads the entities, so the
+    values those notifications carried still reach the simulation (SPEC §7: no loss window)."""
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None and run.transport.requests >= 1, 10)
+        sid = run.transport._subscription
+        dead = f"http://127.0.0.1:{free_port()}/notify"  # every notification from now on fails
+        patch = {"notification": {"http": {"url": dead}, "attrs": ["motion_assignment", "action_assignment",
+                                                                  "cancel_order"]}}
+        assert httpx.patch(f"{broker.url}/v2/subscriptions/{sid}", json=patch).status_code == 204
+        for m in task("lost"):
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert broker.wait_notifications(timeout=10)
+        assert httpx.get(f"{broker.url}/v2/subscriptions/{sid}").json()["notification"]["failsCounter"] == 2
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["lost"], 15)
+    finally:
+        run.stop()
+        broker.stop()

@@ -122,14 +122,18 @@ class OrionClient:
             raise OrionUnavailable(f"create subscription: no subscription id in Location {location!r}")
         return sid
 
-    def subscription_exists(self, sid: str) -> bool:
+    def subscription(self, sid: str) -> dict[str, Any] | None:
+        """The subscription as Orion shows it (with its delivery record), or None when Orion has no
+        such subscription."""
         try:
-            self._call("GET", f"/v2/subscriptions/{sid}", "read subscription")
+            found = self._json("GET", f"/v2/subscriptions/{sid}", "read subscription")
         except OrionRejected as exc:
             if exc.status == 404:
-                return False
+                return None
             raise
-        return True
+        if not isinstance(found, dict):
+            raise OrionUnavailable(f"read subscription: expected a JSON object, got {type(found).__name__}")
+        return found
 
     def unsubscribe(self, sid: str) -> None:
         try:

@@ -42,6 +42,7 @@ from transports.orion.outbox import Batch, Outbox
 from vcran.core.build import motion_message
 from vcran.core.messages import INBOUND, Message, Time
 from vcran.core.wire import Frame, Inbound, Outbound, Publish
+from vcran.io.http_server import one_line
 from vcran.sim.live import LiveEnvironment
 
 log = logging.getLogger("vcran.orion")
@@ -283,20 +284,31 @@ class OrionTransport(Transport):
 
     def _subscription_loop(self) -> None:
         unread = True  # the entities must be read after each (re)subscription
+        failures: tuple[Any, Any] = (None, None)  # the subscription's lastFailure and failsCounter
         while not self._stop.is_set():
             try:
-                if self._subscription is not None and not self.client.subscription_exists(self._subscription):
-                    # Orion lost it (restart, or someone deleted it), and maybe our entities with it.
-                    log.warning("subscription %s is gone from Orion; re-creating it", self._subscription)
-                    self._subscriptions.discard(self._subscription)
-                    self._subscription = None
-                    self.outbox.resend_all()
-                    self._flush.set()
+                if self._subscription is not None:
+                    shown = self.client.subscription(self._subscription)
+                    if shown is None:
+                        # Orion lost it (restart, or someone deleted it), and maybe our entities with it.
+                        log.warning("subscription %s is gone from Orion; re-creating it", self._subscription)
+                        self._subscriptions.discard(self._subscription)
+                        self._subscription = None
+                        self.outbox.resend_all()
+                        self._flush.set()
+                    elif (seen := _failures(shown)) != failures:
+                        # Orion could not deliver some notification (a burst, a slow moment): what it
+                        # carried is only in Orion now, so read it (SPEC §7: no loss window).
+                        if seen[0] is not None:
+                            log.warning("Orion reports a failed notification (%s, %s failing): reading "
+                                        "the entities again", one_line(seen[0], 40), one_line(seen[1], 20))
+                            unread = True
+                        failures = seen
                 if self._subscription is None:
                     self._subscription = self.client.subscribe(self._subscription_body())
                     self._subscriptions.add(self._subscription)
                     log.info("subscribed to Orion: %s", self._subscription)
-                    unread = True
+                    unread, failures = True, (None, None)
                 if unread:
                     self._read_all()
                     unread = False
@@ -332,7 +344,7 @@ class OrionTransport(Transport):
 
     def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
         if subscription not in self._subscriptions:
-            log.info("notification for unknown subscription %s ignored", subscription)
+            log.info("notification for unknown subscription %s ignored", one_line(subscription, 60))
             return
         self._forward(data, monotonic())
 
@@ -345,7 +357,7 @@ class OrionTransport(Transport):
         with self._lock:  # one order for reads and notifications: the order of call_soon
             for entity in entities:
                 robot = entity.get("id")
-                if robot not in self._robots:
+                if not isinstance(robot, str) or robot not in self._robots:  # a list id is unhashable
                     continue
                 for attribute in INBOUND:
                     if attribute not in entity:
@@ -367,6 +379,14 @@ class OrionTransport(Transport):
         if len(self.latencies) > 100_000:
             del self.latencies[:50_000]
         self._deliver(inbound)
+
+
+def _failures(subscription: dict[str, Any]) -> tuple[Any, Any]:
+    """What changes when Orion fails to deliver a notification: ``lastFailure`` and ``failsCounter``."""
+    notification = subscription.get("notification")
+    if not isinstance(notification, dict):
+        return None, None
+    return notification.get("lastFailure"), notification.get("failsCounter")
 
 
 def _resilient(name: str, loop: Callable[[], None], stop: threading.Event) -> Callable[[], None]:
