@@ -242,7 +242,7 @@ def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
         run.stop()
     assert progressed >= 10 * elapsed * 0.8  # kept pace with real time at x10 despite 503s and 300 ms answers
     assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
-    downs = [r for r in caplog.records if "retrying in the background" in r.getMessage()]
+    downs = [r for r in caplog.records if "retrying with backoff" in r.getMessage()]
     assert len(downs) == 1  # logged once, not once per tick
     assert any("is back" in r.getMessage() for r in caplog.records)
 

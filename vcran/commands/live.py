@@ -89,8 +89,9 @@ def run(args: argparse.Namespace) -> int:
         usage = resource.getrusage(resource.RUSAGE_SELF)
         print(f"live run ended at {s['sim_time']:.3f} s simulated: {done} task(s) completed, {s['errors']} error(s)")
         print(f"  {transport.status()}")
-        print(f"  wall {result.wall_seconds:.1f} s, outbound {transport.updates / result.wall_seconds:.1f} requests/s, "
-              f"cpu {usage.ru_utime + usage.ru_stime:.1f} s")
+        sent = transport.sender.counts
+        print(f"  wall {result.wall_seconds:.1f} s, outbound {sent.attempts / result.wall_seconds:.1f} requests/s "
+              f"({sent.accepted} of {sent.attempts} accepted), cpu {usage.ru_utime + usage.ru_stime:.1f} s")
         lat = transport.latency_stats()
         if lat:
             print(f"  inbound to effect: median {lat['median'] * 1000:.1f} ms, p99 {lat['p99'] * 1000:.1f} ms ({lat['count']:.0f} messages)")
