@@ -33,6 +33,9 @@ class EventLog:
         self._f.write(dumps({"t": t, "robot": robot, "event": name, **fields}) + b"\n")
         self.count += 1
 
+    def flush(self) -> None:
+        self._f.flush()
+
     def close(self) -> None:
         self._f.close()
 
@@ -59,11 +62,14 @@ def run_to(
     env: simpy.Environment | None = None,
     on_start: Callable[[Model], None] | None = None,
     progress: Callable[[float, int], None] | None = None,
+    flush_every_tick: bool = False,
 ) -> RunResult:
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
 
     ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
     (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
+    ``flush_every_tick`` (live mode) hands the trace, telemetry and events to the operating system at
+    every telemetry tick, so that a run killed outright keeps its recording up to its last tick.
     """
     out.mkdir(parents=True, exist_ok=True)
     header = {
@@ -74,7 +80,11 @@ def run_to(
     }
     writer = TraceWriter(out, header, tuple(r.id for r in scenario.robots))
     events = EventLog(out / "events.jsonl")
-    recording = RecordingTransport(transport, writer)
+    def flush() -> None:
+        writer.flush()
+        events.flush()
+
+    recording = RecordingTransport(transport, writer, after_frame=flush if flush_every_tick else None)
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)

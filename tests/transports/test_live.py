@@ -121,6 +121,28 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
     assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
 
 
+def test_a_killed_live_run_keeps_its_recording_up_to_its_last_tick(broker_process, tmp_path):
+    # issue 12 item 8: outputs are flushed every tick, and replay accepts the cut-off recording
+    url = broker_process
+    out = tmp_path / "live"
+    live = vcran("live", str(DEMO), "--orion", url, "--out", str(out), "--factor", "20", "--quiet")
+    try:
+        rows = lambda: (out / "telemetry.bin").stat().st_size // 48 if (out / "telemetry.bin").exists() else 0  # noqa: E731
+        assert wait_until(lambda: rows() >= 20, 20)  # on disk while the run goes on: 20 ticks at least
+        sender = vcran("send", str(DEMO), "--orion", url, "--factor", "20", "--quiet")
+        assert sender.wait(timeout=30) == 0, sender.stderr.read()
+        assert wait_until(lambda: b'"dir":"in"' in (out / "trace.jsonl").read_bytes(), 10)
+        assert (out / "events.jsonl").stat().st_size > 0
+    finally:
+        live.kill()  # SIGKILL: no handler, no close, no summary
+        live.communicate(timeout=20)
+    assert not (out / "summary.json").exists()
+    check = vcran("replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify")
+    stdout, stderr = check.communicate(timeout=60)
+    assert check.returncode == 0, stderr
+    assert "no end record" in stderr and "as far as it goes" in stdout
+
+
 # --- in-process: faults --------------------------------------------------------------------------------
 
 FLEET = """

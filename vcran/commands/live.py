@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"live: {len(scenario.robots)} robot(s) on {args.orion}, x{args.factor:g}, {mode}; Ctrl-C stops",
               flush=True)
     try:
-        result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
+        result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress, flush_every_tick=True,
                         options={"transport": "live", "factor": args.factor,
                                  "inbound": "subscription" if args.notify_url else "polling"})
     finally:
