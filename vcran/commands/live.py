@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from pathlib import Path
 
 from vcran.commands import CommandError, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+from vcran.commands._signals import StopSignals
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
 
@@ -58,14 +58,16 @@ def run(args: argparse.Namespace) -> int:
     models = []
     line = None if args.quiet else StatusLine(sys.stderr)
 
+    def on_signal() -> None:
+        if models:
+            env.call_from_signal(models[0].stop)
+
+    signals = StopSignals(on_signal)  # SIGINT or SIGTERM: the normal end of a live run (exit 0)
+
     def on_start(model) -> None:  # type: ignore[no-untyped-def]
         models.append(model)
-
-        def stop(signum: int, _frame: object) -> None:
-            env.call_from_signal(model.stop)
-
-        signal.signal(signal.SIGINT, stop)
-        signal.signal(signal.SIGTERM, stop)
+        if signals.requested is not None:  # a signal while the model was built: stop at once
+            model.stop()
 
     def progress(now: float, tasks_done: int) -> None:
         if line is not None and models:
@@ -77,9 +79,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"live: {len(scenario.robots)} robot(s) on {args.orion}, x{args.factor:g}, {mode}; Ctrl-C stops",
               flush=True)
     try:
-        result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress, flush_every_tick=True,
-                        options={"transport": "live", "factor": args.factor,
-                                 "inbound": "subscription" if args.notify_url else "polling"})
+        with signals:
+            result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
+                            flush_every_tick=True, options={"transport": "live", "factor": args.factor,
+                                                            "inbound": "subscription" if args.notify_url else "polling"})
     finally:
         if line is not None:
             line.close()

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from vcran.commands import load_scenario
+from vcran.commands._signals import StopSignals
 
 HELP = "simulate a scenario with its message script, as fast as possible"
 
@@ -26,12 +27,26 @@ def run(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
+    models = []
+
+    def progress(now: float, tasks_done: int) -> None:
+        # the telemetry tick is the safe point to act on a signal (never inside a write or an event)
+        if bar is not None:
+            bar(now, tasks_done)
+        if signals.requested is not None and models:
+            models.pop().stop()
+
     try:
-        result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()),
-                        options={"transport": "scripted"}, progress=bar)
+        with StopSignals() as signals:
+            result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()),
+                            options={"transport": "scripted"}, progress=progress, on_start=models.append)
     finally:
         if bar is not None:
             bar.close()
+    if signals.requested is not None:
+        print(f"vcran run: stopped by {signals.name} at t={result.summary['sim_time']:g} s; "
+              f"outputs up to then in {args.out}/", file=sys.stderr)
+        return signals.exit_code
     if not args.quiet:
         print_summary(result, args.out)
     if args.report:
