@@ -23,11 +23,18 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from vcran.broker import start_broker
+    from vcran.commands import CommandError
     from vcran.commands._signals import StopSignals
 
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(asctime)s %(message)s")
+    if not 0 <= args.port <= 65535:
+        raise CommandError(f"--port {args.port}: out of range (0..65535; 0 picks a free port)")
     with StopSignals() as signals:  # SIGINT or SIGTERM: the normal end (exit 0)
-        handle = start_broker(args.host, args.port)
+        try:
+            handle = start_broker(args.host, args.port)
+        except OSError as exc:  # in use, not an address of this machine, a privileged port
+            reason = exc.strerror or str(exc)
+            raise CommandError(f"cannot listen on {args.host}:{args.port}: {reason}") from None
         print(f"vcran broker listening on {handle.url} (in memory only: data is lost on exit)", flush=True)
         try:
             while signals.requested is None:
