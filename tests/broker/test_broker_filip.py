@@ -83,3 +83,32 @@ def test_filip_batch_update_query_and_subscriptions(cb: ContextBrokerClient) -> 
         assert cb.get_subscription_list() == []
     finally:
         listener.stop()
+
+
+def test_filip_reads_the_fleet_while_vcran_live_runs_through_the_broker(broker: BrokerHandle, tmp_path) -> None:
+    """Issue 12: a live run against the broker, FiLiP reading the robot's entity meanwhile, as a fleet
+    manager written with FiLiP would; what it reads decodes with vcran's codec and moves on."""
+    import signal
+    import time
+
+    from tests.transports.test_live import DEMO, vcran, wait_until
+    from vcran.core.codec import decode_attribute
+
+    live = vcran("live", str(DEMO), "--orion", broker.url, "--out", str(tmp_path / "live"), "--factor", "20", "--quiet")
+    client = ContextBrokerClient(url=broker.url)
+    try:
+        assert wait_until(lambda: client.does_entity_exist("robot_1", "ROBOT"), 20)
+        stamps = []
+        for _ in range(3):
+            entity = client.get_entity("robot_1", entity_type="ROBOT")  # options=normalized, pydantic-checked
+            assert {"current_motion", "assignment_status", "ran_status", "robot_description"} <= entity.get_attribute_names()
+            raw = entity.current_motion.model_dump()  # FiLiP keeps non-NGSI type names as plain attributes
+            motion = decode_attribute("current_motion", raw)
+            stamps.append(motion.current_position.header.stamp.to_seconds())
+            time.sleep(0.3)
+        assert stamps == sorted(stamps) and stamps[-1] > stamps[0]  # the live run publishes while FiLiP reads
+    finally:
+        client.close()
+        live.send_signal(signal.SIGINT)
+        _, stderr = live.communicate(timeout=30)
+    assert live.returncode == 0, stderr
