@@ -112,8 +112,8 @@ class Handle:
         """Write ``attribute`` of ``robot``'s entity (``message``, or ``raw`` NGSI JSON)."""
         raise NotImplementedError
 
-    def call_at(self, when: float, fn: Callable[..., Any], *args: Any) -> Timer:
-        """Call ``fn(*args)`` at simulated time ``when`` (not before :attr:`now`)."""
+    def call_at(self, when: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
+        """Call ``fn(*args, **kwargs)`` at simulated time ``when`` (not before :attr:`now`)."""
         raise NotImplementedError
 
     def latest(self, robot: str, attribute: str) -> Message | None:
@@ -123,11 +123,11 @@ class Handle:
 
     # --- built on them -----------------------------------------------------------------------------------
 
-    def call_later(self, delay: float, fn: Callable[..., Any], *args: Any) -> Timer:
-        """Call ``fn(*args)`` ``delay`` seconds from now."""
+    def call_later(self, delay: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
+        """Call ``fn(*args, **kwargs)`` ``delay`` seconds from now."""
         if delay < 0:
             raise ValueError(f"negative delay {delay}")
-        return self.call_at(self.now + delay, fn, *args)
+        return self.call_at(self.now + delay, fn, *args, **kwargs)
 
     def send(self, robot: str, message: Message) -> None:
         """Write a MotionAssignment, ActionAssignment or CancelTask to ``robot`` (SPEC §2)."""

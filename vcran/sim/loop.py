@@ -133,11 +133,11 @@ class ClosedLoop(Transport):
 
     def _call(self, hook: str, *args: Any) -> None:
         """Run one of the manager's hooks; an exception says where and when it happened, and ends the run."""
-        self._run(getattr(self.manager, hook), args, hook)
+        self._run(getattr(self.manager, hook), args, {}, hook)
 
-    def _run(self, fn: Callable[..., Any], args: tuple[Any, ...], what: str) -> None:
+    def _run(self, fn: Callable[..., Any], args: tuple[Any, ...], kwargs: dict[str, Any], what: str) -> None:
         try:
-            fn(*args)
+            fn(*args, **kwargs)
         except Exception as exc:
             assert self.handle is not None
             exc.add_note(f"in fleet manager {type(self.manager).__name__}: {what} at t={self.handle.now!r}")
@@ -159,12 +159,12 @@ class SimHandle(Handle):
         assert self._loop.link is not None
         self._loop.link.write(robot, attribute, message, raw)
 
-    def call_at(self, when: float, fn: Callable[..., Any], *args: Any) -> Timer:
+    def call_at(self, when: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
         if when < self.env.now:
             raise ValueError(f"call_at({when}): that is in the past (now {self.env.now})")
         timer = _SimTimer(when, self._loop)
         self._loop.timers += 1
-        at(self.env, when, TIMER).callbacks.append(lambda _: timer.fire(fn, args))
+        at(self.env, when, TIMER).callbacks.append(lambda _: timer.fire(fn, args, kwargs))
         return timer
 
     def latest(self, robot: str, attribute: str) -> Message | None:
@@ -182,10 +182,10 @@ class _SimTimer(Timer):
         super().cancel()
         self._settle()
 
-    def fire(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    def fire(self, fn: Callable[..., Any], args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
         if not self.cancelled:
             self._settle()
-            self._loop._run(fn, args, f"timer {getattr(fn, '__name__', fn)!s}")
+            self._loop._run(fn, args, kwargs, f"timer {getattr(fn, '__name__', fn)!s}")
 
     def _settle(self) -> None:
         if self._pending:
