@@ -55,7 +55,7 @@ class ClosedLoop(Transport):
                          self._notified)
         self.handle = SimHandle(env, self, random.Random(f"manager:{seed}"))
         self.manager._bind(self.fleet, self.handle)
-        env.process(self._arrivals(env))
+        self._next_job(env)
         self._call("on_start")
 
     def send(self, out: Outbound) -> None:
@@ -70,12 +70,19 @@ class ClosedLoop(Transport):
 
     # --- what reaches the manager -----------------------------------------------------------------------
 
-    def _arrivals(self, env: simpy.Environment):  # type: ignore[no-untyped-def]
-        for job in self._workload:
-            yield at(env, job.t, JOB)
-            self.jobs.arrived(env.now, job)
-            self._call("on_job", job)
-        self._jobs_to_come = False
+    def _next_job(self, env: simpy.Environment) -> None:
+        """Schedule the next job's arrival. Hooks run from event callbacks, never inside a SimPy process,
+        so an exception the manager raises reaches the caller as raised (a process would wrap it)."""
+        job = next(self._workload, None)
+        if job is None:
+            self._jobs_to_come = False
+            return
+        at(env, job.t, JOB).callbacks.append(lambda _: self._arrive(env, job))
+
+    def _arrive(self, env: simpy.Environment, job: Job) -> None:
+        self.jobs.arrived(env.now, job)
+        self._call("on_job", job)
+        self._next_job(env)
 
     def _notified(self, batch: list[Outbound]) -> None:
         """One batch of the RAN's publications reaches the manager: Orion's view changes, and the
