@@ -1,4 +1,4 @@
-"""The reference fleet manager: a plain dispatcher (SPEC §9). docs/dispatcher.md walks through it.
+"""The reference fleet manager: a plain dispatcher (SPEC §9). docs/loop.md walks through it.
 
 * Jobs wait in a queue: higher ``priority`` first, then in arrival order (plain FIFO when no job has a
   priority).
