@@ -10,8 +10,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError, load_scenario
+
+if TYPE_CHECKING:
+    from vcran.api import Result
 
 HELP = "simulate a scenario with its message script, or its jobs with a fleet manager, as fast as possible"
 
@@ -51,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def print_summary(result, out: Path) -> None:  # type: ignore[no-untyped-def]
+def print_summary(result: Result, out: Path) -> None:
     s = result.summary
     robots = s["robots"]
     done = sum(len(r["completed"]) for r in robots.values())
