@@ -149,9 +149,13 @@ class JobFigures:
 
 def _jobs(summary: dict[str, Any]) -> JobFigures:
     j, lead = summary["jobs"], summary["jobs"]["lead_time"]
-    leads = [float(lead[k]) for k in ("mean", "p50", "p95", "max")] if lead is not None else [None] * 4
+
+    def seconds(key: str) -> float | None:
+        return float(lead[key]) if lead is not None else None
+
     return JobFigures(int(j["arrived"]), int(j["completed"]), int(j["failed"]), int(j["open"]), int(j["late"]),
-                      float(j["done_per_hour"]), *leads, float(summary["utilisation"]["fleet"]))
+                      float(j["done_per_hour"]), seconds("mean"), seconds("p50"), seconds("p95"), seconds("max"),
+                      float(summary["utilisation"]["fleet"]))
 
 
 @contextmanager
