@@ -83,23 +83,23 @@ def closed_within(sock: socket.socket, seconds: float, drip: bytes = b"") -> boo
             sock.sendall(bytes([byte]))
         except OSError:
             return True
-        try:
-            if sock.recv(65536) == b"":
-                return True
-        except TimeoutError:
-            pass
-        except OSError:
+        if _closed(sock):
             return True
         time.sleep(0.1)
     while time.monotonic() < end:
-        try:
-            if sock.recv(65536) == b"":
-                return True
-        except TimeoutError:
-            pass
-        except OSError:
+        if _closed(sock):
             return True
     return False
+
+
+def _closed(sock: socket.socket) -> bool:
+    """True if the server has closed ``sock`` (waits up to the socket's timeout for a sign)."""
+    try:
+        return sock.recv(65536) == b""
+    except TimeoutError:
+        return False
+    except OSError:
+        return True
 
 
 def test_content_type_other_than_json_is_refused(listener, recorder):
