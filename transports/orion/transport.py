@@ -48,6 +48,7 @@ from vcran.sim.live import LiveEnvironment
 
 log = logging.getLogger("vcran.orion")
 
+
 @dataclass(frozen=True)
 class LiveOptions:
     entity_type: str
@@ -76,7 +77,7 @@ class OrionTransport(Transport):
         self.latencies: list[float] = []  # wall seconds from arrival to entering the simulation
         self._robots = frozenset(options.robots)
         self._reads = 0
-        self._lock = threading.Lock()  # counters, last forwarded values, forward order
+        self._lock = threading.Lock()  # last forwarded values, forward order
         self._last: dict[tuple[str, str], Any] = {}
         #: How many times a value of (robot, attribute) was forwarded: lets a read skip what a
         #: notification delivered while the read was in flight.
