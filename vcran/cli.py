@@ -61,6 +61,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as exc:
         print("vcran: interrupted", file=sys.stderr)
         return 143 if isinstance(exc, Terminated) else 130
+    except TypeError as exc:  # orjson turns a Ctrl-C inside its ``default`` callback into a TypeError
+        if not isinstance(exc.__cause__, KeyboardInterrupt):
+            raise
+        print("vcran: interrupted", file=sys.stderr)
+        return 143 if isinstance(exc.__cause__, Terminated) else 130
     except BrokenPipeError:
         return 0
 

@@ -87,3 +87,21 @@ def test_sigterm_ends_any_other_command_like_ctrl_c():
     proc.send_signal(signal.SIGTERM)
     _, stderr = proc.communicate(timeout=20)
     assert proc.returncode == 143 and stderr.strip().endswith("vcran: interrupted"), stderr
+
+
+def test_a_ctrl_c_inside_orjsons_callback_is_an_interruption_not_a_type_error(monkeypatch, capsys):
+    """Commands without a stop handler of their own (replay, fuzz) write through orjson too; a
+    KeyboardInterrupt raised inside its ``default`` callback comes out as a TypeError."""
+    import orjson
+
+    from vcran.commands import run as run_command
+
+    def interrupted_in_orjson(args):
+        def default(_value):
+            raise KeyboardInterrupt
+
+        orjson.dumps(object(), default=default)
+
+    monkeypatch.setattr(run_command, "run", interrupted_in_orjson)
+    assert main(["run", str(DEMO), "--out", "unused"]) == 130
+    assert capsys.readouterr().err == "vcran: interrupted\n"
