@@ -176,6 +176,18 @@ def test_an_expired_token_keeps_everything_and_backs_off():
     assert t.sender.counts.errors_undeliverable == 0
 
 
+def test_errors_still_waiting_when_live_stops_are_reported_undeliverable(caplog):
+    orion = FakeOrion(update_status=503)
+    t = transport(orion)
+    t.send(Publish(0.5, "robot_1", "ran_error", error(1)))
+    t.send(Publish(0.6, "robot_2", "ran_error", error(2)))
+    with caplog.at_level(logging.WARNING, logger="vcran.orion"):
+        t.close()  # one last attempt, refused: said and counted, not silently lost
+    assert "2 ran_error(s) not delivered: batch update: Orion answered 503" in caplog.text
+    assert t.sender.counts.errors_undeliverable == 2 and t.sender.counts.attempts == 1
+    assert "2 undeliverable" in t.status()
+
+
 def test_retry_after_is_honoured_and_capped():
     from transports.orion.client import retry_after
     from transports.orion.health import Backoff
