@@ -19,6 +19,7 @@ COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
     "live": "live",
+    "manage": "manage",
     "send": "send",
     "orion": "orion",
     "gen": "gen",
