@@ -34,6 +34,7 @@ from typing import Any
 
 from hypothesis import strategies as st
 
+from vcran.core.jobs import waiting_spans
 from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
 
 #: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
@@ -139,7 +140,7 @@ def check_protocol(result: Any) -> list[str]:
 def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[str]:
     """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited."""
     end = float(result.summary["sim_time"])
-    waiting = _waiting_spans(result.events, end)
+    waiting = waiting_spans(result.events, end)
     problems = []
     for robot, spans in _idle_spans(result.events, result.robots, end).items():
         for a, b in spans:
@@ -182,39 +183,6 @@ def _idle_spans(events: list[dict[str, Any]], robots: Sequence[str], end: float)
     for robot, start in since.items():
         if start is not None:
             spans[robot].append((start, end))
-    return spans
-
-
-def _waiting_spans(events: list[dict[str, Any]], end: float) -> list[tuple[str, float, float]]:
-    """``(job, from, to)``: a job waits from its arrival, and from its latest task's cancellation, until
-    the manager sends a task for it or reports it ended."""
-    since: dict[str, float] = {}
-    latest: dict[tuple[str, str], str] = {}  # (robot, task) -> job, for the job's latest task
-    spans = []
-
-    def stop(job: str, t: float) -> None:
-        start = since.pop(job, None)
-        if start is not None:
-            spans.append((job, start, t))
-
-    for e in events:
-        kind = e["event"]
-        if kind == "job_arrived":
-            since[e["job"]] = e["t"]
-        elif kind == "job_assigned":
-            stop(e["job"], e["t"])
-            for key in [k for k, j in latest.items() if j == e["job"]]:
-                del latest[key]
-            latest[(e["robot"], e["task"])] = e["job"]
-        elif kind in ("job_completed", "job_failed"):
-            stop(e["job"], e["t"])
-            for key in [k for k, j in latest.items() if j == e["job"]]:
-                del latest[key]
-        elif kind == "task_cancelled":
-            job = latest.pop((e["robot"], e["task"]), None)
-            if job is not None:
-                since[job] = e["t"]
-    spans += [(job, start, end) for job, start in since.items()]
     return spans
 
 
