@@ -20,6 +20,7 @@ COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
     "live": "live",
+    "manage": "manage",
     "send": "send",
     "orion": "orion",
     "gen": "gen",
