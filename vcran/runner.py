@@ -1,7 +1,9 @@
 """Run a scenario to its output folder: ``trace.jsonl.zst``, ``legs.npy``, ``events.jsonl.zst``, ``summary.json``.
 
-The one function every command uses (run, replay, live, fuzz), so the three files are always produced the
+The one function every command uses (run, replay, live, fuzz), so the files are always produced the
 same way. Only simulated quantities go into them (SPEC §5); wall-clock figures are returned for printing.
+:func:`run_model` is the part that does not care where the records go: :func:`vcran.simulate` uses it
+with in-memory sinks when no folder is given.
 """
 
 from __future__ import annotations
@@ -13,16 +15,19 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import simpy
 
-from transports.record import RecordingTransport
+from transports.record import RecordingTransport, TraceSink
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Transport
 from vcran.io.runfolder import publish, staging
 from vcran.io.trace import EVENTS_FILE, SUMMARY_FILE, EventWriter, TraceWriter
-from vcran.sim.model import Model
+from vcran.sim.model import EventSink, Model
+
+#: ``events.jsonl.zst`` of a run folder (the name main's callers use).
+EventLog = EventWriter
 
 #: Allocations between young-generation collections while a run is under way (CPython's default: 700).
 GC_THRESHOLD = 50_000
@@ -47,6 +52,10 @@ def _quiet_collector() -> Iterator[None]:
         gc.unfreeze()
 
 
+class ClosingEventSink(EventSink, Protocol):
+    def close(self) -> None: ...
+
+
 @dataclass(frozen=True, slots=True)
 class RunResult:
     summary: dict[str, Any]
@@ -69,39 +78,73 @@ def run_to(
     env: simpy.Environment | None = None,
     on_start: Callable[[Model], None] | None = None,
     progress: Callable[[float, int], None] | None = None,
+    flush_every_tick: bool = False,
 ) -> RunResult:
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
 
     The files are written into ``<out>.incomplete`` and renamed to ``out`` when the run has ended
     (:mod:`vcran.io.runfolder`); an existing ``out`` that is not a run folder raises RunFolderError.
-
     ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
     (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
+    ``flush_every_tick`` (live mode) hands the trace, legs and events to the operating system at
+    every telemetry tick, so that a run killed outright keeps its recording up to its last tick.
     """
     work = staging(out)
+    events = EventWriter(work / EVENTS_FILE)
+    writer = trace_writer(scenario, work, options)
+
+    def flush() -> None:
+        writer.flush()
+        events.flush()
+
+    model, wall = run_model(scenario, transport, writer, events, env=env, on_start=on_start, progress=progress,
+                            after_frame=flush if flush_every_tick else None)
+    summary = model.summary()
+    write_summary(work, summary)
+    publish(work, out)
+    return RunResult(summary, events.count, wall, model)
+
+
+def trace_writer(scenario: Scenario, out: Path, options: dict[str, Any] | None) -> TraceWriter:
+    """The trace of a run of ``scenario`` in ``out``; its header carries the fleet, so a replay needs nothing else."""
     header = {
         "scenario": scenario.settings.name,
         "seed": scenario.settings.seed,
         "options": options or {},
         "fleet": scenario.fleet_dict(),
     }
-    writer = TraceWriter(work, header, tuple(r.id for r in scenario.robots))
-    events = EventWriter(work / EVENTS_FILE)
-    recording = RecordingTransport(transport, writer)
+    return TraceWriter(out, header, tuple(r.id for r in scenario.robots))
+
+
+def write_summary(out: Path, summary: dict[str, Any]) -> None:
+    (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+
+
+def run_model(
+    scenario: Scenario,
+    transport: Transport,
+    trace: TraceSink,
+    events: ClosingEventSink,
+    *,
+    env: simpy.Environment | None = None,
+    on_start: Callable[[Model], None] | None = None,
+    progress: Callable[[float, int], None] | None = None,
+    after_frame: Callable[[], None] | None = None,
+) -> tuple[Model, float]:
+    """Build the model, run it to its end with every message recorded into ``trace`` (legs too) and every
+    event into ``events``, close both; return the model and the wall-clock seconds it took.
+    ``after_frame`` runs after each telemetry frame is recorded."""
+    recording = RecordingTransport(transport, trace, after_frame=after_frame)
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)
-        model.fleet.observer = writer.leg
+        model.fleet.observer = trace.leg
         if on_start is not None:
             on_start(model)
         with _quiet_collector():
             model.run()
-        writer.end(model.env.now)
+        trace.end(model.env.now)
     finally:
         recording.close()
         events.close()
-    wall = time.perf_counter() - start
-    summary = model.summary()
-    (work / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
-    publish(work, out)
-    return RunResult(summary, events.count, wall, model)
+    return model, time.perf_counter() - start

@@ -14,6 +14,7 @@ from tests.sim.test_scenarios import action, cancel, motion, script
 from vcran.cli import main
 from vcran.core.ids import id_for
 from vcran.io.scenario_file import load
+from vcran.io.trace import open_output
 
 
 @pytest.fixture
@@ -117,6 +118,41 @@ def test_truncated_recording_is_refused(demo_run, tmp_path, capsys):
     write_lines(path, read_lines(path)[:-1])
     assert replay(path, tmp_path / "rep") == 2
     assert "no end record" in capsys.readouterr().err
+
+
+def cut_off(run, t_cut: float, tamper: bool = False) -> None:
+    """Leave ``run`` as a killed live run leaves its folder: everything up to ``t_cut``, then half a line
+    of trace and events, no end record, and a leg log whose row count was never written (issue 12 item 8)."""
+    for name in ("trace.jsonl.zst", "events.jsonl.zst"):
+        path = run / name
+        text = [line + "\n" for line in read_lines(path)]
+        keep = [line for i, line in enumerate(text) if (name == "trace.jsonl.zst" and i == 0)
+                or ("t" in json.loads(line) and json.loads(line).get("dir") != "end" and json.loads(line)["t"] <= t_cut)]
+        rest = text[len(keep)]
+        if tamper and name == "trace.jsonl.zst":
+            keep[-1] = keep[-1].replace('"robot_1"', '"robot_9"')
+        with open_output(path) as f:
+            f.write(("".join(keep) + rest[: len(rest) // 2]).encode())
+    legs = np.load(run / "legs.npy")
+    kept = legs[legs["t"] <= t_cut].tobytes()
+    data = (run / "legs.npy").read_bytes()
+    header = data[: len(data) - legs.nbytes].replace(f"({len(legs)},)".encode(), b"(0,)".ljust(len(f"({len(legs)},)")))
+    (run / "legs.npy").write_bytes(header + kept + legs[len(kept) // legs.itemsize:].tobytes()[:20])
+
+
+def test_a_killed_recording_replays_and_verifies_as_far_as_it_goes(demo_run, tmp_path, capsys):
+    cut_off(demo_run, 40.0)
+    assert main(["replay", str(demo_run), "--out", str(tmp_path / "rep"), "--verify"]) == 0
+    out, err = capsys.readouterr()
+    assert "no end record" in err and "t=40" in err and "as far as it goes" in out
+    replayed = [json.loads(line) for line in read_lines(tmp_path / "rep" / "trace.jsonl.zst")[1:]]
+    assert replayed[-1] == {"t": 40.0, "dir": "end"}  # up to the last recorded instant, not beyond
+
+
+def test_a_killed_recording_still_shows_a_difference(demo_run, tmp_path, capsys):
+    cut_off(demo_run, 40.0, tamper=True)
+    assert replay(demo_run, tmp_path / "rep") == 1
+    assert "trace.jsonl.zst: first difference" in capsys.readouterr().err
 
 
 def test_cut_off_compressed_recording_is_refused(demo_run, tmp_path, capsys):

@@ -55,7 +55,9 @@ TELEMETRY_FILE = "telemetry.bin"
 #: The keys of every ``events.jsonl.zst`` line, in order. An event field not listed here is written after
 #: them (and a test fails until it is listed).
 EVENT_KEYS = ("t", "robot", "event", "task", "motion", "action", "from", "to", "reason", "ok",
-              "code", "severity", "message")
+              "code", "severity", "message",
+              # a fleet manager's job events (closed loop, SPEC §9: vcran.core.jobs)
+              "job", "pickup", "dropoff", "priority", "deadline", "lead_time", "tasks")
 
 #: One row of ``legs.npy``: the leg robot ``robot`` (index in the header's / summary's robot order) started
 #: at ``t`` towards ``(x, y)``, ending at heading ``theta`` (NaN: facing the direction of travel), with
@@ -88,8 +90,16 @@ def raw_json(value: Any) -> bytes:
     254 levels, integers beyond 64 bits; and it turns NaN into null, which would change the payload.
     The standard library writes all of these (NaN as the token Python reads back), and anything that
     came from ``json.loads`` or a scenario checked by the loader can be written.
+
+    Text stays readable (UTF-8) unless it holds a lone UTF-16 surrogate (``"\\udc00"`` is valid JSON,
+    but no UTF-8 file can hold it, R12): then the whole value is written with ``\\u`` escapes, which
+    ``json.loads`` reads back to the same string.
     """
-    return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode()
+    text = json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True)
+    try:
+        return text.encode()
+    except UnicodeEncodeError:
+        return json.dumps(value, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
 
 
 # --- compressed streams ---------------------------------------------------------------------------------
@@ -125,11 +135,20 @@ class _Batched(io.RawIOBase):
             self._buf.clear()
         return len(data)
 
+    def flush(self) -> None:
+        """Compress what is gathered and end the zstd block: a reader of the file gets every line so far."""
+        if not self.closed and self._inner is not None:
+            if self._buf:
+                self._inner.write(self._buf)
+                self._buf.clear()
+            self._inner.flush()
+
     def close(self) -> None:
         if not self.closed:
             if self._buf:
                 self._inner.write(self._buf)
             self._inner.close()
+            self._inner = None
         super().close()
 
 
@@ -195,6 +214,12 @@ class TraceWriter:
         """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
         self._jsonl.write(dumps({"t": t, "dir": "end"}) + b"\n")
 
+    def flush(self) -> None:
+        """Hand what is buffered to the operating system (live mode, every tick): a killed run keeps its
+        recording up to here. The telemetry file then ends with a whole row."""
+        self._jsonl.flush()
+        self._legs.flush()
+
     def close(self) -> None:
         self._jsonl.close()
         self._legs.close()
@@ -212,6 +237,9 @@ class LegLog:
               speed: float, accel: float, decel: float, turn_rate: float) -> None:
         self._f.write(_LEG.pack(t, robot, x, y, math.nan if theta is None else theta, speed, accel, decel, turn_rate))
         self._rows += 1
+
+    def flush(self) -> None:
+        self._f.flush()
 
     def close(self) -> None:
         if self._f.closed:
@@ -241,6 +269,9 @@ class EventWriter:
         line.update(fields)
         self._f.write(dumps(line) + b"\n")
         self.count += 1
+
+    def flush(self) -> None:
+        self._f.flush()
 
     def close(self) -> None:
         self._f.close()
@@ -294,12 +325,15 @@ def robots_of(header: dict[str, Any]) -> list[str]:
 
 def lines(path: Path, dirs: tuple[str, ...] | None = None) -> Iterator[tuple[int, bytes, dict[str, Any]]]:
     """The records after the header (those of direction ``dirs`` when given): line number, the line as
-    written and its record in format 1's form (full values, plain ids), so that every reader works on both formats."""
+    written and its record in format 1's form (full values, plain ids), so that every reader works on both formats.
+
+    Every record ends with a newline; a last line without one, or the end of a zstd stream cut off
+    mid-block, is where a killed run's recording stops (it keeps what it flushed, docs/outputs.md)."""
     version = read_header(path)["version"]
     last: dict[tuple[str, str, str], dict[str, Any]] = {}
     with open_input(path) as f:
         f.readline()
-        for n, line in enumerate(f, start=2):
+        for n, line in enumerate(whole_lines(f), start=2):
             try:
                 record = orjson.loads(line)
             except orjson.JSONDecodeError:  # raw payloads may hold what only the standard library reads
@@ -314,6 +348,18 @@ def lines(path: Path, dirs: tuple[str, ...] | None = None) -> Iterator[tuple[int
             if version == 2 and isinstance(record.get("value"), dict):
                 record["value"] = _full(record, last)
             yield n, line, record
+
+
+def whole_lines(f: IO[bytes]) -> Iterator[bytes]:
+    """The complete lines of ``f``: up to a cut-off last line or a truncated zstd stream."""
+    try:
+        for line in f:
+            if not line.endswith(b"\n"):
+                return
+            yield line
+    except Exception as exc:  # zstandard.ZstdError: the stream ends mid-block
+        if type(exc).__name__ != "ZstdError":
+            raise
 
 
 def _full(record: dict[str, Any], last: dict[tuple[str, str, str], dict[str, Any]]) -> Any:
@@ -333,11 +379,12 @@ def records(path: Path, dirs: tuple[str, ...] | None = None) -> Iterator[tuple[i
     return ((n, record) for n, _, record in lines(path, dirs))
 
 
-def event_records(path: Path) -> Iterator[Any]:
+def event_records(path: Path, *, cut_off: bool = False) -> Iterator[Any]:
     """The events of ``events.jsonl.zst`` (or format 1's ``events.jsonl``), fields without a value left out
-    (a line that is JSON but no object is passed through, for the caller to name)."""
+    (a line that is JSON but no object is passed through, for the caller to name). ``cut_off``: the
+    recording was killed; it ends at its last whole line."""
     with open_input(path) as f:
-        for n, line in enumerate(f, start=1):
+        for n, line in enumerate(whole_lines(f) if cut_off else f, start=1):
             try:
                 event = json.loads(line)
             except (json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -345,10 +392,14 @@ def event_records(path: Path) -> Iterator[Any]:
             yield {k: v for k, v in event.items() if v is not None} if isinstance(event, dict) else event
 
 
-def legs(path: Path) -> np.ndarray:
-    """``legs.npy`` (or the one in a run folder) as a structured array of :data:`LEG_DTYPE` rows."""
+def legs(path: Path, *, cut_off: bool = False) -> np.ndarray:
+    """``legs.npy`` (or the one in a run folder) as a structured array of :data:`LEG_DTYPE` rows.
+    ``cut_off``: the run was killed before the row count was written; every whole row is read."""
     if path.is_dir():
         path = path / LEGS_FILE
+    if cut_off:
+        data = np.fromfile(path, dtype=np.uint8, offset=_NPY_HEADER)
+        return data[: data.size - data.size % LEG_DTYPE.itemsize].view(LEG_DTYPE)
     try:
         data = np.load(path, allow_pickle=False)
     except (ValueError, EOFError) as exc:
@@ -365,11 +416,13 @@ def samples(trace: Path) -> np.ndarray:
     trace = trace_in(trace)
     header = read_header(trace)
     robots = robots_of(header)
-    if header["version"] == 1:
-        return telemetry(trace.parent / str(header.get("telemetry", {}).get("file", TELEMETRY_FILE)), len(robots))
-    from vcran.io.verify import end_time
+    from vcran.io.verify import recorded_end
 
-    return _evaluate(header, legs(trace.parent / str(header["legs"]["file"])), end_time(trace))
+    end, complete = recorded_end(trace, header)
+    if header["version"] == 1:
+        path = trace.parent / str(header.get("telemetry", {}).get("file", TELEMETRY_FILE))
+        return telemetry(path, len(robots), cut_off=not complete)
+    return _evaluate(header, legs(trace.parent / str(header["legs"]["file"]), cut_off=not complete), end)
 
 
 def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarray:
@@ -412,39 +465,43 @@ def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarra
     return np.vstack(out) if out else np.empty((0, 1 + 5 * len(poses)))
 
 
-def telemetry(path: Path, robots: int) -> np.ndarray:
-    """A format 1 ``telemetry.bin`` (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array."""
+def telemetry(path: Path, robots: int, *, cut_off: bool = False) -> np.ndarray:
+    """A format 1 ``telemetry.bin`` (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array.
+
+    ``cut_off``: the recording was killed, so a last partial row is dropped instead of refused."""
     if path.is_dir():
         path = path / TELEMETRY_FILE
     data = np.fromfile(path, dtype="<f8")
     width = 1 + robots * len(Frame.FIELDS)
     if data.size % width:
-        raise ValueError(f"{path}: size is not a whole number of {width}-column rows")
+        if not cut_off:
+            raise ValueError(f"{path}: size is not a whole number of {width}-column rows")
+        data = data[: data.size - data.size % width]
     return data.reshape(-1, width)
 
-
-
-#: One row of :func:`telemetry_table`: a robot's ``current_motion`` at one tick.
-SAMPLE_DTYPE = np.dtype([("t", "<f8"), ("robot", "U64"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
-                         ("v", "<f8"), ("w", "<f8")])
 
 
 def telemetry_table(run: Path | str) -> np.ndarray:
     """Every robot's ``current_motion`` at every telemetry tick of a run folder (either format), one row
     per robot and tick, ticks in order and robots in fleet order, as a structured array with named
-    columns (:data:`SAMPLE_DTYPE`): ``pandas.DataFrame(telemetry_table(run))`` or
-    ``polars.from_numpy(telemetry_table(run))``. The values are bit for bit those published."""
+    columns ``t``, ``robot``, ``x``, ``y``, ``theta``, ``v``, ``w``: ``pandas.DataFrame(telemetry_table(run))``
+    or ``polars.from_numpy(telemetry_table(run))``. The values are bit for bit those published."""
     trace = trace_in(Path(run))
-    robots = robots_of(read_header(trace))
-    rows = samples(trace)
-    ticks, n = len(rows), len(robots)
-    out = np.empty(ticks * n, dtype=SAMPLE_DTYPE)
-    out["t"] = np.repeat(rows[:, 0], n)
-    out["robot"] = np.tile(np.asarray(robots, dtype="U64"), ticks)
-    fields = rows[:, 1:].reshape(ticks * n, len(Frame.FIELDS))
+    return long_table(samples(trace), tuple(robots_of(read_header(trace))))
+
+
+def long_table(rows: np.ndarray, robots: tuple[str, ...]) -> np.ndarray:
+    """Telemetry rows ``[t, x0, y0, theta0, v0, w0, x1, ...]`` as one record per tick and robot."""
+    n, ticks = len(robots), rows.shape[0]
+    width = max((len(r) for r in robots), default=1)
+    table = np.empty(ticks * n, dtype=[("t", "<f8"), ("robot", f"<U{width}"),
+                                       *((name, "<f8") for name in Frame.FIELDS)])
+    table["t"] = np.repeat(rows[:, 0], n)
+    table["robot"] = np.tile(np.array(robots), ticks)
+    columns = rows[:, 1:].reshape(ticks, n, len(Frame.FIELDS))
     for k, name in enumerate(Frame.FIELDS):
-        out[name] = fields[:, k]
-    return out
+        table[name] = columns[:, :, k].ravel()
+    return table
 
 
 def trace_records(run: Path | str) -> list[dict[str, Any]]:

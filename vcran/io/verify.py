@@ -7,6 +7,15 @@ replayed outputs side by side: every outbound record of the trace, every leg (fo
 every tick follows from them) or telemetry row (format 1) and, when the recording has one beside it,
 every state transition and event; it stops at the first difference and names it. Recordings of either
 format verify against a replay (which writes format 2).
+
+A closed-loop run (SPEC §9) replays the same way: its inbound records are what the fleet manager wrote,
+as they reached the RAN. The replay does not run the manager again, so the manager's own events
+(``job_*``) are left out of the comparison; everything the simulation did is compared.
+
+A live run killed outright (SIGKILL, power loss) leaves a recording without its end record, cut off
+after its last flush (every tick), maybe in the middle of a line or a telemetry row. Such a recording is
+*incomplete*: the replay runs to its last recorded instant, and verification checks that everything
+recorded is a prefix of what the replay wrote (what the run did after its last flush is unknown).
 """
 
 from __future__ import annotations
@@ -36,7 +45,9 @@ from vcran.io.trace import (
     read_header,
     robots_of,
     samples,
+    telemetry,
     trace_in,
+    whole_lines,
 )
 
 
@@ -66,10 +77,11 @@ class Difference:
 
 
 def scenario_from_trace(trace: Path) -> Scenario:
-    """The fleet of a recorded run, set to stop exactly when the recording stopped."""
+    """The fleet of a recorded run, set to stop exactly when the recording stopped (an incomplete
+    recording: at its last recorded instant)."""
     trace = trace_in(trace)
     header = read_header(trace)
-    end = end_time(trace)
+    end, _ = recorded_end(trace, header)
     fleet = header.get("fleet")
     if not isinstance(fleet, dict) or not isinstance(fleet.get("simulation", {}), dict):
         raise ValueError(f"{trace}: the header does not describe a fleet")
@@ -81,28 +93,52 @@ def scenario_from_trace(trace: Path) -> Scenario:
         raise ValueError(f"{trace}: the header does not describe a fleet: {exc}") from None
 
 
-def end_time(trace: Path) -> float:
-    """When the recording stopped: its last line. A compressed trace is read through to its end."""
+def recorded_end(trace: Path, header: dict[str, Any] | None = None) -> tuple[float, bool]:
+    """When the recording stopped, and whether it is complete (ends with its end record). An incomplete
+    one ends at the latest time it holds: of its last whole record or (format 1) of its last whole
+    telemetry row. A compressed trace is read through to its end."""
     tail = b""
-    try:
-        with open_input(trace) as f:
+    with open_input(trace) as f:
+        try:
             if trace.suffix != ".zst":
                 f.seek(0, 2)
-                f.seek(max(0, f.tell() - 4096))
+                f.seek(max(0, f.tell() - 65536))
             while chunk := f.read(1 << 20):
-                tail = (tail + chunk)[-4096:]
-    except Exception as exc:  # a truncated zstd stream: the recording was cut off
-        if type(exc).__name__ != "ZstdError":
-            raise
-        tail = b""
-    lines = tail.splitlines()
-    try:
-        last = json.loads(lines[-1]) if lines else {}
-    except ValueError:  # a truncated last line: the recording was cut off
-        last = {}
-    if not isinstance(last, dict) or last.get("dir") != "end" or not isinstance(last.get("t"), (int, float)):
+                tail = (tail + chunk)[-65536:]
+        except Exception as exc:  # zstandard.ZstdError: cut off mid-block; what was decoded stands
+            if type(exc).__name__ != "ZstdError":
+                raise
+    last: Any = None
+    for line in reversed(tail[: tail.rfind(b"\n") + 1].splitlines()):  # a cut-off last line is no record
+        try:
+            last = json.loads(line)
+            break
+        except ValueError:  # the first of the tail's lines is usually a fragment
+            continue
+    if isinstance(last, dict) and last.get("dir") == "end" and isinstance(last.get("t"), (int, float)):
+        return float(last["t"]), True
+    header = read_header(trace) if header is None else header
+    times = [float(last["t"])] if isinstance(last, dict) and isinstance(last.get("t"), (int, float)) else []
+    rows = _telemetry_v1(header, trace, cut_off=True)
+    if rows is not None and len(rows):
+        times.append(float(rows[-1, 0]))
+    return max(times, default=0.0), False
+
+
+def end_time(trace: Path) -> float:
+    """When a complete recording stopped; a ValueError for one that did not finish."""
+    end, complete = recorded_end(trace)
+    if not complete:
         raise ValueError(f"{trace}: no end record; the recording did not finish (was it interrupted?)")
-    return float(last["t"])
+    return end
+
+
+def _telemetry_v1(header: dict[str, Any], trace: Path, *, cut_off: bool) -> np.ndarray | None:
+    info = header.get("telemetry")
+    if not isinstance(info, dict) or not isinstance(info.get("robots"), list):
+        return None
+    path = trace.parent / str(info.get("file", TELEMETRY_FILE))
+    return telemetry(path, len(info["robots"]), cut_off=cut_off) if path.exists() else None
 
 
 def verify(recorded: Path, replayed: Path) -> Difference | None:
@@ -122,11 +158,13 @@ def verify(recorded: Path, replayed: Path) -> Difference | None:
             raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (SPEC §6)")
     elif not (recorded.parent / LEGS_FILE).exists():
         raise ValueError(f"{recorded.parent / LEGS_FILE}: missing; it holds the recording's legs (SPEC §6)")
+    _, complete = recorded_end(recorded, header)
     same = header["version"] == read_header(got)["version"]
     return (
-        _compare_records(recorded, got, same)
-        or (_compare_legs(header, recorded.parent, got.parent) if same else _compare_samples(recorded, got))
-        or _compare_events(events_beside(recorded), events_beside(got), same)
+        _compare_records(recorded, got, same, complete)
+        or (_compare_legs(header, recorded.parent, got.parent, complete) if same
+            else _compare_samples(recorded, got, complete))
+        or _compare_events(events_beside(recorded), events_beside(got), same, complete)
     )
 
 
@@ -146,10 +184,13 @@ def _outbound(trace: Path, as_written: bool) -> Iterator[tuple[bytes, dict[str, 
             yield orjson.dumps(r), r
 
 
-def _compare_records(expected: Path, got: Path, as_written: bool) -> Difference | None:
-    """Record by record: text, not Python values (where 1 == 1.0 == True)."""
+def _compare_records(expected: Path, got: Path, as_written: bool, complete: bool = True) -> Difference | None:
+    """Record by record: text, not Python values (where 1 == 1.0 == True). Of an incomplete recording,
+    every record must be the replay's; the replay's end record and what follows are not compared."""
     pairs = zip_longest(_outbound(expected, as_written), _outbound(got, as_written), fillvalue=(b"", None))
     for (line_a, a), (line_b, b) in pairs:
+        if not complete and a is None:
+            return None
         if line_a == line_b:
             continue
         ref = a or b
@@ -159,9 +200,9 @@ def _compare_records(expected: Path, got: Path, as_written: bool) -> Difference 
     return None
 
 
-def _compare_legs(header: dict[str, Any], expected_dir: Path, got_dir: Path) -> Difference | None:
+def _compare_legs(header: dict[str, Any], expected_dir: Path, got_dir: Path, complete: bool = True) -> Difference | None:
     """Every leg bit for bit: the telemetry at every tick is a function of them (vcran.io.trace)."""
-    a, b = legs(expected_dir), legs(got_dir)
+    a, b = legs(expected_dir, cut_off=not complete), legs(got_dir)
     rows = min(len(a), len(b))
     robots = robots_of(header)
     ka = a[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
@@ -175,14 +216,17 @@ def _compare_legs(header: dict[str, Any], expected_dir: Path, got_dir: Path) -> 
                 robot = robots[int(a[row]["robot"])] if int(a[row]["robot"]) < len(robots) else None
                 return Difference(LEGS_FILE, float(a[row]["t"]), robot, "current_motion", f"leg {row}.{name}",
                                   x.item(), y.item())
-    if len(a) != len(b):
+    if len(a) > len(b) or (complete and len(a) != len(b)):
         return Difference(LEGS_FILE, None, None, "current_motion", "rows", len(a), len(b))
     return None
 
 
-def _compare_samples(expected: Path, got: Path) -> Difference | None:
-    robots = robots_of(read_header(expected))
-    a, b = samples(expected), samples(got)
+def _compare_samples(expected: Path, got: Path, complete: bool = True) -> Difference | None:
+    """A format 1 recording's telemetry rows against the replay's, evaluated from its legs, bit for bit."""
+    header = read_header(expected)
+    robots = robots_of(header)
+    recorded = _telemetry_v1(header, expected, cut_off=not complete)
+    a, b = (recorded if recorded is not None else samples(expected)), samples(got)
     rows = min(len(a), len(b))
     bad = np.flatnonzero(np.any(a[:rows].view(np.uint64) != b[:rows].view(np.uint64), axis=1))
     if bad.size:
@@ -193,26 +237,33 @@ def _compare_samples(expected: Path, got: Path) -> Difference | None:
         robot, field = divmod(col - 1, len(Frame.FIELDS))
         return Difference(TELEMETRY_FILE, float(a[row, 0]), robots[robot], "current_motion",
                           Frame.FIELDS[field], float(a[row, col]), float(b[row, col]))
-    if len(a) != len(b):
+    if len(a) > len(b) or (complete and len(a) != len(b)):
         return Difference(TELEMETRY_FILE, None, None, "current_motion", "rows", len(a), len(b))
     return None
 
 
 def _event_lines(path: Path, as_written: bool) -> Iterator[tuple[bytes, dict[str, Any]]]:
+    """The events the simulation wrote: all but a fleet manager's ``job_*`` events (SPEC §9: the replay
+    does not run the manager again), as written or (formats differ) in one canonical form."""
     if as_written:
         with open_input(path) as f:
-            for line in f:
-                yield line, json.loads(line)
+            for line in whole_lines(f):
+                event = json.loads(line)
+                if not str(event.get("event", "")).startswith("job_"):
+                    yield line, event
         return
-    for event in event_records(path):  # either format, in one canonical form
-        yield orjson.dumps(event, option=orjson.OPT_SORT_KEYS), event
+    for event in event_records(path, cut_off=True):  # either format, in one canonical form
+        if not str(event.get("event", "")).startswith("job_"):
+            yield orjson.dumps(event, option=orjson.OPT_SORT_KEYS), event
 
 
-def _compare_events(expected: Path, got: Path, as_written: bool) -> Difference | None:
+def _compare_events(expected: Path, got: Path, as_written: bool, complete: bool = True) -> Difference | None:
     if not expected.exists():
         return None
     pairs = zip_longest(_event_lines(expected, as_written), _event_lines(got, as_written), fillvalue=(b"", None))
     for (line_a, a), (line_b, b) in pairs:
+        if not complete and a is None:
+            return None  # the recording's end (a cut-off last line is no event)
         if line_a == line_b:
             continue
         ref = a or b or {}
