@@ -33,15 +33,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import importlib.util
     import random
     import tempfile
     import time
 
-    from hypothesis import HealthCheck, find, settings
-    from hypothesis.errors import NoSuchExample
-
     from vcran.commands import CommandError, load_scenario
+
+    try:
+        from hypothesis import HealthCheck, find, settings
+        from hypothesis.errors import NoSuchExample
+    except ModuleNotFoundError:
+        raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'") from None
     from vcran.testing.checks import run_variant
     from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
 
@@ -53,11 +55,7 @@ def run(args: argparse.Namespace) -> int:
         perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
     except ValueError as exc:
         raise CommandError(str(exc)) from None
-    malformed = importlib.util.find_spec("vcran.core.codec") is not None
-    if not malformed:
-        print("vcran fuzz: vcran.core.codec is not installed; malformed payloads are not injected", file=sys.stderr)
-    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window,
-                             malformed=malformed, max_ops=args.max_ops)
+    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window, max_ops=args.max_ops)
     calls = {"generated": 0, "shrinking": 0}
     found = False
 
