@@ -6,6 +6,7 @@ same way. Only simulated quantities go into them (SPEC §5); wall-clock figures 
 
 from __future__ import annotations
 
+import errno
 import json
 import time
 from collections.abc import Callable
@@ -65,7 +66,10 @@ def run_to(
     ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
     (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
     """
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # mkdir's own words ("File exists") hide that it is not a folder
+        raise NotADirectoryError(errno.ENOTDIR, "exists and is not a folder", str(out)) from None
     header = {
         "scenario": scenario.settings.name,
         "seed": scenario.settings.seed,

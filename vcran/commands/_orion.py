@@ -8,6 +8,8 @@ import os
 import sys
 from pathlib import Path
 
+from vcran.commands import CommandError
+
 TOKEN_ENV = "VCRAN_ORION_TOKEN"
 
 
@@ -28,7 +30,7 @@ def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
         try:
             token = args.token_file.read_text(encoding="utf-8").strip() or None
         except OSError as exc:
-            raise SystemExit(f"vcran: cannot read --token-file: {exc.strerror}") from None
+            raise CommandError(f"cannot read --token-file {args.token_file}: {exc.strerror}") from None
     return OrionClient(args.orion, Tenant(args.service, args.service_path, token))
 
 

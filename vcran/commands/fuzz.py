@@ -22,7 +22,7 @@ HELP = "perturb a scenario's message script and check the rules on every variant
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML), or a bundled scenario by name (demo)")
     parser.add_argument("--examples", type=int, default=100, help="perturbed variants to try (default 100)")
     parser.add_argument("--seed", type=int, default=0, help="search seed: same seed, same examples (default 0)")
     parser.add_argument("--save", type=Path, default=None,

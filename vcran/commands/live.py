@@ -39,8 +39,7 @@ def run(args: argparse.Namespace) -> int:
 
     setup_logging(args.quiet)
     if not args.factor > 0 or not args.poll_interval > 0:
-        print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
-        return 2
+        raise CommandError("--factor and --poll-interval must be positive")
     scenario = load_scenario(args.scenario)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from vcran.commands import load_scenario
+from vcran.commands import CommandError, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robot entities in Orion"
@@ -47,8 +46,7 @@ def run(args: argparse.Namespace) -> int:
         for body in split_batch(entities):
             client.update(body)
     except OrionError as exc:
-        print(f"vcran orion {args.action}: {exc}", file=sys.stderr)
-        return 1
+        raise CommandError(f"{args.action}: {exc}") from None
     finally:
         client.close()
     print(f"initialised {len(scenario.robots)} entities of type {entity_type} ({removed} replaced)")

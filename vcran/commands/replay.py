@@ -19,30 +19,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.replay import ReplayTransport, TraceError
+    from vcran.commands import CommandError
     from vcran.io.verify import scenario_from_trace, verify
     from vcran.runner import run_to
 
     trace: Path = args.trace
     if trace.is_dir():
+        if not (trace / "trace.jsonl").is_file():
+            raise CommandError(f"{trace}: a folder without trace.jsonl; give a recorded run's folder or its trace")
         trace = trace / "trace.jsonl"
     if args.out.resolve() == trace.parent.resolve():
-        print("vcran replay: --out must differ from the recording's folder", file=sys.stderr)
-        return 2
+        raise CommandError("--out must differ from the recording's folder")
     try:
         scenario = scenario_from_trace(trace)
         result = run_to(scenario, args.out, ReplayTransport(trace), options={"transport": "replay", "source": str(trace)})
-    except (OSError, ValueError, TraceError) as exc:
-        print(f"vcran replay: {exc}", file=sys.stderr)
-        return 2
+    except (ValueError, TraceError) as exc:
+        raise CommandError(str(exc)) from None
     if not args.quiet:
         print(f"replayed {trace}: {result.summary['sim_time']:g} s simulated in {result.wall_seconds:.3f} s")
     if not args.verify:
         return 0
     try:
         difference = verify(trace, args.out)
-    except (OSError, ValueError) as exc:
-        print(f"vcran replay --verify: {exc}", file=sys.stderr)
-        return 2
+    except ValueError as exc:
+        raise CommandError(f"--verify: {exc}") from None
     if difference is not None:
         print(f"vcran replay --verify: {difference}", file=sys.stderr)
         return 1

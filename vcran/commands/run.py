@@ -12,7 +12,7 @@ HELP = "simulate a scenario with its message script, as fast as possible"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML), or a bundled scenario by name (demo)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress bar either)")
     parser.add_argument("--report", action="store_true",

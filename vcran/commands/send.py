@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from vcran.commands import load_scenario
+from vcran.commands import CommandError, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "play the scenario's message script into Orion in real time, as the fleet manager would"
@@ -32,8 +32,7 @@ def run(args: argparse.Namespace) -> int:
 
     setup_logging(args.quiet)
     if not args.factor > 0:
-        print("vcran send: --factor must be positive", file=sys.stderr)
-        return 2
+        raise CommandError("--factor must be positive")
     scenario = load_scenario(args.scenario)
     client = client_from_args(args)
     entity_type = scenario.settings.entity_type

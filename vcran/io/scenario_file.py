@@ -3,7 +3,11 @@
 
 The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
 an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
-the entry and the field, before anything runs.
+the entry and the field, before anything runs. The format's JSON Schema is recorded from these readers
+(:mod:`vcran.io.scenario_schema`; the rules for writing a reader are in :mod:`vcran.io.toml_table`).
+
+A scenario argument that names no file but a bundled scenario (``demo``) loads that one: the repository's
+``scenarios/`` folder, shipped inside the package as ``vcran/scenarios`` (docs/scenarios.md).
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -30,25 +35,53 @@ from vcran.core.scenario import (
     task_entries,
 )
 from vcran.core.schema import MessageError
-from vcran.io.toml_table import ScenarioError, Table, is_number
+from vcran.io.toml_table import ScenarioError, Table
 
-__all__ = ["ScenarioError", "load", "parse"]
+__all__ = ["ScenarioError", "bundled", "load", "parse", "read"]
+
+
+def bundled() -> dict[str, Path]:
+    """The bundled scenarios, name -> file (``demo`` -> ``.../vcran/scenarios/demo.toml``)."""
+    folder = Path(str(resources.files("vcran") / "scenarios"))
+    return {f.stem: f for f in sorted(folder.glob("*.toml"))}
 
 
 def load(path: str | Path) -> Scenario:
+    """The scenario file at ``path``, or the bundled scenario of that name when no such file exists."""
     path = Path(path)
+    if not path.exists() and path.name == str(path) and not path.suffix and path.name in bundled():
+        path = bundled()[path.name]
     try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
+        raw = path.read_bytes()
     except FileNotFoundError:
-        raise ScenarioError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+        names = ", ".join(bundled())
+        hint = f" (and no bundled scenario of that name; bundled: {names})" if path.name == str(path) else ""
+        raise ScenarioError(f"{path}: no such file{hint}") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a folder, not a scenario file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); scenario files are TOML, which is UTF-8") from None
+    try:
+        data = tomllib.loads(text)
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
+        reason = str(exc).split("; use sys.set_int_max_str_digits", 1)[0]
+        raise ScenarioError(f"{path}: not valid TOML: {reason}") from None
     return parse(data, str(path), default_name=path.stem)
 
 
 def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = "scenario") -> Scenario:
-    top = Table(data, source, "")
+    """The scenario in ``data`` (a TOML document as read by tomllib); ``source`` names it in errors."""
+    return read(Table(data, source, ""), default_name)
+
+
+def read(top: Table, default_name: str = "scenario") -> Scenario:
+    """The scenario in the top-level table ``top`` (:func:`parse` with the table already made; the
+    schema generator passes a recording table)."""
+    source = top.source
     settings = _settings(top.table("simulation"), default_name)
     robots = tuple(_robot(t) for t in top.tables("robots"))
     if not robots:
@@ -63,6 +96,7 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     cycles: list[Cycle] = []
     for t in script_tables:
         entry = _script_entry(t, known)
+        _check_in_run(t, entry, settings.duration)
         if isinstance(entry, Cycle):
             cycles.append(entry)
         else:
@@ -73,6 +107,16 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     if cycles and settings.duration is None:
         raise ScenarioError(f"{source}: [simulation]: a scenario with cycles needs a duration")
     return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles))
+
+
+def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | None) -> None:
+    """An entry the run ends before would never be sent, and its task would time out for no visible
+    reason: refuse it. A message at exactly ``duration`` is still played (inbound messages come first
+    within an instant, docs/determinism.md)."""
+    start = entry.t if isinstance(entry, Cycle) else max((e.t for e in entry), default=0.0)
+    if duration is not None and start > duration:
+        what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
+        t.fail("t", f"the entry {what} at t = {start:g}, after the run ends (duration = {duration:g})")
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -111,10 +155,7 @@ def _robot(t: Table) -> RobotConfig:
         if value != rid:
             t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
-    actions = t.strings("actions", list(ACTION_KINDS))
-    for a in actions:
-        if a not in ACTION_KINDS:
-            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS))
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
     r = RobotConfig(
         id=rid,
@@ -161,13 +202,11 @@ def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
     robot = t.string("robot")
     if robot not in robots:
         t.fail("robot", f"no robot {robot!r} in this scenario (R11); robots: {', '.join(sorted(robots))}")
-    kind = t.string("kind")
+    kind = t.choice("kind", list(_EXPANDERS))
     try:
-        entries = _EXPANDERS[kind](t, time, robot) if kind in _EXPANDERS else None
+        entries = _EXPANDERS[kind](t, time, robot)
     except (MessageError, IdError) as exc:
         t.fail(kind, str(exc))
-    if entries is None:
-        t.fail("kind", f"unknown kind {kind!r}; known: {', '.join(_EXPANDERS)}")
     t.done()
     return entries
 
@@ -190,13 +229,17 @@ def _motion(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 def _action(t: Table, time: float, robot: str) -> list[ScriptEntry]:
     seq, length = t.sequence("seq")
     category, code = t.integer("category", None), t.integer("code", None)
-    if category is not None or code is not None:
-        a = build.action(t.name("task"), t.name("id"), seq, length, category=category or 0, code=code or 0)
+    kind = t.choice("action", ACTION_KINDS, None, hint=" (or give category/code)")
+    task, aid = t.name("task"), t.name("id")
+    raw_codes = category is not None or code is not None
+    if kind is not None and raw_codes:
+        t.fail("action", "give either action or category/code, not both")
+    if kind is None and not raw_codes:
+        t.fail("action", f"missing; give action ({', '.join(ACTION_KINDS)}) or category/code")
+    if kind is not None:
+        a = build.action(task, aid, seq, length, kind)
     else:
-        kind = t.string("action")
-        if kind not in ACTION_KINDS:
-            t.fail("action", f"unknown action {kind!r}; known: {', '.join(ACTION_KINDS)} (or give category/code)")
-        a = build.action(t.name("task"), t.name("id"), seq, length, kind)
+        a = build.action(task, aid, seq, length, category=category or 0, code=code or 0)
     return [ScriptEntry(time, robot, "action_assignment", a)]
 
 
@@ -206,15 +249,13 @@ def _cancel(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 
 
 def _raw(t: Table, time: float, robot: str) -> list[ScriptEntry]:
-    attribute = t.string("attribute")
-    if attribute not in INBOUND:
-        t.fail("attribute", f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+    attribute = t.choice("attribute", list(INBOUND))
     value = t.raw("value")
     if isinstance(value, str):
         try:
             value = json.loads(value)
-        except (json.JSONDecodeError, RecursionError) as exc:
-            t.fail("value", f"not valid JSON: {exc}")
+        except (ValueError, RecursionError) as exc:  # JSONDecodeError, or an integer of over 4300 digits
+            t.fail("value", f"not valid JSON: {str(exc).split('; use sys.set_int_max_str_digits', 1)[0]}")
     try:  # what Orion could hold: TOML dates and times have no JSON form (NaN is kept, to test R12)
         json.dumps(value, allow_nan=True)
     except (TypeError, ValueError, RecursionError) as exc:
@@ -232,12 +273,8 @@ def _task(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 
 def _cycle(t: Table, time: float, robot: str) -> Cycle:
     every = t.number("every", positive=True)
-    tasks = t.raw("tasks")
-    if not isinstance(tasks, list):
-        t.fail("tasks", "expected a list of tables {path = [...], actions = [...]}")
     specs = []
-    for i, v in enumerate(tasks):
-        sub = Table(v, t.source, f"{t.where}.tasks[{i}]")
+    for sub in t.tables("tasks"):
         specs.append(_task_spec(sub))
         sub.done()
     if not specs:
@@ -247,20 +284,11 @@ def _cycle(t: Table, time: float, robot: str) -> Cycle:
 
 
 def _task_spec(t: Table) -> TaskSpec:
-    path = t.list_of("path", lambda i, v: _point(t, f"path[{i}]", v))
-    actions = t.strings("actions", [])
-    for a in actions:
-        if a not in ACTION_KINDS:
-            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    path = t.poses("path", [])
+    actions = t.choices("actions", ACTION_KINDS, [])
     if not path and not actions:
         t.fail("path", "a task needs at least one point or one action")
     return TaskSpec(tuple(path), tuple(actions))
-
-
-def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
-    if not (isinstance(v, list) and len(v) in (2, 3) and all(is_number(c) for c in v)):
-        t.fail(where, f"expected [x, y] or [x, y, theta], got {v!r}")
-    return float(v[0]), float(v[1]), (float(v[2]) if len(v) == 3 else None)
 
 
 _EXPANDERS: dict[str, Any] = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle}

@@ -3,11 +3,18 @@
 Every read names the file, the entry and the field when it fails (:class:`ScenarioError`); ``done()``
 refuses keys nobody read (typos). Kept apart from :mod:`vcran.io.scenario_file` so that the scenario module is
 about scenarios, not about reading TOML.
+
+The JSON Schema of the format (``vcran schema scenario``) is recorded from these reads
+(:mod:`vcran.io.scenario_schema` runs the loader on a recording subclass), so a section reader states what
+it reads through these methods: sub-tables through :meth:`Table.table`/:meth:`Table.tables` (never
+``Table(...)`` directly), a field with a fixed set of values through :meth:`Table.choice`, and a field that
+is required only in some cases as optional, checked afterwards.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from vcran.core.orion_rules import FORBIDDEN_CHARS
@@ -56,7 +63,7 @@ class Table:
     def tables(self, key: str) -> list[Table]:
         value = self.raw(key, [])
         if not isinstance(value, list):
-            self.fail(key, f"expected an array of tables [[{key}]]")
+            self.fail(key, f"expected an array of tables: [[{key}]] sections, or {key} = [{{...}}, ...]")
         return [Table(v, self.source, self._sub(f"{key}[{i}]")) for i, v in enumerate(value)]
 
     def _sub(self, key: str) -> str:
@@ -119,17 +126,28 @@ class Table:
             self.fail(key, f"contains {' '.join(bad)}, which Orion refuses in values")
         return v
 
+    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "") -> Any:
+        """One of ``options`` (a kind, an action); the error lists them, then ``hint``."""
+        v = self.string(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if v not in options:
+            self.fail(key, f"unknown {key} {v!r}; known: {', '.join(options)}{hint}")
+        return v
+
+    def choices(self, key: str, options: Sequence[str], default: list[str]) -> list[str]:
+        """A list of values, each one of ``options``."""
+        values = self.strings(key, default)
+        for v in values:
+            if v not in options:
+                self.fail(key, f"unknown value {v!r}; known: {', '.join(options)}")
+        return values
+
     def strings(self, key: str, default: list[str]) -> list[str]:
         v = self.raw(key, default)
         if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
             self.fail(key, f"expected a list of strings, got {v!r}")
         return list(v)
-
-    def list_of(self, key: str, item: Any) -> list[Any]:
-        v = self.raw(key, [])
-        if not isinstance(v, list):
-            self.fail(key, f"expected a list, got {v!r}")
-        return [item(i, x) for i, x in enumerate(v)]
 
     def pair(self, key: str, default: Any = _MISSING) -> tuple[float, float]:
         v = self.raw(key, default)
@@ -159,3 +177,13 @@ class Table:
         if not ok:
             self.fail(key, f"expected a list of [x, y] points, got {v!r}")
         return [(float(p[0]), float(p[1])) for p in v]
+
+    def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
+        """A path: points ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        v = self.raw(key, default)
+        if not isinstance(v, list):
+            self.fail(key, f"expected a list of [x, y] or [x, y, theta] points, got {v!r}")
+        for i, p in enumerate(v):
+            if not (isinstance(p, (list, tuple)) and len(p) in (2, 3) and all(is_number(c) for c in p)):
+                self.fail(f"{key}[{i}]", f"expected [x, y] or [x, y, theta], got {p!r}")
+        return [(float(p[0]), float(p[1]), float(p[2]) if len(p) == 3 else None) for p in v]
