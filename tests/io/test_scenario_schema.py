@@ -1,0 +1,93 @@
+"""``vcran schema scenario`` (issue 16): a JSON Schema recorded from the loader's own reads, which editors
+use to validate scenario files. It must accept what the loader accepts and catch the common mistakes."""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import json
+import tomllib
+from typing import Any
+
+import jsonschema
+import pytest
+from hypothesis import given, settings
+
+from tests.conftest import ROOT
+from vcran import cli
+from vcran.io.gen import generate
+from vcran.io.scenario_file import parse
+from vcran.io.scenario_schema import RecordingTable, scenario_schema
+from vcran.io.toml_table import Table
+from vcran.testing.scripts import fleets
+
+SCENARIOS = sorted((ROOT / "scenarios").glob("*.toml"))
+
+
+@pytest.fixture(scope="module")
+def validator() -> jsonschema.Draft7Validator:
+    schema = scenario_schema()
+    jsonschema.Draft7Validator.check_schema(schema)
+    return jsonschema.Draft7Validator(schema)
+
+
+def errors(validator: jsonschema.Draft7Validator, data: dict[str, Any]) -> list[str]:
+    return [f"{'.'.join(map(str, e.absolute_path))}: {e.message}" for e in validator.iter_errors(data)]
+
+
+def demo() -> dict[str, Any]:
+    with (ROOT / "scenarios" / "demo.toml").open("rb") as f:
+        return tomllib.load(f)
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.name for p in SCENARIOS])
+def test_every_bundled_scenario_validates(validator: jsonschema.Draft7Validator, path: Any) -> None:
+    with path.open("rb") as f:
+        assert errors(validator, tomllib.load(f)) == []
+
+
+def test_a_generated_fleet_validates(validator: jsonschema.Draft7Validator) -> None:
+    assert errors(validator, tomllib.loads(generate(3, 0.1, 7))) == []
+
+
+@settings(max_examples=30)
+@given(fleets())
+def test_what_the_loader_accepts_validates(data: dict[str, Any]) -> None:
+    """The schema is never stricter than the loader (module docstring of vcran.io.scenario_schema)."""
+    parse(copy.deepcopy(data))
+    jsonschema.validate(json.loads(json.dumps(data)), scenario_schema())
+
+
+@pytest.mark.parametrize(("mistake", "where"), [
+    (lambda d: d["robots"][0].update(max_velocty=1.0), "robots.0"),          # a typo'd key
+    (lambda d: d["simulation"].update(duraton=5.0), "simulation"),           # a typo'd key, top table
+    (lambda d: d["script"][0].update(kind="motoin"), "script.0.kind"),       # a kind that does not exist
+    (lambda d: d["script"][0].pop("robot"), "script.0"),                     # a required field missing
+    (lambda d: d["robots"][0].update(max_velocity="fast"), "robots.0.max_velocity"),  # wrong type
+    (lambda d: d["simulation"].update(task_timeout=0), "simulation.task_timeout"),    # out of bounds
+    (lambda d: d["stations"][0].update(position=[1.0]), "stations.0.position"),     # wrong shape
+    (lambda d: d["robots"][0].update(actions=["dance"]), "robots.0.actions.0"),      # unknown action
+    (lambda d: d.update(robot=[{"id": "r"}]), ""),                                    # [[robot]] for [[robots]]
+], ids=["robot-key", "simulation-key", "kind", "missing-robot", "type", "bound", "shape", "action", "top-key"])
+def test_mistakes_are_rejected_where_they_are(validator: jsonschema.Draft7Validator, mistake: Any, where: str) -> None:
+    data = demo()
+    assert errors(validator, data) == []
+    mistake(data)
+    found = errors(validator, data)
+    assert found, "the schema accepted the mistake"
+    assert any(e.startswith(f"{where}:") for e in found), found
+
+
+def test_the_command_prints_the_schema(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["schema", "scenario"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert json.loads(out) == scenario_schema()
+
+
+def test_the_recording_table_overrides_every_reading_method() -> None:
+    """A reading method added to Table but not to RecordingTable would read nothing into the schema."""
+    reading = {name for name, member in inspect.getmembers(Table, inspect.isfunction)
+               if not name.startswith("_") and name not in ("done", "fail")}
+    missing = {name for name in reading if getattr(RecordingTable, name) is getattr(Table, name)}
+    assert reading and missing == set()
