@@ -23,12 +23,14 @@ from typing import NoReturn
 
 from vcran import __version__
 from vcran.commands import CommandError
+from vcran.commands._signals import Terminated, terminate_like_interrupt
 
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
     "live": "live",
+    "manage": "manage",
     "send": "send",
     "orion": "orion",
     "gen": "gen",
@@ -40,7 +42,7 @@ COMMANDS: dict[str, str] = {
 }
 
 #: Exit statuses (README "Exit status"); argparse's usage errors are 2 as well.
-OK, FOUND, BAD_INPUT, BUG, INTERRUPTED = 0, 1, 2, 70, 130
+OK, FOUND, BAD_INPUT, BUG, INTERRUPTED, TERMINATED = 0, 1, 2, 70, 130, 143
 
 
 class _Parser(argparse.ArgumentParser):
@@ -58,7 +60,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         prog="vcran",
         description="Headless, deterministic fleet simulator for FIWARE/OPIL robot fleets (VC-RAN).",
         epilog="Exit status: 0 done; 1 done, and it found what it looks for (a difference, a rule violation, "
-               "a refused message); 2 bad input or usage; 70 a bug in vcran; 130 interrupted.",
+               "a refused message); 2 bad input or usage; 70 a bug in vcran; 130 interrupted (Ctrl-C), 143 terminated "
+               "(SIGTERM).",
     )
     parser.add_argument("--version", action="version", version=f"vcran {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -80,7 +83,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return OK
     args = build_parser(argv[0] if argv[0] in COMMANDS else None).parse_args(argv)
     try:
-        return int(args._run(args) or 0)
+        with terminate_like_interrupt():  # SIGTERM ends any command as Ctrl-C does
+            return int(args._run(args) or 0)
     except CommandError as exc:
         return _fail(args.command, str(exc), exc.code)
     except BrokenPipeError:  # `vcran gen ... | head`: the reader has all it wanted
@@ -88,9 +92,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return OK
     except OSError as exc:
         return _fail(args.command, _os_message(exc), BAD_INPUT)
-    except KeyboardInterrupt:
-        return _fail(args.command, "interrupted", INTERRUPTED)
+    except KeyboardInterrupt as exc:
+        return _fail(args.command, "interrupted", TERMINATED if isinstance(exc, Terminated) else INTERRUPTED)
     except Exception as exc:
+        if isinstance(exc, TypeError) and isinstance(exc.__cause__, KeyboardInterrupt):
+            # orjson turns a Ctrl-C inside its ``default`` callback into a TypeError
+            code = TERMINATED if isinstance(exc.__cause__, Terminated) else INTERRUPTED
+            return _fail(args.command, "interrupted", code)
         if os.environ.get("VCRAN_DEBUG"):
             raise
         return _fail(args.command, f"internal error (a bug in vcran; VCRAN_DEBUG=1 shows where): "
@@ -111,6 +119,8 @@ def _os_message(exc: OSError) -> str:
         return reason
     if exc.filename2 is not None:
         return f"{exc.filename} -> {exc.filename2}: {reason}"
+    if isinstance(exc, FileExistsError) and not os.path.isdir(exc.filename):
+        reason = "exists and is not a folder"  # mkdir's "File exists" for an --out that is a file
     return f"{exc.filename}: {reason}"
 
 

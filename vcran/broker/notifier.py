@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterable
 import httpx
 
 from vcran.broker.protocol import Notification
+from vcran.io.http_server import one_line
 
 log = logging.getLogger("vcran.broker")
 
@@ -132,7 +133,7 @@ class Notifier:
                 return
             status, reason = None, _failure_reason(exc)
             log.warning("notification of subscription %s to %s failed: %s", notification.subscription_id,
-                        notification.url, reason)  # fmt: skip
+                        one_line(notification.url), one_line(reason))  # fmt: skip
         if self._closed:  # finished after close(): its outcome no longer matters (close's docstring)
             return
         try:

@@ -37,6 +37,7 @@ DRAFT = "http://json-schema.org/draft-07/schema#"
 _PUBLISHABLE = "^[^" + "".join("\\" + c if c in "\\]^-" else c for c in sorted(FORBIDDEN_CHARS)) + "]*$"
 _NUMBER = {"type": "number"}
 _PAIR = {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 2}
+_POSE = {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 3}
 
 Choice = tuple[str, str]  # (table path, key)
 
@@ -90,6 +91,9 @@ class RecordingTable(Table):
     def fail(self, key: str, problem: str) -> Any:  # type: ignore[override]  # notes instead of raising
         self.run.complaints.append(f"{self.path}.{key}: {problem}")
 
+    def reject(self, problem: str) -> Any:  # type: ignore[override]  # notes instead of raising
+        self.run.complaints.append(f"{self.path}: {problem}")
+
     def done(self) -> None:
         self.closed = True
 
@@ -106,6 +110,11 @@ class RecordingTable(Table):
     def table(self, key: str) -> Table:
         child = self._child(key, many=False)
         self._note(key, {}, {}, child=child.path)
+        return child
+
+    def optional_table(self, key: str) -> Table | None:
+        child = self._child(key, many=False)
+        self._note(key, {}, None, child=child.path)
         return child
 
     def tables(self, key: str) -> list[Table]:
@@ -176,9 +185,19 @@ class RecordingTable(Table):
         self._note(key, {"type": "array", "items": _PAIR}, default)
         return [(-1e3, -1e3), (1e3, -1e3), (1e3, 1e3), (-1e3, 1e3)]
 
+    def pose(self, key: str, default: Any = _MISSING) -> Any:
+        self._note(key, _POSE, default)
+        v = 1.0 + self.run.variant
+        return v, v, None
+
+    def weights(self, key: str) -> list[tuple[str, float]]:
+        names = {"type": "array", "items": {"type": "string"}, "minItems": 1}
+        table = {"type": "object", "additionalProperties": {"type": "number", "exclusiveMinimum": 0}, "minProperties": 1}
+        self._note(key, {"oneOf": [names, table]}, _MISSING)
+        return [(self._sample("x0", "x1"), 1.0)]
+
     def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
-        pose = {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 3}
-        self._note(key, {"type": "array", "items": pose}, default)
+        self._note(key, {"type": "array", "items": _POSE}, default)
         return [(1.0, 1.0, None), (2.0, 2.0, self._sample(0.0, 1.0))]
 
 

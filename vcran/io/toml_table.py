@@ -52,6 +52,11 @@ class Table:
             self.fail(key, "missing")
         return default
 
+    def reject(self, problem: str) -> NoReturn:
+        """A rule between fields or sections is broken: the message names the file (and table), no field."""
+        where = f"{self.where}: " if self.where else ""
+        raise ScenarioError(f"{self.source}: {where}{problem}")
+
     def done(self) -> None:
         unknown = sorted(set(self.data) - self.used)
         if unknown:
@@ -59,6 +64,10 @@ class Table:
 
     def table(self, key: str) -> Table:
         return Table(self.raw(key, {}), self.source, self._sub(key))
+
+    def optional_table(self, key: str) -> Table | None:
+        """A sub-table whose presence means something (``[manager]``, ``[job_stream]``): None when absent."""
+        return self.table(key) if key in self.data else None
 
     def tables(self, key: str) -> list[Table]:
         value = self.raw(key, [])
@@ -177,6 +186,31 @@ class Table:
         if not ok:
             self.fail(key, f"expected a list of [x, y] points, got {v!r}")
         return [(float(p[0]), float(p[1])) for p in v]
+
+    def pose(self, key: str, default: Any = _MISSING) -> Any:
+        """A point ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if not (isinstance(v, (list, tuple)) and len(v) in (2, 3) and all(is_number(c) for c in v)):
+            self.fail(key, f"expected [x, y] or [x, y, theta], got {v!r}")
+        return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
+
+    def weights(self, key: str) -> list[tuple[str, float]]:
+        """Names with positive weights: a list of names (equal weights) or a table ``{name = weight}``."""
+        v = self.raw(key)
+        if isinstance(v, list) and all(isinstance(x, str) for x in v):
+            pairs = [(x, 1.0) for x in v]
+        elif isinstance(v, dict):
+            for name, w in v.items():
+                if not is_number(w) or w <= 0:
+                    self.fail(key, f"weight of {name!r} must be a positive number, got {w!r}")
+            pairs = [(name, float(w)) for name, w in v.items()]
+        else:
+            self.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
+        if not pairs:
+            self.fail(key, "names no station")
+        return pairs
 
     def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
         """A path: points ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
