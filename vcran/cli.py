@@ -64,7 +64,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
                "(SIGTERM).",
     )
     parser.add_argument("--version", action="version", version=f"vcran {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, title="commands")
     for name, module_name in COMMANDS.items():
         if only is not None and name != only:
             sub.add_parser(name)

@@ -18,6 +18,7 @@ import pytest
 
 from tests.conftest import ROOT
 from vcran import __version__, cli
+from vcran.commands import BUNDLED
 from vcran.io.scenario_file import bundled, load
 
 
@@ -25,6 +26,17 @@ def test_bundled_scenarios_are_the_repository_scenarios() -> None:
     assert bundled() == {p.stem: p for p in sorted((ROOT / "vcran" / "scenarios").glob("*.toml"))}
     assert {name: p.read_bytes() for name, p in bundled().items()} == \
            {p.stem: p.read_bytes() for p in (ROOT / "scenarios").glob("*.toml")}
+
+
+@pytest.mark.parametrize("command", ["run", "live", "manage", "send", "orion", "fuzz"])
+def test_every_scenario_command_names_the_bundled_scenarios_in_its_help(command: str,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    assert tuple(bundled()) == BUNDLED
+    with pytest.raises(SystemExit) as exit_:
+        cli.main([command, "--help"] if command != "orion" else [command, "init", "--help"])
+    assert exit_.value.code == 0
+    usage = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    assert "SCENARIO" in usage and f"a bundled scenario by name: {', '.join(BUNDLED)}" in usage
 
 
 def test_a_bundled_name_runs_from_any_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
@@ -68,7 +80,7 @@ def test_the_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> N
     _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(dist), str(ROOT)], cwd=home)
     (wheel,) = dist.glob("vcran-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    assert {"vcran/py.typed", "transports/py.typed", "vcran/scenarios/demo.toml"} <= set(names)
+    assert {"vcran/py.typed", "transports/py.typed", *(f"vcran/scenarios/{n}.toml" for n in BUNDLED)} <= set(names)
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     assert not [n for n in names if n.startswith("tests/") or "/tests/" in n or "conftest" in n]
     metadata = zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()

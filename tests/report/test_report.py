@@ -324,6 +324,17 @@ def test_missing_matplotlib_says_how_to_install_it(demo: Outputs, tmp_path: Path
     assert not (tmp_path / "r").exists()
 
 
+def test_run_with_report_and_no_matplotlib_refuses_before_simulating(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """`vcran run --report` without the extra says so at once, not after a long run (issue 16)."""
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    assert main(["run", str(ROOT / "scenarios" / "demo.toml"), "--out", str(tmp_path / "o"), "--report"]) == 2
+    captured = capsys.readouterr()
+    assert (captured.out, captured.err) == ("", "vcran run: figures need matplotlib, which is not installed: "
+                                                "pip install 'vcran[report]'\n")
+    assert not (tmp_path / "o").exists()
+
+
 def test_vcran_run_never_imports_matplotlib(tmp_path: Path) -> None:
     """Startup time: the figures' dependency is loaded only when a report is asked for."""
     import subprocess

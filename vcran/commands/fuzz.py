@@ -24,11 +24,14 @@ import argparse
 import sys
 from pathlib import Path
 
-HELP = "perturb a scenario's message script and check the rules on every variant"
+from vcran.commands import add_scenario_argument
+
+HELP = ("perturb a scenario's message script and check the rules on every variant; with a fleet manager, vary "
+        "its workload and link and check the loop properties")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML), or a bundled scenario by name (demo)")
+    add_scenario_argument(parser, "")
     parser.add_argument("--examples", type=int, default=100, help="perturbed variants to try (default 100)")
     parser.add_argument("--seed", type=int, default=0, help="search seed: same seed, same examples (default 0)")
     parser.add_argument("--save", type=Path, default=None,

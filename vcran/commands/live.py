@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from vcran.commands import CommandError, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
 
@@ -14,9 +14,9 @@ HELP = "run the scenario's robots and stations against Orion in real time (its m
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML); its [[script]] is not played")
+    add_scenario_argument(parser, "; its [[script]] is not played")
     add_connection_arguments(parser)
-    parser.add_argument("--out", type=Path, required=True, help="output folder (trace, events, summary)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (trace, events, summary)")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
     parser.add_argument("--notify-url", metavar="URL",
                         help="subscribe, with notifications to this URL (vcran listens there); default: polling")

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from vcran.commands import CommandError, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
@@ -26,7 +26,7 @@ CHECK_EVERY = 0.25
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML) with the fleet and its jobs")
+    add_scenario_argument(parser, " with the fleet and its jobs")
     add_connection_arguments(parser)
     parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])")
     parser.add_argument("--notify-url", metavar="URL", required=True,

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from vcran.commands import CommandError, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robot entities in Orion"
@@ -13,7 +12,7 @@ HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robo
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", choices=("init", "delete"))
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML): its robots are the entities")
+    add_scenario_argument(parser, "; its robots are the entities")
     add_connection_arguments(parser)
 
 
