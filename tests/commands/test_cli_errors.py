@@ -82,12 +82,22 @@ value = '{{"type": "x", "value": {huge}}}'
     raw_toml.write_text(f"[simulation]\nduration = 1.0\nx = {huge}\n", encoding="utf-8")
     late = scenario_file(tmp_path / "late", t=61.0, duration=60.0)
     out = str(tmp_path / "out")
+    recording = tmp_path / "recording"
+    assert cli.main(["run", DEMO, "--out", str(recording), "--quiet"]) == 0
+    locked = read_only_folder(tmp_path)
     return [
+        (["replay", str(recording), "--out", str(locked / "vcran-out")], "replay", "vcran-out: "),
+        (["replay", str(recording), "--out", str(a_file)], "replay", f"{a_file}: exists and is not a folder"),
+        (["report", str(recording), "--out", str(locked / "vcran-out")], "report", "vcran-out: "),
+        (["report", str(recording), "--out", str(a_file / "sub")], "report", f"{a_file / 'sub'}: Not a directory"),
+        (["run", DEMO, "--out", out, "--manager", "vcran.managers:Dispatcher"], "run",
+         "has a [[script]] that would play it too"),
+        (["run", DEMO, "--out", out, "--manager", "no colon"], "run", "expected 'module:Class'"),
         (["run", str(tmp_path), "--out", out], "run", f"{tmp_path}: is a folder, not a scenario file"),
         (["run", str(not_utf8), "--out", out], "run", f"{not_utf8}: not UTF-8 text"),
         (["run", DEMO, "--out", str(a_file)], "run", f"{a_file}: exists and is not a folder"),
         (["run", DEMO, "--out", str(a_file / "sub")], "run", f"{a_file / 'sub'}: Not a directory"),
-        (["run", DEMO, "--out", str(read_only_folder(tmp_path) / "vcran-out")], "run", "vcran-out: "),
+        (["run", DEMO, "--out", str(locked / "vcran-out")], "run", "vcran-out: "),
         (["replay", str(empty), "--out", out], "replay", f"{empty}: a folder without trace.jsonl"),
         (["run", str(raw_text), "--out", out], "run", "field 'value': not valid JSON: Exceeds the limit (4300 digits)"),
         (["run", str(raw_toml), "--out", out], "run", f"{raw_toml}: not valid TOML: Exceeds the limit (4300 digits)"),
@@ -115,6 +125,33 @@ def test_nothing_is_written_for_a_scenario_that_does_not_load(capsys: pytest.Cap
     late = scenario_file(tmp_path, t=61.0, duration=60.0)
     assert vcran(capsys, "run", str(late), "--out", str(tmp_path / "out"))[0] == 2
     assert not (tmp_path / "out").exists()
+
+
+def test_nothing_is_written_for_a_run_refused_for_its_fleet_manager(capsys: pytest.CaptureFixture[str],
+                                                                    tmp_path: Path) -> None:
+    """A script and a manager, or jobs and none: refused before the output folder exists."""
+    jobs_only = tmp_path / "jobs.toml"
+    jobs_only.write_text('''[simulation]
+duration = 60.0
+[[robots]]
+id = "r1"
+[[stations]]
+id = "a"
+position = [0.0, 0.0]
+[[stations]]
+id = "b"
+position = [5.0, 0.0]
+[[jobs]]
+t = 1.0
+id = "j1"
+pickup = "a"
+dropoff = "b"
+''', encoding="utf-8")
+    for argv, says in [(["run", DEMO, "--manager", "vcran.managers:Dispatcher"], "would play it too"),
+                       (["run", str(jobs_only)], "no fleet manager to give them to")]:
+        code, _, err = vcran(capsys, *argv, "--out", str(tmp_path / "out"))
+        assert code == 2 and says in err, err
+        assert not (tmp_path / "out").exists()
 
 
 def test_an_entry_at_the_last_instant_still_loads(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from vcran.commands import CommandError, add_scenario_argument, load_scenario
-from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 
 HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
 
@@ -54,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("--factor must be positive")
     if args.jobs is not None and args.jobs < 0:
         raise CommandError("--jobs must not be negative")
+    check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)
     if args.jobs is not None:
         scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
