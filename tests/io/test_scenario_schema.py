@@ -78,6 +78,36 @@ def test_mistakes_are_rejected_where_they_are(validator: jsonschema.Draft7Valida
     assert any(e.startswith(f"{where}:") for e in found), found
 
 
+def warehouse() -> dict[str, Any]:
+    with (ROOT / "scenarios" / "warehouse.toml").open("rb") as f:
+        return tomllib.load(f)
+
+
+@pytest.mark.parametrize(("mistake", "where"), [
+    (lambda d: d["link"].update(latncy=0.1), "link"),                                  # a typo'd key
+    (lambda d: d["link"].update(inbound="carrier pigeon"), "link.inbound"),            # not a choice
+    (lambda d: d["job_stream"].update(dropoff={"dock_1": -1.0}), "job_stream.dropoff"),  # a weight <= 0
+    (lambda d: d["job_stream"].update(pickup="line_1"), "job_stream.pickup"),           # a name, not a list
+    (lambda d: d["stations"][0].update(dock=[1.0]), "stations.0.dock"),                # wrong shape
+    (lambda d: d["manager"].pop("class"), "manager"),                                  # a required field
+    (lambda d: d.update(jobs=[{"t": 1.0, "id": "j", "pickup": "line_1"}]), "jobs.0"),  # no dropoff
+], ids=["link-key", "inbound", "weight", "pickup-shape", "dock-shape", "manager-class", "job-dropoff"])
+def test_closed_loop_mistakes_are_rejected_where_they_are(validator: jsonschema.Draft7Validator, mistake: Any,
+                                                          where: str) -> None:
+    data = warehouse()
+    assert errors(validator, data) == []
+    mistake(data)
+    found = errors(validator, data)
+    assert any(e.startswith(f"{where}:") for e in found), found
+
+
+def test_the_manager_options_are_the_managers_own(validator: jsonschema.Draft7Validator) -> None:
+    """[manager.options] are keyword arguments of the manager's class: the schema leaves them open."""
+    data = warehouse()
+    data["manager"]["options"] = {"max_tries": 3, "anything_the_class_takes": [1, 2]}
+    assert errors(validator, data) == []
+
+
 def test_the_command_prints_the_schema(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["schema", "scenario"]) == 0
     out, err = capsys.readouterr()
