@@ -94,6 +94,10 @@ def test_the_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> N
     assert _run([vcran, "--help"], cwd=home).stdout.startswith("usage: vcran")
     _run([vcran, "run", "demo", "--out", "out", "--quiet"], cwd=home)
     assert json.loads((home / "out" / "summary.json").read_text(encoding="utf-8"))["scenario"] == "demo"
+    _run([vcran, "run", "warehouse", "--out", "loop", "--quiet"], cwd=home)  # the shipped fleet manager too
+    jobs = json.loads((home / "loop" / "summary.json").read_text(encoding="utf-8"))["jobs"]
+    assert jobs["completed"] == jobs["arrived"] > 0
+    assert json.loads(_run([vcran, "schema", "scenario"], cwd=home).stdout)["title"] == "vcran scenario file"
 
     without = _run([vcran, "fuzz", "demo", "--examples", "5"], cwd=home, check=False)
     assert (without.returncode, without.stdout) == (2, "")
