@@ -60,7 +60,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         prog="vcran",
         description="Headless, deterministic fleet simulator for FIWARE/OPIL robot fleets (VC-RAN).",
         epilog="Exit status: 0 done; 1 done, and it found what it looks for (a difference, a rule violation, "
-               "a refused message); 2 bad input or usage; 70 a bug in vcran; 130 interrupted (Ctrl-C), 143 terminated "
+               "a refused message, a fleet manager that raised); 2 bad input or usage; 70 a bug in vcran; 130 interrupted (Ctrl-C), 143 terminated "
                "(SIGTERM).",
     )
     parser.add_argument("--version", action="version", version=f"vcran {__version__}")
@@ -101,6 +101,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _fail(args.command, "interrupted", code)
         if os.environ.get("VCRAN_DEBUG"):
             raise
+        from vcran.sim.loop import manager_note
+
+        note = manager_note(exc)
+        if note is not None:  # the user's fleet manager failed, not vcran
+            return _fail(args.command, f"the fleet manager raised {type(exc).__name__}: {exc} ({note}; VCRAN_DEBUG=1 "
+                                       "shows the traceback)", FOUND)
         return _fail(args.command, f"internal error (a bug in vcran; VCRAN_DEBUG=1 shows where): "
                                    f"{type(exc).__name__}: {exc}", BUG)
 

@@ -193,6 +193,20 @@ def test_a_bug_is_one_line_exit_70_and_debug_shows_it(capsys: pytest.CaptureFixt
         cli.main(["run", DEMO, "--out", str(tmp_path / "o")])
 
 
+def test_a_fleet_manager_that_raises_is_its_bug_not_vcrans(capsys: pytest.CaptureFixture[str],
+                                                           monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """One line naming the hook and the time, exit 1 (the run found a failure), not 'a bug in vcran' (70)."""
+    argv = ["run", "warehouse", "--out", str(tmp_path / "o"), "--manager", "tests.testing.loop_managers:Raising", "--quiet"]
+    code, out, err = vcran(capsys, *argv)
+    assert (code, out) == (1, "")
+    assert err.startswith("vcran run: the fleet manager raised RuntimeError: my bug (in fleet manager Raising: "
+                          "on_job at t=") and err.endswith("; VCRAN_DEBUG=1 shows the traceback)\n")
+    assert err.count("\n") == 1
+    monkeypatch.setenv("VCRAN_DEBUG", "1")
+    with pytest.raises(RuntimeError, match="my bug"):
+        cli.main(argv)
+
+
 def test_interrupt_is_130(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     def interrupted(*_args: object, **_kw: object) -> None:
         raise KeyboardInterrupt

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import signal
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -105,11 +104,7 @@ def run(args: argparse.Namespace) -> int:
     link = loop.link
     assert isinstance(link, OrionLink)
     try:
-        env.run(until=done)
-    except Exception as exc:  # noqa: BLE001 - the manager's own bug: say which hook and when, exit 1
-        notes = "; ".join(getattr(exc, "__notes__", []))
-        print(f"vcran manage: the fleet manager raised {type(exc).__name__}: {exc} ({notes})", file=sys.stderr)
-        return 1
+        env.run(until=done)  # an exception the manager raises ends the run: the CLI says which hook and when
     finally:
         link.close()
         client.close()

@@ -30,6 +30,14 @@ from vcran.core.wire import Deliver, Frame, Outbound, Transport
 from vcran.sim.link import Link
 from vcran.sim.timing import JOB, TIMER, at
 
+#: How the note on an exception a fleet manager raised begins (``in fleet manager Mine: on_job at t=1.0``).
+MANAGER_NOTE = "in fleet manager "
+
+
+def manager_note(exc: BaseException) -> str | None:
+    """The note saying which hook of the fleet manager raised ``exc`` and when, or None: not the manager's."""
+    return next((n for n in getattr(exc, "__notes__", ()) if n.startswith(MANAGER_NOTE)), None)
+
 
 class ManagerLink(Protocol):
     """What a closed loop needs of the link between its manager and the robots (:class:`Link`, or Orion)."""
@@ -165,7 +173,7 @@ class ClosedLoop(Transport):
             fn(*args, **kwargs)
         except Exception as exc:
             assert self.handle is not None
-            exc.add_note(f"in fleet manager {type(self.manager).__name__}: {what} at t={self.handle.now!r}")
+            exc.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
             raise
 
 
