@@ -60,8 +60,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         prog="vcran",
         description="Headless, deterministic fleet simulator for FIWARE/OPIL robot fleets (VC-RAN).",
         epilog="Exit status: 0 done; 1 done, and it found what it looks for (a difference, a rule violation, "
-               "a refused message, a fleet manager that raised); 2 bad input or usage; 70 a bug in vcran; 130 interrupted (Ctrl-C), 143 terminated "
-               "(SIGTERM).",
+               "a refused message, a fleet manager that raised); 2 bad input or usage; 70 a bug in vcran; "
+               "130 interrupted (Ctrl-C); 143 terminated (SIGTERM).",
     )
     parser.add_argument("--version", action="version", version=f"vcran {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, title="commands")
