@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import ROOT
+from tests.io.test_scenario_jobs import FLEET, job
 from vcran import __version__, cli
 
 DEMO = str(ROOT / "scenarios" / "demo.toml")
@@ -131,22 +132,7 @@ def test_nothing_is_written_for_a_run_refused_for_its_fleet_manager(capsys: pyte
                                                                     tmp_path: Path) -> None:
     """A script and a manager, or jobs and none: refused before the output folder exists."""
     jobs_only = tmp_path / "jobs.toml"
-    jobs_only.write_text('''[simulation]
-duration = 60.0
-[[robots]]
-id = "r1"
-[[stations]]
-id = "a"
-position = [0.0, 0.0]
-[[stations]]
-id = "b"
-position = [5.0, 0.0]
-[[jobs]]
-t = 1.0
-id = "j1"
-pickup = "a"
-dropoff = "b"
-''', encoding="utf-8")
+    jobs_only.write_text(FLEET + job(1, "j1"), encoding="utf-8")
     for argv, says in [(["run", DEMO, "--manager", "vcran.managers:Dispatcher"], "would play it too"),
                        (["run", str(jobs_only)], "no fleet manager to give them to")]:
         code, _, err = vcran(capsys, *argv, "--out", str(tmp_path / "out"))
