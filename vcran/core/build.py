@@ -32,7 +32,7 @@ from vcran.core.messages import (
 )
 
 #: The category each kind is sent with (OPIL ``RobotAction`` constants).
-CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20}
+CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20, ActionKind.CHARGE: 200}
 
 
 def motion(

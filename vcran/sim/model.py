@@ -7,11 +7,14 @@ and on ``simpy.rt.RealtimeEnvironment`` (live).
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
 import simpy
 
+from vcran.core.battery import FleetBattery
 from vcran.core.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
 from vcran.core.messages import Message
 from vcran.core.motion import FleetKinematics
@@ -19,6 +22,8 @@ from vcran.core.ranlogic import RanLogic
 from vcran.core.scenario import Scenario
 from vcran.core.stations import Station, StationMap, motion_area_problem
 from vcran.core.wire import Inbound, Transport
+from vcran.sim.faults import Faults
+from vcran.sim.power import Power
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
 from vcran.sim.timing import END, PRODUCTION, at
@@ -55,7 +60,7 @@ class Model:
         self.stations = [
             Station(c.id, c.position[0], c.position[1], c.reach, c.parts, c.capacity, c.produce_every,
                     c.produce_start if c.produce_start is not None else c.produce_every, c.produce_limit,
-                    c.area)
+                    c.area, c.charger)
             for c in scenario.stations
         ]
         station_map = StationMap(self.stations)
@@ -65,12 +70,19 @@ class Model:
         self.fleet_errors = 0
         self.tasks_done = 0
         self.robots: list[RobotNode] = []
+        configs = [r.battery for r in scenario.robots]
+        self.battery = FleetBattery(configs) if any(c is not None for c in configs) else None
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
                              area_check=motion_area_problem)
-            self.robots.append(RobotNode(self.env, i, config, logic, self.fleet, station_map, s.durations,
-                                         self._log, self._changed))
+            robot = RobotNode(self.env, i, config, logic, self.fleet, station_map, s.durations,
+                              self._log, self._changed, self.battery)
+            robot.idle_horizon = 2.0 * s.telemetry_period
+            self.robots.append(robot)
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
+        if self.battery is not None:
+            self.ran.after_statuses = Power(self.robots, self.battery, s.telemetry_period, self.ran.publish).tick
+        self._start_faults()
         self.finished = self.env.event()
         after_tick = self._idle_stop if progress is None else self._reporting(progress)
         self.env.process(self.ran.telemetry(s.telemetry_period, after_tick))
@@ -90,8 +102,23 @@ class Model:
 
     # --- wiring -----------------------------------------------------------------------------------------
 
+    def _start_faults(self) -> None:
+        sc = self.scenario
+        if not sc.faults and not sc.random_faults:
+            return
+        faults = Faults(self.env, {r.id: r for r in self.robots}, self.ran.link_down)
+        if sc.faults:
+            self.env.process(faults.play(sc.faults))
+        for source in sc.random_faults:
+            until = min(source.until, sc.settings.duration if sc.settings.duration is not None else math.inf)
+            limited = dataclasses.replace(source, until=until)
+            for r in self.robots:
+                if not source.robots or r.id in source.robots:
+                    self.env.process(faults.play(limited.stream(sc.settings.seed, r.id)))
+
     def _log(self, robot: RobotNode, event: Event) -> None:
-        self.events.write(self.env.now, robot.id, event.NAME, event.fields())
+        if event.NAME:  # else a ran_error whose incident was logged on its own
+            self.events.write(self.env.now, robot.id, event.NAME, event.fields())
         if isinstance(event, TaskCompleted):
             self.completed[robot.id].append(event.task.label)
             self.tasks_done += 1
@@ -145,6 +172,14 @@ class Model:
 
     # --- results ----------------------------------------------------------------------------------------
 
+    def _battery_summary(self, r: RobotNode, t: float) -> dict[str, float]:
+        b = self.battery
+        assert b is not None
+        i = r.index
+        b.begin(i, t, self.fleet.distance(i, t), int(b.kind[i]))  # close the running segment's books
+        return {"charge": float(b.level0[i]), "percentage": float(b.level0[i] / b.capacity[i]),
+                "used": float(b.used[i]), "charged": float(b.added[i])}
+
     def summary(self) -> dict[str, Any]:
         """summary.json (SPEC §8): deterministic, no wall-clock figures."""
         t = self.env.now
@@ -160,6 +195,8 @@ class Model:
                 "parts_moved": r.parts_moved,
                 "errors": r.logic.error_count,
             }
+            if self.battery is not None and r.battery is not None:
+                robots[r.id]["battery"] = self._battery_summary(r, t)
         return {
             "scenario": self.scenario.settings.name,
             "seed": self.scenario.settings.seed,

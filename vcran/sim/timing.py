@@ -6,10 +6,13 @@ that what happens at one instant does not depend on when the event happened to b
 1. inbound messages, in arrival order, with everything they cause (hand-offs between processes through
    stores use SimPy's NORMAL priority, 1, so a cause's consequences finish before the next kind starts);
 2. station production;
-3. completions: an AGV reaching a point, AgvAction finishing an action;
-4. R7 deadlines (so a task assembled exactly at its deadline is on time);
-5. telemetry (it sees the state after everything else at that instant);
-6. the end of the run (so the last instant is complete, telemetry included).
+3. completions: an AGV reaching a point, AgvAction finishing an action, and the instants computed like
+   them (a battery running out, two footprints starting to overlap; SPEC §4);
+4. injected faults, and the ends of their durations (a breakdown at the instant a leg ends finds the
+   robot at the point; SPEC §4), battery swaps;
+5. R7 deadlines (so a task assembled exactly at its deadline is on time);
+6. telemetry (it sees the state after everything else at that instant);
+7. the end of the run (so the last instant is complete, telemetry included).
 """
 
 from __future__ import annotations
@@ -22,9 +25,10 @@ from simpy.events import Event
 INBOUND = 1
 PRODUCTION = 2
 COMPLETION = 3
-DEADLINE = 4
-TELEMETRY = 5
-END = 6
+FAULT = 4
+DEADLINE = 5
+TELEMETRY = 6
+END = 7
 
 
 def after(env: simpy.Environment, delay: float, priority: int) -> Event:
