@@ -60,8 +60,8 @@ class Faults:
             robot.fail_next_action = True
         else:
             assert kind == "link_down"
+            self._later(duration, lambda: robot.log_incident(FaultEnded(kind)))  # logged before the link's backlog
             self._link(robot, duration)
-            self._later(duration, lambda: robot.log_incident(FaultEnded(kind)))
 
     @staticmethod
     def _repaired(robot: RobotNode, kind: str) -> None:
