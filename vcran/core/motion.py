@@ -272,6 +272,12 @@ class FleetKinematics:
         return out
 
 
+def sample_leg(leg: Leg, times: np.ndarray) -> np.ndarray:
+    """A ``(len(times), 5)`` array of one leg's ``x, y, theta, v, w`` at each of ``times`` (collision checks)."""
+    row = np.array([getattr(leg, name) for name in _COLUMNS], dtype=np.float64)
+    return _sample_moving(np.broadcast_to(row, (len(times), len(_COLUMNS))), times)  # type: ignore[arg-type]
+
+
 def _wrap_array(a: np.ndarray) -> np.ndarray:
     """:func:`wrap` elementwise, with the same fmod steps (fmod is exact, so results agree)."""
     r = np.fmod(a + math.pi, TAU)

@@ -22,6 +22,7 @@ from vcran.core.ranlogic import RanLogic
 from vcran.core.scenario import Scenario
 from vcran.core.stations import Station, StationMap, motion_area_problem
 from vcran.core.wire import Inbound, Transport
+from vcran.sim.contacts import Contacts
 from vcran.sim.faults import Faults
 from vcran.sim.power import Power
 from vcran.sim.ran import Decode, Ran
@@ -83,6 +84,8 @@ class Model:
         if self.battery is not None:
             self.ran.after_statuses = Power(self.robots, self.battery, s.telemetry_period, self.ran.publish).tick
         self._start_faults()
+        self.contacts = (Contacts(self.env, self.robots, s.collisions, s.collision_resolution)
+                         if s.collisions != "off" and len(self.robots) > 1 else None)
         self.finished = self.env.event()
         after_tick = self._idle_stop if progress is None else self._reporting(progress)
         self.env.process(self.ran.telemetry(s.telemetry_period, after_tick))
@@ -197,6 +200,8 @@ class Model:
             }
             if self.battery is not None and r.battery is not None:
                 robots[r.id]["battery"] = self._battery_summary(r, t)
+            if self.contacts is not None and self.contacts.count[r.index]:
+                robots[r.id]["collisions"] = self.contacts.count[r.index]
         return {
             "scenario": self.scenario.settings.name,
             "seed": self.scenario.settings.seed,
