@@ -144,17 +144,30 @@ class Grid:
         return tuple((gx, gy) for gx in range(x0, x1 + 1) for gy in range(y0, y1 + 1))
 
     def file(self, index: int, box: tuple[float, float, float, float]) -> set[int]:
-        """File ``index`` under ``box`` (replacing where it was); return the other robots sharing a cell."""
-        for key in self.filed.get(index, ()):
-            members = self.cells[key]
-            members.discard(index)
-            if not members:
-                del self.cells[key]
+        """File ``index`` under ``box``; return the other robots sharing one of its cells.
+
+        When ``box`` lies in cells the robot is already filed under (a robot coming to rest at the end of its
+        leg), the filing is kept: a superset only costs a box test later, and re-filing on every leg end
+        would double the grid's work.
+        """
         keys = self._keys(box)
-        self.filed[index] = keys
+        old = self.filed.get(index, ())
+        if not old or not set(keys).issubset(old):
+            for key in old:
+                members = self.cells[key]
+                members.discard(index)
+                if not members:
+                    del self.cells[key]
+            self.filed[index] = keys
+            cells = self.cells
+            for key in keys:
+                members = cells.get(key)
+                if members is None:
+                    cells[key] = {index}
+                else:
+                    members.add(index)
         near: set[int] = set()
         for key in keys:
-            members = self.cells.setdefault(key, set())
-            near |= members
-            members.add(index)
+            near |= self.cells[key]
+        near.discard(index)
         return near

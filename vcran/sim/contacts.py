@@ -22,8 +22,8 @@ from vcran.core.incidents import Collision
 from vcran.sim.robot import Halted, RobotNode
 from vcran.sim.timing import COMPLETION, at
 
-#: Grid cell size in metres: a few robot lengths, so a leg touches a handful of cells.
-CELL = 10.0
+#: Grid cell size in metres: a few legs' width, so a leg's box touches a handful of cells.
+CELL = 20.0
 
 
 class Contacts:
