@@ -161,11 +161,11 @@ class Grid:
             self.filed[index] = keys
             cells = self.cells
             for key in keys:
-                members = cells.get(key)
-                if members is None:
+                found = cells.get(key)
+                if found is None:
                     cells[key] = {index}
                 else:
-                    members.add(index)
+                    found.add(index)
         near: set[int] = set()
         for key in keys:
             near |= self.cells[key]

@@ -50,7 +50,7 @@ def require_matplotlib() -> None:
 
 def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None) -> Report:
     """Write ``layout``, ``timeline`` (paged above 20 robots, at most ``timeline_pages`` pages, default
-    :data:`TIMELINE_PAGES`), ``kpi.md`` and ``kpi.csv`` into ``out``."""
+    :data:`TIMELINE_PAGES`), ``battery`` (a run with batteries), ``kpi.md`` and ``kpi.csv`` into ``out``."""
     if fmt not in FORMATS:
         raise ValueError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
     require_matplotlib()
@@ -76,6 +76,12 @@ def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int
                 note += f"; the other {len(run.robots) - drawn} are in kpi.md only (raise --timeline-pages)"
         files.append(out / name)
         draw_timeline(run, history, chunk, files[-1], note)
+
+    if run.batteries:  # SPEC §4
+        from vcran.report.battery import draw_battery
+
+        files.append(out / f"battery.{fmt}")
+        draw_battery(run, files[-1])
 
     rows = kpis(run, history)
     for name, text in (("kpi.md", _kpi_markdown(run, rows)), ("kpi.csv", csv_text(rows))):
