@@ -64,7 +64,8 @@ def test_s4_fleet_battery_levels_follow_segments_and_clamp():
     assert b.level(0, 10.0, 0.0) == pytest.approx(0.4)  # resting: 0.01 Ah/s
     assert b.begin(0, 10.0, 0.0, DRIVE) == pytest.approx(0.4)
     assert b.level(0, 12.0, 1.0) == pytest.approx(0.4 - 0.02 - 0.1)  # 2 s and 1 m
-    assert b.levels(12.0, np.array([1.0, 0.0]))[0] == pytest.approx(0.28)
+    levels, kinds = b.levels(12.0, np.array([1.0, 0.0]))
+    assert list(levels) == [pytest.approx(0.28)] and list(kinds) == [DRIVE]
     assert b.level(0, 100.0, 50.0) == 0.0  # never negative
     b.begin(0, 12.0, 1.0, REST)
     assert b.used[0] == pytest.approx(0.1 + 0.12)  # 10 s resting, then 2 s and 1 m driving

@@ -54,41 +54,59 @@ REST, DRIVE, ACT, CHARGE, EMPTY = range(5)
 class FleetBattery:
     """The battery level of every robot that has one, segment by segment (see the module docstring).
 
-    Robots without a battery have ``capacity`` NaN and are never reported. ``distance`` is the fleet's
-    odometer function (:meth:`vcran.core.motion.FleetKinematics.distance` and ``distances``).
+    The segment parameters are plain Python lists: the SimPy processes read and write one robot at a time,
+    at every leg and action, where a Python float is several times cheaper than a numpy scalar. The
+    telemetry tick turns them into arrays once, for the whole fleet (:meth:`levels`). Robots without a
+    battery have ``capacity`` NaN and are never reported.
     """
 
     def __init__(self, configs: list[BatteryConfig | None]) -> None:
         n = len(configs)
         self.configs = configs
-        self.has = np.array([c is not None for c in configs], dtype=bool)
-        self.indices = np.flatnonzero(self.has)
-        get = lambda name, default=0.0: np.array([getattr(c, name) if c else default for c in configs], dtype=np.float64)  # noqa: E731
+        self.indices = np.flatnonzero(np.array([c is not None for c in configs], dtype=bool))
+        get = lambda name, default=0.0: [float(getattr(c, name)) if c else default for c in configs]  # noqa: E731
         self.capacity = get("capacity", math.nan)
         self.idle = get("per_idle_second")
-        self.per_metre = get("per_metre")
-        self.level0 = np.array([c.start_level if c else 0.0 for c in configs], dtype=np.float64)
-        self.t0 = np.zeros(n)
-        self.rate = self.idle.copy()
-        self.k = np.zeros(n)  # per_metre while driving, else 0
-        self.d0 = np.zeros(n)
-        self.kind = np.full(n, REST, dtype=np.int64)
+        self.level0 = [c.start_level if c else 0.0 for c in configs]
+        self.t0 = [0.0] * n
+        self.rate = list(self.idle)
+        self.k = [0.0] * n  # per_metre while driving, else 0
+        self.d0 = [0.0] * n
+        self.kind = [REST] * n
         #: ``battery_low`` reported since the last charge or swap.
         self.low_warned = np.zeros(n, dtype=bool)
         #: Charge drawn and charge added, summed over segments (the summary's energy figures).
-        self.used = np.zeros(n)
-        self.added = np.zeros(n)
+        self.used = [0.0] * n
+        self.added = [0.0] * n
+        i = self.indices
+        self.capacities = np.array(self.capacity)[i]  # constant: the tick's copy, in ``indices`` order
+        self.idles = np.array(self.idle)[i]
+        #: The tick's numpy mirror of the segment parameters, brought up to date from the robots whose
+        #: segment changed since (``_dirty``): a tick copies a few rows, not five whole lists.
+        self._mirror = np.array([self.level0, self.t0, self.rate, self.k, self.d0, self.kind], dtype=np.float64)
+        self._dirty: list[int] = []
+        self._everyone = len(i) == n
 
     def level(self, i: int, t: float, distance: float) -> float:
         """Charge of robot ``i`` at ``t`` (within its current segment); ``distance`` = its odometer at ``t``."""
         raw = self.level0[i] - self.rate[i] * (t - self.t0[i]) - self.k[i] * (distance - self.d0[i])
-        return float(min(max(raw, 0.0), self.capacity[i]))
+        return min(max(raw, 0.0), self.capacity[i])
 
-    def levels(self, t: float, distances: np.ndarray) -> np.ndarray:
-        """Charge of every robot with a battery (in ``indices`` order) at ``t``."""
-        i = self.indices
-        raw = self.level0[i] - self.rate[i] * (t - self.t0[i]) - self.k[i] * (distances[i] - self.d0[i])
-        return np.minimum(np.maximum(raw, 0.0), self.capacity[i])
+    def levels(self, t: float, distances: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Charge of every robot with a battery at ``t``, and its segment kind (as floats), both in
+        ``indices`` order."""
+        m = self._sync()
+        if not self._everyone:
+            m, distances = m[:, self.indices], distances[self.indices]
+        raw = m[0] - m[2] * (t - m[1]) - m[3] * (distances - m[4])
+        return np.minimum(np.maximum(raw, 0.0), self.capacities), m[5]
+
+    def _sync(self) -> np.ndarray:
+        m = self._mirror
+        for i in self._dirty:
+            m[:, i] = (self.level0[i], self.t0[i], self.rate[i], self.k[i], self.d0[i], self.kind[i])
+        self._dirty.clear()
+        return m
 
     def begin(self, i: int, t: float, distance: float, kind: int) -> float:
         """Start a new segment of ``kind`` for robot ``i`` at ``t``; returns the level it starts with."""
@@ -102,6 +120,7 @@ class FleetBattery:
             self.added[i] -= delta
         self.level0[i], self.t0[i], self.d0[i] = level, t, distance
         self.kind[i] = kind
+        self._dirty.append(i)
         self.k[i] = c.per_metre if kind == DRIVE else 0.0
         if kind == ACT:
             self.rate[i] = c.per_idle_second + c.per_action_second

@@ -194,11 +194,14 @@ class FleetKinematics:
         self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
         #: robot index -> distance driven on a leg that is held (paused, broken down; SPEC §4)
         self.held: dict[int, float] = {}
+        self._changes = 0  # bumped whenever a leg starts or ends, so the sweeps' cache knows
+        self._moving_cache: tuple[int, np.ndarray, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return len(self.rest)
 
     def start(self, i: int, leg: Leg) -> None:
+        self._changes += 1
         row = self.legs[i]
         for name in _COLUMNS:
             row[C[name]] = getattr(leg, name)
@@ -207,6 +210,7 @@ class FleetKinematics:
     def finish(self, i: int) -> None:
         """The leg of robot ``i`` is over: bank its distance and rest at its end pose."""
         leg = self.current.pop(i)
+        self._changes += 1
         self.odometer[i] += leg.distance
         self.rest[i, :3] = (leg.x1, leg.y1, leg.end_theta)
         self.legs[i, C["t_end"]] = -np.inf
@@ -234,6 +238,7 @@ class FleetKinematics:
         self.odometer[i] += self.held.pop(i)
 
     def _rest_at(self, i: int, leg: Leg, t: float) -> tuple[float, float, float]:
+        self._changes += 1
         x, y, theta, _, _ = leg.pose_at(t)
         self.rest[i, :3] = (x, y, theta)
         self.legs[i, C["t_end"]] = -np.inf
@@ -255,10 +260,17 @@ class FleetKinematics:
             for i, leg in self.current.items():
                 out[i] += leg.distance_at(t)
             return out
-        idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
-        L = self.legs[idx]
+        idx, L = self._moving()
         out[idx] += _driven(L, np.maximum(t - L[:, C["t0"]], 0.0) - L[:, C["t_turn1"]])
         return out
+
+    def _moving(self) -> tuple[np.ndarray, np.ndarray]:
+        """The moving robots' indices and leg rows, shared by the sweeps of one tick (the legs did not
+        change in between: nothing runs between a tick's telemetry and its battery sweep)."""
+        if self._moving_cache is None or self._moving_cache[0] != self._changes:
+            idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
+            self._moving_cache = (self._changes, idx, self.legs[idx])
+        return self._moving_cache[1], self._moving_cache[2]
 
     def sample(self, t: float) -> np.ndarray:
         """A (robots, 5) array of ``x, y, theta, v, w`` at ``t`` (legs not started count as at rest)."""
@@ -267,8 +279,8 @@ class FleetKinematics:
             for i, leg in self.current.items():
                 out[i] = leg.pose_at(t)
             return out
-        idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
-        out[idx] = _sample_moving(self.legs[idx], t)
+        idx, L = self._moving()
+        out[idx] = _sample_moving(L, t)
         return out
 
 
@@ -296,7 +308,7 @@ def _driven(L: np.ndarray, d: np.ndarray) -> np.ndarray:
             d < ta, 0.5 * peak * d * d / ta,
             np.where(d <= td - tdec, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / tdec),
         )
-    return np.minimum(np.maximum(np.nan_to_num(s), 0.0), dist)
+    return np.minimum(np.maximum(s, 0.0), dist)  # a NaN of a 0/0 ramp lies in a branch np.where did not pick
 
 
 def _sample_moving(L: np.ndarray, t: float) -> np.ndarray:

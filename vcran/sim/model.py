@@ -179,9 +179,9 @@ class Model:
         b = self.battery
         assert b is not None
         i = r.index
-        b.begin(i, t, self.fleet.distance(i, t), int(b.kind[i]))  # close the running segment's books
-        return {"charge": float(b.level0[i]), "percentage": float(b.level0[i] / b.capacity[i]),
-                "used": float(b.used[i]), "charged": float(b.added[i])}
+        b.begin(i, t, self.fleet.distance(i, t), b.kind[i])  # close the running segment's books
+        return {"charge": b.level0[i], "percentage": b.level0[i] / b.capacity[i], "used": b.used[i],
+                "charged": b.added[i]}
 
     def summary(self) -> dict[str, Any]:
         """summary.json (SPEC §8): deterministic, no wall-clock figures."""

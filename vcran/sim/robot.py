@@ -236,6 +236,7 @@ class RobotNode:
             command = yield self.agv_commands.get()
             if isinstance(command, Stop) or command.task != self.logic.current_task:
                 continue  # the path it meant has already ended (R8, or the robot stopped on its own)
+            last = command.motions[-1]
             for motion in command.motions:
                 if self._holds:
                     halt = yield from self._held()
@@ -249,10 +250,12 @@ class RobotNode:
                     break
                 self.fleet.finish(self.index)
                 self.pose = (leg.x1, leg.y1, leg.end_theta)
-                self._segment(REST)
-                self._moved()
                 self.inbox.put(MotionDone(motion.motion_id))
-                if any(isinstance(c, Stop) for c in self.agv_commands.items):
+                stop = any(isinstance(c, Stop) for c in self.agv_commands.items)
+                if stop or motion is last or self._holds:  # else the next leg starts now, from this pose
+                    self._segment(REST)
+                    self._moved()
+                if stop:
                     yield self.agv_commands.get()  # consume the Stop: the rest of the path is dropped (R8)
                     break
 
@@ -264,10 +267,11 @@ class RobotNode:
         """
         i, env = self.index, self.env
         self.fleet.start(i, leg)
-        self._segment(DRIVE)
+        level = self._segment(DRIVE)
         self._moved()
         while True:
-            cut = self._leg_cut(leg)
+            cut = self._leg_cut(leg, level)
+            level = None
             reaches = cut >= leg.t_end - env.now
             cause = yield from self._work(at(env, leg.t_end, COMPLETION) if reaches else after(env, cut, COMPLETION))
             if cause is RELEASE:
@@ -455,12 +459,15 @@ class RobotNode:
 
     # --- battery (SPEC §4) ------------------------------------------------------------------------------
 
-    def _segment(self, kind: int) -> None:
-        if self.battery is not None and not self.empty:
-            t = self.env.now
-            level = self.battery.begin(self.index, t, self.fleet.distance(self.index, t), kind)
-            if kind == REST and level <= self.battery.idle[self.index] * self.idle_horizon:
-                self.watch_idle()  # may run out before the power tick would notice
+    def _segment(self, kind: int) -> float | None:
+        """Begin a battery segment of ``kind`` now; returns the level it starts with (None: no battery)."""
+        if self.battery is None or self.empty:
+            return None
+        t = self.env.now
+        level = self.battery.begin(self.index, t, self.fleet.distance(self.index, t), kind)
+        if kind == REST and level <= self.battery.idle[self.index] * self.idle_horizon:
+            self.watch_idle()  # may run out before the power tick would notice
+        return level
 
     def _level(self) -> float:
         b = self.battery
@@ -470,19 +477,24 @@ class RobotNode:
 
     def _rate(self) -> float:
         assert self.battery is not None
-        return float(self.battery.rate[self.index])
+        return self.battery.rate[self.index]
 
-    def _leg_cut(self, leg: Leg) -> float:
-        """Seconds from now until the battery empties on ``leg`` (inf: not before the leg ends)."""
+    def _leg_cut(self, leg: Leg, level: float | None = None) -> float:
+        """Seconds from now until the battery empties on ``leg`` (inf: not before the leg ends);
+        ``level``, when the caller has it, is the charge now."""
         b = self.battery
         if b is None or self.empty:
             return float("inf")
         c = self.config.battery
         assert c is not None
+        if level is None:
+            level = self._level()
+        if c.per_idle_second * leg.duration + c.per_metre * leg.distance < level:
+            return float("inf")  # the whole leg costs less than what is left: the common case, no roots
         now = self.env.now
         tau = max(now - leg.t0, 0.0)
         done = c.per_idle_second * tau + c.per_metre * leg.distance_at(now)
-        return leg_empty_after(leg, self._level() + done, c.per_idle_second, c.per_metre) - tau
+        return leg_empty_after(leg, level + done, c.per_idle_second, c.per_metre) - tau
 
     def _charge_time(self) -> float:
         c = self.config.battery
