@@ -6,8 +6,10 @@ each such pair the first instant their footprints start to touch (or, for a pair
 touching) before either track ends is computed (:func:`~vcran.core.collisions.first_change`) and an event
 is scheduled then. Any later change of either robot's track makes that prediction stale (a version check),
 and the change itself predicts anew. A contact is reported once, as one ``collision`` event (on the robot
-first in fleet order, naming the other) and a ``ran_error`` to both; in ``"stop"`` mode both robots stop
-where they are and their tasks are cancelled with reason ``collision``.
+first in fleet order, naming the other). In ``"report"`` mode that is all: the robots drive on and
+publish exactly what they would without detection (the original drove through silently, so the wire
+and a fleet manager's view stay the original's); in ``"stop"`` mode both robots stop where they are, and
+RanLogic reports ``collision`` and cancels their tasks with reason ``collision``.
 """
 
 from __future__ import annotations
@@ -96,6 +98,4 @@ class Contacts:
             for robot, other in ((ra, rb), (rb, ra)):
                 robot.halt(Halted(Reason.COLLISION, "collision", f"collided with {other.id} {where}: stopped [§4]"))
         else:
-            for robot, other in ((ra, rb), (rb, ra)):
-                robot.report("collision", f"footprint overlaps {other.id} {where}; driving on (collisions = report) [§4]")
             self._predict(i, j)  # when they part again

@@ -15,7 +15,7 @@ from typing import Any, Protocol
 import simpy
 
 from vcran.core.battery import FleetBattery
-from vcran.core.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
+from vcran.core.effects import ErrorReport, Event, State, StateChanged, TaskCancelled, TaskCompleted
 from vcran.core.messages import Message
 from vcran.core.motion import FleetKinematics
 from vcran.core.ranlogic import RanLogic
@@ -70,6 +70,8 @@ class Model:
         self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
         self.fleet_errors = 0
         self.tasks_done = 0
+        self._busy = [0.0] * len(scenario.robots)            # seconds not WAITING, per robot ...
+        self._busy_since: list[float | None] = [None] * len(scenario.robots)  # ... and since when, if now
         self.robots: list[RobotNode] = []
         configs = [r.battery for r in scenario.robots]
         self.battery = FleetBattery(configs) if any(c is not None for c in configs) else None
@@ -122,7 +124,13 @@ class Model:
     def _log(self, robot: RobotNode, event: Event) -> None:
         if event.NAME:  # else a ran_error whose incident was logged on its own
             self.events.write(self.env.now, robot.id, event.NAME, event.fields())
-        if isinstance(event, TaskCompleted):
+        if isinstance(event, StateChanged):
+            if event.from_ is State.WAITING:
+                self._busy_since[robot.index] = self.env.now
+            elif event.to is State.WAITING:
+                self._busy[robot.index] += self.env.now - (self._busy_since[robot.index] or 0.0)
+                self._busy_since[robot.index] = None
+        elif isinstance(event, TaskCompleted):
             self.completed[robot.id].append(event.task.label)
             self.tasks_done += 1
         elif isinstance(event, TaskCancelled):
@@ -182,6 +190,11 @@ class Model:
         b.begin(i, t, self.fleet.distance(i, t), b.kind[i])  # close the running segment's books
         return {"charge": b.level0[i], "percentage": b.level0[i] / b.capacity[i], "used": b.used[i],
                 "charged": b.added[i]}
+
+    def busy(self, index: int) -> float:
+        """Seconds robot ``index`` has spent not WAITING so far (a task was current; the report's busy time)."""
+        since = self._busy_since[index]
+        return self._busy[index] + (self.env.now - since if since is not None else 0.0)
 
     def summary(self) -> dict[str, Any]:
         """summary.json (SPEC §8): deterministic, no wall-clock figures."""

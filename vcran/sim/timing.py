@@ -11,8 +11,14 @@ that what happens at one instant does not depend on when the event happened to b
 4. injected faults, and the ends of their durations (a breakdown at the instant a leg ends finds the
    robot at the point; SPEC §4), battery swaps;
 5. R7 deadlines (so a task assembled exactly at its deadline is on time);
-6. telemetry (it sees the state after everything else at that instant);
-7. the end of the run (so the last instant is complete, telemetry included).
+6. in a closed loop (SPEC §9), the fleet manager's callbacks: first the robots' updates reaching it
+   (so it decides on the freshest state), then jobs reaching it, then its own timers;
+7. telemetry (it sees the state after everything else at that instant);
+8. the end of the run (so the last instant is complete, telemetry included).
+
+The manager's writes reach the RAN as inbound messages (1) after the link's latency, which is never
+zero: a write is always delivered at a later instant than the callback that made it, so a recorded
+trace replays in the same order (docs/determinism.md).
 """
 
 from __future__ import annotations
@@ -27,8 +33,11 @@ PRODUCTION = 2
 COMPLETION = 3
 FAULT = 4
 DEADLINE = 5
-TELEMETRY = 6
-END = 7
+UPDATE = 6
+JOB = 7
+TIMER = 8
+TELEMETRY = 9
+END = 10
 
 
 def after(env: simpy.Environment, delay: float, priority: int) -> Event:
