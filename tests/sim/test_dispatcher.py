@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import tomllib
 
+import pytest
+
 import vcran
 from vcran.io.scenario_file import parse
 from vcran.managers import Dispatcher
@@ -103,3 +105,51 @@ def test_a_failed_pickup_waits_before_its_retry_so_a_producing_station_can_catch
     # the manager learns of a cancel at the next status tick (<= 1 s) plus the link's 50 ms
     for cancelled, retried, wait in zip(cancels, retries, (10.0, 20.0), strict=True):
         assert cancelled + wait <= retried <= cancelled + wait + 1.05
+
+
+# --- SPEC §4 in the loop: link_down -------------------------------------------------------------------------
+
+LINK_DOWN = '\n[[faults]]\nt = 5.0\nrobot = "robot_1"\nkind = "link_down"\nduration = 20.0\n'
+
+
+def test_s4_link_down_in_the_loop_holds_the_robots_news_until_the_link_is_back(tmp_path):
+    from vcran.cli import main
+
+    # The pick task lands at 0.05, drives 10 m at 1 m/s and loads for 2 s: done at 12.05, published with
+    # the tick at 13, heard at 13.05 (latency 0.05), and the drop task follows at once.
+    plain = vcran.simulate(scenario(job(0, "j1")), manager=Dispatcher())
+    assert [e["t"] for e in of(plain, "job_assigned")] == [0.0, pytest.approx(13.05)]
+    # With robot_1's link down from 5 to 25 the status published at 13 waits in Orion's place: it goes out
+    # when the link is back (25) and reaches the manager at 25.05; the drop task then lands at 25.10,
+    # drives 20 m and unloads for 2 s (47.10), published at 48 and heard at 48.05.
+    result = vcran.simulate(scenario(job(0, "j1") + LINK_DOWN), manager=Dispatcher(), out=tmp_path / "run")
+    assert [e["t"] for e in of(result, "job_assigned")] == [0.0, pytest.approx(25.05)]
+    assert result.job("j1").lead_time == pytest.approx(48.05)
+    assert [(e["event"], e["t"], e["kind"]) for e in result.events if e["event"].startswith("fault")] == [
+        ("fault", 5.0, "link_down"), ("fault_end", 25.0, "link_down")]
+    # the RAN itself published on time (the link held it): the trace replays byte for byte
+    assert main(["replay", str(tmp_path / "run" / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify",
+                 "--quiet"]) == 0
+
+
+class Heard(Dispatcher):
+    """The Dispatcher, also noting when robot_1's pose reaches it."""
+
+    attributes = frozenset({"ran_status", "current_motion"})
+
+    def on_start(self) -> None:
+        super().on_start()
+        self.heard: list[float] = []
+
+    def on_update(self, robot, attribute, message, t) -> None:
+        if robot == "robot_1" and attribute == "current_motion":
+            self.heard.append(t)
+        super().on_update(robot, attribute, message, t)
+
+
+def test_s4_link_down_in_the_loop_hides_the_robots_pose_too():
+    manager = Heard()
+    vcran.simulate(scenario(job(0, "j1") + LINK_DOWN), manager=manager)
+    # a frame every second, heard 0.05 later; robot_1's rows of the frames of 5 to 24 never leave (the
+    # latest pose is no news once the link is back): Orion, and the manager, keep the pose of 4
+    assert manager.heard[:6] == [pytest.approx(k + 0.05) for k in range(5)] + [pytest.approx(25.05)]

@@ -60,7 +60,7 @@ class Faults:
             robot.fail_next_action = True
         else:
             assert kind == "link_down"
-            self._later(duration, lambda: robot.log_incident(FaultEnded(kind)))  # logged before the link's backlog
+            self._later(duration, lambda: robot.log_incident(FaultEnded(kind)))  # before the RAN's backlog (if it holds one)
             self._link(robot, duration)
 
     @staticmethod

@@ -115,7 +115,10 @@ class Ran:
         Back up, it reads what Orion holds (the latest value of each attribute written meanwhile, in the order
         they were last written), and publishes what it could not: the latest of each attribute, then every
         ``ran_error`` in order. Its rows in the fleet's ``current_motion`` frames keep flowing (a frame is
-        one record for the whole fleet; docs/robots.md)."""
+        one record for the whole fleet; docs/robots.md). A transport with a link of its own (a closed loop)
+        cuts that link instead (:meth:`Transport.outage`), so the manager misses the robot's rows as well."""
+        if self.transport.outage(robot.id, self.env.now + duration):
+            return
         if robot.id in self._down:
             return
         self._down[robot.id] = ({}, {}, [])
