@@ -101,6 +101,30 @@ def test_closed_loop_mistakes_are_rejected_where_they_are(validator: jsonschema.
     assert any(e.startswith(f"{where}:") for e in found), found
 
 
+def bundled_data(name: str) -> dict[str, Any]:
+    with (ROOT / "scenarios" / f"{name}.toml").open("rb") as f:
+        return tomllib.load(f)
+
+
+def first_fault(d: dict[str, Any], kind: str) -> dict[str, Any]:
+    return next(f for f in d["faults"] if f["kind"] == kind)
+
+
+@pytest.mark.parametrize(("name", "mistake", "where"), [
+    ("faults", lambda d: first_fault(d, "breakdown").update(kind="meteor"), "faults.0.kind"),   # not a fault
+    ("faults", lambda d: first_fault(d, "breakdown").pop("duration"), "faults.0"),  # a breakdown lasts
+    ("faults", lambda d: first_fault(d, "motion_failure").update(duration=5.0), "faults.1"),  # one does not
+    ("battery", lambda d: d["robots"][0]["battery"].update(capcity=1.0), "robots.0.battery"),   # a typo'd key
+], ids=["fault-kind", "breakdown-duration", "failure-duration", "battery-key"])
+def test_robot_section_mistakes_are_rejected_where_they_are(validator: jsonschema.Draft7Validator, name: str,
+                                                            mistake: Any, where: str) -> None:
+    """SPEC §4's sections: a fault's fields depend on its kind (one if/then per kind, as for script kinds)."""
+    data = bundled_data(name)
+    assert errors(validator, data) == []
+    mistake(data)
+    assert any(e.startswith(f"{where}:") for e in errors(validator, data)), errors(validator, data)
+
+
 def test_the_manager_options_are_the_managers_own(validator: jsonschema.Draft7Validator) -> None:
     """[manager.options] are keyword arguments of the manager's class: the schema leaves them open."""
     data = warehouse()

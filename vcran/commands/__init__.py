@@ -10,7 +10,7 @@ if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
 
 #: The scenarios shipped in the package (vcran/scenarios; a test keeps this list in step with it).
-BUNDLED = ("demo", "warehouse")
+BUNDLED = ("battery", "crossing", "demo", "faults", "warehouse")
 
 
 class CommandError(Exception):

@@ -21,11 +21,15 @@ from pathlib import Path
 from typing import Any
 
 from vcran.core import build
+from vcran.core.battery import BatteryConfig
+from vcran.core.faults import KINDS as FAULT_KINDS
+from vcran.core.faults import RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
 from vcran.core.scenario import (
     ACTION_KINDS,
+    COLLISION_MODES,
     POLLING,
     SUBSCRIPTION,
     Cycle,
@@ -51,6 +55,9 @@ def bundled() -> dict[str, Path]:
     """The bundled scenarios, name -> file (``demo`` -> ``.../vcran/scenarios/demo.toml``)."""
     folder = Path(str(resources.files("vcran") / "scenarios"))
     return {f.stem: f for f in sorted(folder.glob("*.toml"))}
+
+#: Actions a script may send: the configurable ones and ``charge`` (SPEC §4, a robot with a battery).
+SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
 def load(path: str | Path) -> Scenario:
@@ -99,6 +106,9 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     link = _link(top.table("link"))
     manager_table = top.optional_table("manager")
     manager = None if manager_table is None else _manager(manager_table)
+    known = {r.id for r in robots}
+    faults = tuple(sorted((_fault(t, known) for t in top.tables("faults")), key=lambda f: f.t))
+    random_faults = tuple(_random_faults(t, known) for t in top.tables("random_faults"))
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
@@ -109,7 +119,6 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     stream = None
     if stream_table is not None:
         stream = _job_stream(stream_table, names, settings, [j.id for j in jobs])
-    known = {r.id for r in robots}
     script: list[ScriptEntry] = []
     cycles: list[Cycle] = []
     for t in script_tables:
@@ -127,8 +136,8 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     if (script or cycles) and (jobs or stream is not None or manager is not None):
         top.reject("[[script]] and a closed loop ([[jobs]], [job_stream], [manager]) exclude each other: a script "
                    "plays the fleet manager's part, jobs go to a fleet manager")
-    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), tuple(jobs), stream, link,
-                    manager)
+    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), faults=faults,
+                    random_faults=random_faults, jobs=tuple(jobs), job_stream=stream, link=link, manager=manager)
 
 
 def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | None) -> None:
@@ -159,7 +168,11 @@ def _settings(t: Table, default_name: str) -> Settings:
         description_period=t.number("description_period", 60.0, positive=True),
         entity_type=t.string("entity_type", "ROBOT"),
         durations=d,
+        collisions=t.string("collisions", "report"),
+        collision_resolution=t.number("collision_resolution", 0.05, positive=True),
     )
+    if s.collisions not in COLLISION_MODES:
+        t.fail("collisions", f"expected one of {', '.join(map(repr, COLLISION_MODES))}, got {s.collisions!r}")
     problem = identifier_error("entity type", s.entity_type)
     if problem:
         t.fail("entity_type", problem)
@@ -177,7 +190,7 @@ def _robot(t: Table) -> RobotConfig:
         if value != rid:
             t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
-    actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS))
+    actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS), what="action")
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
     r = RobotConfig(
         id=rid,
@@ -191,6 +204,7 @@ def _robot(t: Table) -> RobotConfig:
         capacity=t.integer("capacity", 1, minimum=0),
         carrying=t.integer("carrying", 0, minimum=0),
         vendor=t.text("vendor", "vcran"),
+        battery=None if (battery := t.optional_table("battery")) is None else _battery(battery),
     )
     if r.carrying > r.capacity:
         t.fail("carrying", f"{r.carrying} exceeds capacity {r.capacity}")
@@ -212,12 +226,71 @@ def _station(t: Table) -> StationConfig:
         produce_every=t.number("produce_every", 0.0, minimum=0.0),
         produce_start=t.number("produce_start", None, minimum=0.0),
         produce_limit=t.integer("produce_limit", 0, minimum=0),
+        charger=t.boolean("charger", False),
         dock=t.pose("dock", None),
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
     t.done()
     return s
+
+
+def _battery(t: Table) -> BatteryConfig:
+    capacity = t.number("capacity", positive=True)
+    b = BatteryConfig(
+        capacity=capacity,
+        initial=t.number("initial", None, minimum=0.0),
+        per_metre=t.number("per_metre", 0.0, minimum=0.0),
+        per_action_second=t.number("per_action_second", 0.0, minimum=0.0),
+        per_idle_second=t.number("per_idle_second", 0.0, minimum=0.0),
+        charge_rate=t.number("charge_rate", 0.0, minimum=0.0),
+        low=t.number("low", 0.2, minimum=0.0),
+        swap_after=t.number("swap_after", None, minimum=0.0),
+        voltage=t.number("voltage", 24.0, positive=True),
+        resolution=t.number("resolution", 0.01, positive=True),
+    )
+    if b.initial is not None and b.initial > capacity:
+        t.fail("initial", f"{b.initial} exceeds capacity {capacity}")
+    if b.low >= 1.0:
+        t.fail("low", f"a fraction of capacity below 1 is needed, got {b.low}")
+    if b.resolution > 1.0:
+        t.fail("resolution", f"a fraction of capacity up to 1 is needed, got {b.resolution}")
+    t.done()
+    return b
+
+
+def _fault_robot(t: Table, robots: set[str]) -> str:
+    robot = t.string("robot")
+    if robot not in robots:
+        t.fail("robot", f"no robot {robot!r} in this scenario; robots: {', '.join(sorted(robots))}")
+    return robot
+
+
+def _fault(t: Table, robots: set[str]) -> FaultSpec:
+    time = t.number("t", minimum=0.0)
+    robot = _fault_robot(t, robots)
+    kind = t.choice("kind", tuple(FAULT_KINDS), what="fault")
+    duration = t.number("duration", positive=True) if FAULT_KINDS[kind] else 0.0
+    t.done()
+    return FaultSpec(time, robot, kind, duration)
+
+
+def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
+    kind = t.choice("kind", tuple(RANDOM_KINDS), what="random fault")
+    chosen = t.strings("robots", [])
+    for r in chosen:
+        if r not in robots:
+            t.fail("robots", f"no robot {r!r} in this scenario")
+    source = RandomFaults(
+        kind=kind,
+        mtbf=t.number("mtbf", positive=True),
+        mttr=t.number("mttr", positive=True) if FAULT_KINDS[kind] else 0.0,
+        robots=tuple(chosen),
+        start=t.number("start", 0.0, minimum=0.0),
+        until=t.number("until", math.inf, minimum=0.0),
+    )
+    t.done()
+    return source
 
 
 def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
@@ -252,13 +325,13 @@ def _motion(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 def _action(t: Table, time: float, robot: str) -> list[ScriptEntry]:
     seq, length = t.sequence("seq")
     category, code = t.integer("category", None), t.integer("code", None)
-    kind = t.choice("action", ACTION_KINDS, None, hint=" (or give category/code)")
+    kind = t.choice("action", SCRIPT_ACTIONS, None, hint=" (or give category/code)")
     task, aid = t.name("task"), t.name("id")
     raw_codes = category is not None or code is not None
     if kind is not None and raw_codes:
         t.fail("action", "give either action or category/code, not both")
     if kind is None and not raw_codes:
-        t.fail("action", f"missing; give action ({', '.join(ACTION_KINDS)}) or category/code")
+        t.fail("action", f"missing; give action ({', '.join(SCRIPT_ACTIONS)}) or category/code")
     if kind is not None:
         a = build.action(task, aid, seq, length, kind)
     else:
@@ -308,7 +381,7 @@ def _cycle(t: Table, time: float, robot: str) -> Cycle:
 
 def _task_spec(t: Table) -> TaskSpec:
     path = t.poses("path", [])
-    actions = t.choices("actions", ACTION_KINDS, [])
+    actions = t.choices("actions", SCRIPT_ACTIONS, [], what="action")
     if not path and not actions:
         t.fail("path", "a task needs at least one point or one action")
     return TaskSpec(tuple(path), tuple(actions))

@@ -151,14 +151,15 @@ class RecordingTable(Table):
         self._note(key, {"type": ["string", "integer"], "minLength": 1, "pattern": _PUBLISHABLE}, default)
         return self._sample("x0", "x1")
 
-    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "") -> Any:
+    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "",
+               what: str = "") -> Any:
         self._note(key, {"enum": list(options)}, default)
         point = (self.path, key)
         self.run.choices[point] = tuple(options)
         self.chosen[key] = self.run.forced.get(point, options[0])
         return self.chosen[key]
 
-    def choices(self, key: str, options: Sequence[str], default: list[str]) -> list[str]:
+    def choices(self, key: str, options: Sequence[str], default: list[str], *, what: str = "value") -> list[str]:
         self._note(key, {"type": "array", "items": {"enum": list(options)}}, default)
         return [options[0]]
 

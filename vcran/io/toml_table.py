@@ -135,21 +135,23 @@ class Table:
             self.fail(key, f"contains {' '.join(bad)}, which Orion refuses in values")
         return v
 
-    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "") -> Any:
-        """One of ``options`` (a kind, an action); the error lists them, then ``hint``."""
+    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "",
+               what: str = "") -> Any:
+        """One of ``options`` (a kind, an action); the error names the value as ``what`` (default: the key),
+        lists the options, then ``hint``."""
         v = self.string(key, default)
         if v is default and default is not _MISSING:
             return v
         if v not in options:
-            self.fail(key, f"unknown {key} {v!r}; known: {', '.join(options)}{hint}")
+            self.fail(key, f"unknown {what or key} {v!r}; known: {', '.join(options)}{hint}")
         return v
 
-    def choices(self, key: str, options: Sequence[str], default: list[str]) -> list[str]:
+    def choices(self, key: str, options: Sequence[str], default: list[str], *, what: str = "value") -> list[str]:
         """A list of values, each one of ``options``."""
         values = self.strings(key, default)
         for v in values:
             if v not in options:
-                self.fail(key, f"unknown value {v!r}; known: {', '.join(options)}")
+                self.fail(key, f"unknown {what} {v!r}; known: {', '.join(options)}")
         return values
 
     def strings(self, key: str, default: list[str]) -> list[str]:
