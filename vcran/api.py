@@ -118,11 +118,7 @@ def run(
     the model before it runs (``vcran run`` stops it there on a signal)."""
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
     fleet_manager, name = build_manager(manager, sc)
-    if fleet_manager is None and sc.has_workload:
-        raise ScenarioError(f"{sc.source}: the scenario has jobs but no fleet manager to give them to: name one "
-                            "in [manager] or pass one (--manager module:Class)")
-    if fleet_manager is not None:
-        _check_closed_loop(sc)
+    _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
     folder = Path(out) if out is not None else None
     work = staging(folder) if folder is not None else None  # renamed to folder when the run has ended
     events = EventLog(work / EVENTS_FILE) if work is not None else EventList()
@@ -151,7 +147,13 @@ def run(
                   trace.frames if isinstance(trace, Frames) else None)
 
 
-def _check_closed_loop(sc: Scenario) -> None:
+def _check_mode(sc: Scenario, managed: bool) -> None:
+    """A scenario with jobs needs a manager; a manager needs a scenario without a script, with a duration."""
+    if not managed:
+        if sc.has_workload:
+            raise ScenarioError(f"{sc.source}: the scenario has jobs but no fleet manager to give them to: name one "
+                                "in [manager] or pass one (--manager module:Class)")
+        return
     if sc.script or sc.cycles:
         raise ScenarioError(f"{sc.source}: a fleet manager plays the fleet manager's part; this scenario has a "
                             "[[script]] that would play it too (remove one)")
@@ -199,7 +201,8 @@ def _name(cls: type) -> str:
 
 
 class EventList:
-    """The events of an in-memory run: the dicts events.jsonl would hold, one per line."""
+    """The events of an in-memory run: the dicts :func:`vcran.io.trace.event_records` reads back from a
+    run folder's events file, one per event (fields without a value left out, as there)."""
 
     def __init__(self) -> None:
         self.events: list[dict[str, Any]] = []
@@ -209,7 +212,7 @@ class EventList:
         return len(self.events)
 
     def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        self.events.append({"t": t, "robot": robot, "event": name, **fields})
+        self.events.append({"t": t, "robot": robot, "event": name, **{k: v for k, v in fields.items() if v is not None}})
 
     def close(self) -> None:
         pass
@@ -231,7 +234,10 @@ class Frames:
     def frame(self, frame: Frame) -> None:
         self.frames.append((frame.t, frame.columns))
 
-    def leg(self, robot: int, leg: Leg) -> None:
+    def leg(self, robot: int, leg: Leg, t: float) -> None:
+        pass
+
+    def halt(self, robot: int, t: float) -> None:
         pass
 
     def end(self, t: float) -> None:

@@ -138,7 +138,7 @@ def run_model(
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)
-        model.fleet.observer = trace.leg
+        model.fleet.observer = trace
         if on_start is not None:
             on_start(model)
         with _quiet_collector():

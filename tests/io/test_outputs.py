@@ -18,7 +18,7 @@ from vcran.core import effects
 from vcran.core.ids import NIL, Id
 from vcran.io.gen import generate
 from vcran.io.scenario_file import load, parse
-from vcran.io.trace import EVENT_KEYS, samples
+from vcran.io.trace import EVENT_KEYS, legs, samples
 from vcran.runner import run_to
 
 
@@ -56,6 +56,19 @@ def test_telemetry_evaluated_from_the_legs_is_bit_for_bit_what_was_published(tmp
     assert evaluated.shape == published.shape
     assert evaluated.tobytes() == published.tobytes()
     assert np.count_nonzero(published[:, 4::5]) > 0  # robots did move
+
+
+@pytest.mark.parametrize("name", ["faults", "battery", "crossing"])
+def test_telemetry_of_held_and_stopped_legs_is_bit_for_bit_what_was_published(tmp_path, name):  # §4, §6
+    """Pauses, breakdowns, an empty battery and collisions halt robots mid-leg; a halted robot's next leg
+    starts where it halted, a resumed leg is timed from its shifted origin: the leg log says all of it."""
+    scenario = load(ROOT / "scenarios" / f"{name}.toml")
+    transport = Frames(scenario.messages())
+    run_to(scenario, tmp_path / "run", transport)
+    published = np.vstack(transport.frames)
+    assert samples(tmp_path / "run").tobytes() == published.tobytes()
+    halts = legs(tmp_path / "run")
+    assert np.isnan(halts["t0"]).any()  # the scenario did halt a robot mid-leg
 
 
 def test_events_carry_the_same_keys_in_the_same_order(tmp_path):

@@ -24,11 +24,14 @@ import argparse
 import sys
 from pathlib import Path
 
-HELP = "perturb a scenario's message script and check the rules on every variant"
+from vcran.commands import add_scenario_argument
+
+HELP = ("perturb a scenario's message script and check the rules on every variant; with a fleet manager, vary "
+        "its workload and link and check the loop properties")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    add_scenario_argument(parser, "")
     parser.add_argument("--examples", type=int, default=100, help="perturbed variants to try (default 100)")
     parser.add_argument("--seed", type=int, default=0, help="search seed: same seed, same examples (default 0)")
     parser.add_argument("--save", type=Path, default=None,
@@ -47,15 +50,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import importlib.util
     import random
     import tempfile
     import time
 
-    from hypothesis import HealthCheck, find, settings
-    from hypothesis.errors import NoSuchExample
-
     from vcran.commands import CommandError, load_scenario
+
+    try:
+        from hypothesis import HealthCheck, find, settings
+        from hypothesis.errors import NoSuchExample
+    except ModuleNotFoundError:
+        raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'") from None
     from vcran.testing.checks import run_variant
     from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
 
@@ -69,11 +74,7 @@ def run(args: argparse.Namespace) -> int:
         perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
     except ValueError as exc:
         raise CommandError(str(exc)) from None
-    malformed = importlib.util.find_spec("vcran.core.codec") is not None
-    if not malformed:
-        print("vcran fuzz: vcran.core.codec is not installed; malformed payloads are not injected", file=sys.stderr)
-    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window,
-                             malformed=malformed, max_ops=args.max_ops)
+    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window, max_ops=args.max_ops)
     calls = {"generated": 0, "shrinking": 0}
     found = False
 

@@ -48,9 +48,13 @@ def staging(out: Path) -> Path:
     """A fresh, empty ``<out>.incomplete`` beside ``out`` (checked with :func:`check_out` first)."""
     check_out(out)
     work = out.with_name(out.name + INCOMPLETE)
-    if work.exists():
-        shutil.rmtree(work)  # an earlier interrupted run into the same --out
-    work.mkdir(parents=True)
+    try:
+        if work.exists():
+            shutil.rmtree(work)  # an earlier interrupted run into the same --out
+        work.mkdir(parents=True)
+    except OSError as exc:  # a read-only or missing parent, a file on the way: named as the --out it is for
+        raise RunFolderError(f"{out}: cannot create {work.name} beside it to write the run in: "
+                             f"{exc.strerror or exc}") from None
     return work
 
 

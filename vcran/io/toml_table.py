@@ -3,11 +3,18 @@
 Every read names the file, the entry and the field when it fails (:class:`ScenarioError`); ``done()``
 refuses keys nobody read (typos). Kept apart from :mod:`vcran.io.scenario_file` so that the scenario module is
 about scenarios, not about reading TOML.
+
+The JSON Schema of the format (``vcran schema scenario``) is recorded from these reads
+(:mod:`vcran.io.scenario_schema` runs the loader on a recording subclass), so a section reader states what
+it reads through these methods: sub-tables through :meth:`Table.table`/:meth:`Table.tables` (never
+``Table(...)`` directly), a field with a fixed set of values through :meth:`Table.choice`, and a field that
+is required only in some cases as optional, checked afterwards.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from vcran.core.orion_rules import FORBIDDEN_CHARS
@@ -45,6 +52,11 @@ class Table:
             self.fail(key, "missing")
         return default
 
+    def reject(self, problem: str) -> NoReturn:
+        """A rule between fields or sections is broken: the message names the file (and table), no field."""
+        where = f"{self.where}: " if self.where else ""
+        raise ScenarioError(f"{self.source}: {where}{problem}")
+
     def done(self) -> None:
         unknown = sorted(set(self.data) - self.used)
         if unknown:
@@ -53,10 +65,14 @@ class Table:
     def table(self, key: str) -> Table:
         return Table(self.raw(key, {}), self.source, self._sub(key))
 
+    def optional_table(self, key: str) -> Table | None:
+        """A sub-table whose presence means something (``[manager]``, ``[job_stream]``): None when absent."""
+        return self.table(key) if key in self.data else None
+
     def tables(self, key: str) -> list[Table]:
         value = self.raw(key, [])
         if not isinstance(value, list):
-            self.fail(key, f"expected an array of tables [[{key}]]")
+            self.fail(key, f"expected an array of tables: [[{key}]] sections, or {key} = [{{...}}, ...]")
         return [Table(v, self.source, self._sub(f"{key}[{i}]")) for i, v in enumerate(value)]
 
     def _sub(self, key: str) -> str:
@@ -119,17 +135,30 @@ class Table:
             self.fail(key, f"contains {' '.join(bad)}, which Orion refuses in values")
         return v
 
+    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "",
+               what: str = "") -> Any:
+        """One of ``options`` (a kind, an action); the error names the value as ``what`` (default: the key),
+        lists the options, then ``hint``."""
+        v = self.string(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if v not in options:
+            self.fail(key, f"unknown {what or key} {v!r}; known: {', '.join(options)}{hint}")
+        return v
+
+    def choices(self, key: str, options: Sequence[str], default: list[str], *, what: str = "value") -> list[str]:
+        """A list of values, each one of ``options``."""
+        values = self.strings(key, default)
+        for v in values:
+            if v not in options:
+                self.fail(key, f"unknown {what} {v!r}; known: {', '.join(options)}")
+        return values
+
     def strings(self, key: str, default: list[str]) -> list[str]:
         v = self.raw(key, default)
         if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
             self.fail(key, f"expected a list of strings, got {v!r}")
         return list(v)
-
-    def list_of(self, key: str, item: Any) -> list[Any]:
-        v = self.raw(key, [])
-        if not isinstance(v, list):
-            self.fail(key, f"expected a list, got {v!r}")
-        return [item(i, x) for i, x in enumerate(v)]
 
     def pair(self, key: str, default: Any = _MISSING) -> tuple[float, float]:
         v = self.raw(key, default)
@@ -159,3 +188,38 @@ class Table:
         if not ok:
             self.fail(key, f"expected a list of [x, y] points, got {v!r}")
         return [(float(p[0]), float(p[1])) for p in v]
+
+    def pose(self, key: str, default: Any = _MISSING) -> Any:
+        """A point ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if not (isinstance(v, (list, tuple)) and len(v) in (2, 3) and all(is_number(c) for c in v)):
+            self.fail(key, f"expected [x, y] or [x, y, theta], got {v!r}")
+        return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
+
+    def weights(self, key: str) -> list[tuple[str, float]]:
+        """Names with positive weights: a list of names (equal weights) or a table ``{name = weight}``."""
+        v = self.raw(key)
+        if isinstance(v, list) and all(isinstance(x, str) for x in v):
+            pairs = [(x, 1.0) for x in v]
+        elif isinstance(v, dict):
+            for name, w in v.items():
+                if not is_number(w) or w <= 0:
+                    self.fail(key, f"weight of {name!r} must be a positive number, got {w!r}")
+            pairs = [(name, float(w)) for name, w in v.items()]
+        else:
+            self.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
+        if not pairs:
+            self.fail(key, "names no station")
+        return pairs
+
+    def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
+        """A path: points ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        v = self.raw(key, default)
+        if not isinstance(v, list):
+            self.fail(key, f"expected a list of [x, y] or [x, y, theta] points, got {v!r}")
+        for i, p in enumerate(v):
+            if not (isinstance(p, (list, tuple)) and len(p) in (2, 3) and all(is_number(c) for c in p)):
+                self.fail(f"{key}[{i}]", f"expected [x, y] or [x, y, theta], got {p!r}")
+        return [(float(p[0]), float(p[1]), float(p[2]) if len(p) == 3 else None) for p in v]

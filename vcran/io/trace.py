@@ -6,8 +6,9 @@ Format 2 (docs/outputs.md), what :class:`TraceWriter` and :class:`EventWriter` w
   :meth:`Scenario.fleet_dict` so that a replay needs nothing else, and the leg log's layout), then one
   record per message ``{"t", "dir": "in"|"out", "robot", "attr", "value"}``, ids compact
   (:mod:`vcran.io.render`), and ``value`` holding only the fields that differ from the last value of the
-  same direction, robot and attribute (the first one in full); a message equal to that last value is
-  not written at all (robot descriptions re-sent unchanged). An inbound payload that did not decode is
+  same direction, robot and attribute (the first one in full); a published message equal to that last
+  value is not written at all (robot descriptions re-sent unchanged), an inbound one is, with an empty
+  ``value`` (the RAN reacted to it: a repeated cancel is an error). An inbound payload that did not decode is
   kept as ``"raw"``. The last line, ``{"t", "dir": "end"}``, says when the run stopped.
 * ``events.jsonl.zst``: one object per event, every line with the same keys in the same order
   (:data:`EVENT_KEYS`, ``null`` where an event has no such field).
@@ -57,15 +58,21 @@ TELEMETRY_FILE = "telemetry.bin"
 EVENT_KEYS = ("t", "robot", "event", "task", "motion", "action", "from", "to", "reason", "ok",
               "code", "severity", "message",
               # a fleet manager's job events (closed loop, SPEC §9: vcran.core.jobs)
-              "job", "pickup", "dropoff", "priority", "deadline", "lead_time", "tasks")
+              "job", "pickup", "dropoff", "priority", "deadline", "lead_time", "tasks",
+              # a robot on its own (SPEC §4: vcran.core.incidents)
+              "kind", "duration", "applied", "charge", "percentage", "other", "x", "y")
 
-#: One row of ``legs.npy``: the leg robot ``robot`` (index in the header's / summary's robot order) started
-#: at ``t`` towards ``(x, y)``, ending at heading ``theta`` (NaN: facing the direction of travel), with
-#: its speed limits. The start pose is the end of the robot's previous leg (or its initial pose).
-LEG_DTYPE = np.dtype([("t", "<f8"), ("robot", "<u4"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
+#: One row of ``legs.npy``. A leg: robot ``robot`` (index in the header's / summary's robot order) started,
+#: at ``t``, the leg from ``(x0, y0, theta0)`` to ``(x, y)`` ending at heading ``theta`` (NaN: facing the
+#: direction of travel) with its speed limits, timed from ``t0`` (``t`` itself, except for a leg resumed
+#: after a hold: the held leg shifted by the hold's length). A halt (pause, breakdown, a stop on its own;
+#: SPEC §4): every column but ``t`` and ``robot`` NaN; the robot rests where its leg had brought it at ``t``.
+LEG_DTYPE = np.dtype([("t", "<f8"), ("robot", "<u4"), ("t0", "<f8"), ("x0", "<f8"), ("y0", "<f8"),
+                      ("theta0", "<f8"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
                       ("speed", "<f8"), ("accel", "<f8"), ("decel", "<f8"), ("turn_rate", "<f8")])
-_LEG = struct.Struct("<dIddddddd")
-_NPY_HEADER = 256  # bytes reserved for the .npy header, rewritten with the row count at close
+_LEG = struct.Struct("<dI" + "d" * 11)
+_HALT = (math.nan,) * 11
+_NPY_HEADER = 512  # bytes reserved for the .npy header, rewritten with the row count at close
 
 #: zstd level 3 (zstd's default: 300+ MB/s). Long-distance matching does not pay here: measured on a
 #: 1000-robot hour's trace it saved 1.5% for twice the compression time and a 128 MiB window per file.
@@ -197,18 +204,25 @@ class TraceWriter:
         else:
             value = delta_converter(type(message))(message, last[0], last[1])
             last[0] = message
-            if not value:
+            if not value and head["dir"] == "out":
                 return  # nothing a reader cannot take from the last record
+            # an inbound message is always written, even one equal to the last: the RAN reacted to it
         head["value"] = value
         self._jsonl.write(dumps(head) + b"\n")
 
     def frame(self, frame: Frame) -> None:
         """Telemetry ticks are not written: the leg log determines them (module docstring)."""
 
-    def leg(self, robot: int, leg: Leg) -> None:
-        """Robot ``robot`` (fleet index) starts ``leg``: one row of the leg log."""
+    def leg(self, robot: int, leg: Leg, t: float) -> None:
+        """Robot ``robot`` (fleet index) starts ``leg`` at ``t``: one row of the leg log."""
         lim = leg.limits
-        self._legs.write(robot, leg.t0, leg.x1, leg.y1, leg.theta_goal, lim.speed, lim.accel, lim.decel, lim.turn_rate)
+        goal = math.nan if leg.theta_goal is None else leg.theta_goal
+        self._legs.write(t, robot, (leg.t0, leg.x0, leg.y0, leg.theta0, leg.x1, leg.y1, goal,
+                                    lim.speed, lim.accel, lim.decel, lim.turn_rate))
+
+    def halt(self, robot: int, t: float) -> None:
+        """Robot ``robot`` halts mid-leg at ``t``: a row of NaN leg columns."""
+        self._legs.write(t, robot, _HALT)
 
     def end(self, t: float) -> None:
         """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
@@ -233,9 +247,8 @@ class LegLog:
         self._rows = 0
         self._f.write(_npy_header(0))
 
-    def write(self, robot: int, t: float, x: float, y: float, theta: float | None,
-              speed: float, accel: float, decel: float, turn_rate: float) -> None:
-        self._f.write(_LEG.pack(t, robot, x, y, math.nan if theta is None else theta, speed, accel, decel, turn_rate))
+    def write(self, t: float, robot: int, columns: tuple[float, ...]) -> None:
+        self._f.write(_LEG.pack(t, robot, *columns))
         self._rows += 1
 
     def flush(self) -> None:
@@ -281,13 +294,18 @@ class EventWriter:
 
 
 def trace_in(path: Path) -> Path:
-    """The trace of a run folder (either format), or ``path`` itself when it is a file."""
+    """The trace of a run folder (either format), or ``path`` itself when it is a file. A format 1 name
+    that does not exist beside a format 2 trace (``DIR/trace.jsonl``, as commands written before format 2
+    say) means that trace."""
     if not path.is_dir():
+        if path.name == TRACE_FILE_V1 and not path.exists() and (path.parent / TRACE_FILE).is_file():
+            return path.parent / TRACE_FILE
         return path
     for name in (TRACE_FILE, TRACE_FILE_V1):
         if (path / name).exists():
             return path / name
-    raise ValueError(f"{path}: no {TRACE_FILE} or {TRACE_FILE_V1} in this folder")
+    raise ValueError(f"{path}: a folder without {TRACE_FILE} (or format 1's {TRACE_FILE_V1}); give a recorded "
+                     "run's folder or its trace")
 
 
 def events_beside(trace: Path) -> Path:
@@ -323,27 +341,34 @@ def robots_of(header: dict[str, Any]) -> list[str]:
     return [str(r) for r in layout.get("robots", [])]
 
 
-def lines(path: Path, dirs: tuple[str, ...] | None = None) -> Iterator[tuple[int, bytes, dict[str, Any]]]:
-    """The records after the header (those of direction ``dirs`` when given): line number, the line as
-    written and its record in format 1's form (full values, plain ids), so that every reader works on both formats.
+def lines(path: Path, dirs: tuple[str, ...] | None = None,
+          attrs: tuple[str, ...] | None = None) -> Iterator[tuple[int, bytes, dict[str, Any]]]:
+    """The records after the header (those of direction ``dirs`` and attribute ``attrs`` when given): line
+    number, the line as written and its record in format 1's form (full values, plain ids), so that every
+    reader works on both formats. A difference refers only to records of its own attribute, so lines of
+    other attributes are skipped unparsed (a large run's trace is mostly status).
 
     Every record ends with a newline; a last line without one, or the end of a zstd stream cut off
     mid-block, is where a killed run's recording stops (it keeps what it flushed, docs/outputs.md)."""
     version = read_header(path)["version"]
     last: dict[tuple[str, str, str], dict[str, Any]] = {}
+    # a prefilter on the quoted name, whatever the spacing (a hand-edited line may have JSON's default one)
+    needles = tuple(b'"%s"' % a.encode() for a in attrs) if attrs is not None else ()
     with open_input(path) as f:
         f.readline()
         for n, line in enumerate(whole_lines(f), start=2):
+            if needles and not any(needle in line for needle in needles):
+                continue
             try:
-                record = orjson.loads(line)
-            except orjson.JSONDecodeError:  # raw payloads may hold what only the standard library reads
-                try:
-                    record = json.loads(line)
-                except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-                    raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
+                # A raw payload is whatever a peer sent, written by the standard library (raw_json); only it
+                # reads such a line back as it was: orjson turns an integer beyond 64 bits into a float and
+                # refuses NaN. Every other line is vcran's own, which orjson reads faster.
+                record = json.loads(line) if b'"raw"' in line else orjson.loads(line)
+            except (orjson.JSONDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+                raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
             if not isinstance(record, dict):
                 raise ValueError(f"{path}:{n}: not a trace record (a JSON object expected)")
-            if dirs is not None and record.get("dir") not in dirs:
+            if (dirs is not None and record.get("dir") not in dirs) or (attrs is not None and record.get("attr") not in attrs):
                 continue
             if version == 2 and isinstance(record.get("value"), dict):
                 record["value"] = _full(record, last)
@@ -373,10 +398,11 @@ def _full(record: dict[str, Any], last: dict[tuple[str, str, str], dict[str, Any
     return expand(cls, value) if cls is not None else value
 
 
-def records(path: Path, dirs: tuple[str, ...] | None = None) -> Iterator[tuple[int, dict[str, Any]]]:
-    """The records after the header (of direction ``dirs`` when given) with their line numbers, in format
-    1's form (:func:`lines`)."""
-    return ((n, record) for n, _, record in lines(path, dirs))
+def records(path: Path, dirs: tuple[str, ...] | None = None,
+            attrs: tuple[str, ...] | None = None) -> Iterator[tuple[int, dict[str, Any]]]:
+    """The records after the header (of direction ``dirs`` and attribute ``attrs`` when given) with their
+    line numbers, in format 1's form (:func:`lines`)."""
+    return ((n, record) for n, _, record in lines(path, dirs, attrs))
 
 
 def event_records(path: Path, *, cut_off: bool = False) -> Iterator[Any]:
@@ -435,7 +461,6 @@ def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarra
     poses = [tuple(float(c) for c in r["pose"]) for r in fleet_spec["robots"]]
     period = float(fleet_spec["simulation"].get("telemetry_period", 1.0))
     fleet = FleetKinematics(poses)  # type: ignore[arg-type]
-    pose = list(poses)
     ending: list[tuple[float, int, int, Leg]] = []  # (t_end, row, robot, leg): legs to finish
     out = []
     j, k, n = 0, 0, len(rows)
@@ -447,15 +472,18 @@ def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarra
         while j < n and rows[j]["t"] <= t:
             r = rows[j]
             i = int(r["robot"])
-            if i in fleet.current:
-                fleet.finish(i)
-            x0, y0, theta0 = pose[i]
-            goal = float(r["theta"])
-            leg = Leg(float(r["t"]), x0, y0, theta0, float(r["x"]), float(r["y"]), None if math.isnan(goal) else goal,
-                      Limits(float(r["speed"]), float(r["accel"]), float(r["decel"]), float(r["turn_rate"])))
-            fleet.start(i, leg)
-            pose[i] = (leg.x1, leg.y1, leg.end_theta)
-            heapq.heappush(ending, (leg.t_end, j, i, leg))
+            if math.isnan(r["t0"]):  # a halt: the robot rests where its leg had brought it
+                if i in fleet.current:
+                    fleet.stop(i, float(r["t"]))
+            else:
+                if i in fleet.current:
+                    fleet.finish(i)
+                goal = float(r["theta"])
+                leg = Leg(float(r["t0"]), float(r["x0"]), float(r["y0"]), float(r["theta0"]), float(r["x"]),
+                          float(r["y"]), None if math.isnan(goal) else goal,
+                          Limits(float(r["speed"]), float(r["accel"]), float(r["decel"]), float(r["turn_rate"])))
+                fleet.start(i, leg)
+                heapq.heappush(ending, (leg.t_end, j, i, leg))
             j += 1
         row = np.empty(1 + 5 * len(poses))
         row[0] = t

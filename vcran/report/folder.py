@@ -75,6 +75,9 @@ class RobotResult:
     parts_moved: int
     errors: int
     final_pose: tuple[float, float, float]
+    #: SPEC §4: charge drawn (Ah; None without a battery) and collisions, from the summary.
+    energy_used: float | None = None
+    collisions: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,6 +106,8 @@ class Run:
     motion_areas: tuple[MotionArea, ...] = ()
     #: (robot, motion label) -> the targets received for it, as (receive time, x, y), in arrival order.
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = field(default_factory=dict)
+    #: robot -> its published ``battery`` as (t, percentage) points (SPEC §4), for robots with a battery.
+    batteries: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: A closed-loop run's job KPIs (summary.json's ``jobs``, and the fleet's utilisation); else None.
     jobs: JobFigures | None = None
 
@@ -118,8 +123,10 @@ def read_run(path: Path) -> Run:
     missing = [name for name in FILES if not (path / name).is_file()]
     if missing:
         raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
-    with _reading(path):
+    try:
         trace = trace_in(path)
+    except ValueError:
+        raise ReportError(f"{path}: not a complete run folder, missing {TRACE_FILE}") from None
     beside = [events_beside(trace)] + ([path / LEGS_FILE] if trace.name == TRACE_FILE else [])
     missing = [p.name for p in beside if not p.is_file()]
     if missing:
@@ -139,9 +146,9 @@ def read_run(path: Path) -> Run:
     with _reading(trace):
         ticks = samples(trace)
     events = list(_events(events_beside(trace)))
-    areas, targets = _assignments(trace)
+    areas, targets, batteries = _assignments(trace)
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
-               sim_time, errors, robots, stations, results, events, ticks, areas, targets, jobs)
+               sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs)
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,8 +191,10 @@ def _reading(path: Path) -> Iterator[None]:
 
 def _result(robot: dict[str, Any]) -> RobotResult:
     pose = robot["final_pose"]
+    battery = robot.get("battery")
     return RobotResult(float(robot["distance"]), int(robot["parts_moved"]), int(robot["errors"]),
-                       (float(pose["x"]), float(pose["y"]), float(pose["theta"])))
+                       (float(pose["x"]), float(pose["y"]), float(pose["theta"])),
+                       float(battery["used"]) if battery is not None else None, int(robot.get("collisions", 0)))
 
 
 def _robot(config: dict[str, Any]) -> RobotSpec:
@@ -213,16 +222,25 @@ def _events(path: Path) -> Iterator[dict[str, Any]]:
         raise ReportError(f"{path}: unreadable ({_describe(exc)})") from None
 
 
-def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]]]:
-    """Motion areas and targets from the inbound ``motion_assignment`` records of the trace.
+def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]],
+                                       dict[str, list[tuple[float, float]]]]:
+    """Motion areas and targets from the inbound ``motion_assignment`` records of the trace, and the
+    published ``battery`` percentages (SPEC §4), in one pass.
 
     A live run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
     decoded them, and one that does not decode (the RAN rejected it) is skipped.
     """
     areas: dict[tuple[str, tuple[Point, ...]], MotionArea] = {}
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
+    batteries: dict[str, list[tuple[float, float]]] = {}
     with _reading(path):
-        for n, record in records(path, ("in",)):
+        for n, record in records(path, attrs=("motion_assignment", "battery")):
+            if record.get("attr") == "battery":
+                try:
+                    batteries.setdefault(record["robot"], []).append((float(record["t"]), float(record["value"]["percentage"])))
+                except (KeyError, TypeError, ValueError) as exc:
+                    raise ReportError(f"{path}:{n}: not a battery record ({_describe(exc)})") from None
+                continue
             try:
                 if record.get("dir") != "in" or record.get("attr") != "motion_assignment":
                     continue
@@ -238,7 +256,7 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
                 raise ReportError(f"{path}:{n}: not a motion_assignment record ({_describe(exc)})") from None
             if polygon and (robot, polygon) not in areas:
                 areas[robot, polygon] = MotionArea(robot, polygon)
-    return tuple(areas.values()), targets
+    return tuple(areas.values()), targets, batteries
 
 
 def _decoded(raw: Any) -> dict[str, Any] | None:
