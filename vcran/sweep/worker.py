@@ -1,0 +1,98 @@
+"""One run of a sweep as a pure function of plain data: scenario text, overrides, seed -> row (SPEC §10).
+
+This is all a worker executes, in a process of the local pool or on a Dask worker on another machine, so
+it takes and returns only strings, numbers, lists and dicts: nothing about pools, clusters or files
+leaks into the simulation, and a worker needs vcran installed but not the sweep's files. The run is the
+one ``vcran run`` does on the overridden scenario (same loader, same transport, same options), which is
+why a run in a sweep is byte-identical to the same variant and seed run alone.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from vcran.core.effects import Reason
+from vcran.io.scenario_file import parse
+from vcran.io.scenario_toml import dumps
+from vcran.sweep.overrides import apply
+
+Row = dict[str, Any]
+
+
+def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], out: str | None = None) -> Row:
+    """Run the scenario ``scenario_text`` (read from ``source``, which names it in errors and gives its
+    default name) with ``overrides`` applied, and return its KPIs (:func:`kpis`), ``error`` (None, or
+    what went wrong: a failing run is a row, never a lost sweep) and ``wall_seconds``.
+
+    With ``out`` the run folder is kept there, with the overridden scenario as ``scenario.toml`` (its
+    name set, so that ``vcran run out/scenario.toml`` reproduces the run byte for byte).
+    """
+    start = time.perf_counter()
+    try:
+        data = apply(tomllib.loads(scenario_text), overrides)
+        scenario = parse(data, source, default_name=Path(source).stem)
+        if out is None:
+            with tempfile.TemporaryDirectory(prefix="vcran-sweep-") as work:
+                summary = simulate(scenario, Path(work))
+        else:
+            folder = Path(out)
+            folder.mkdir(parents=True, exist_ok=True)
+            data.setdefault("simulation", {})["name"] = scenario.settings.name
+            (folder / "scenario.toml").write_text(dumps(data), encoding="utf-8")
+            summary = simulate(scenario, folder)
+        row: Row = {"error": None, **kpis(summary)}
+    except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
+        row = {"error": f"{type(exc).__name__}: {exc}".strip()}
+    row["wall_seconds"] = time.perf_counter() - start
+    return row
+
+
+def simulate(scenario: Any, out: Path) -> dict[str, Any]:
+    """The run ``vcran run`` does, into ``out``; its summary. The one place that knows how a run is
+    started: switching to ``vcran.simulate`` (SPEC §9) changes only this function."""
+    from transports.scripted import ScriptedTransport
+    from vcran.runner import run_to
+
+    result = run_to(scenario, out, ScriptedTransport(scenario.messages()), options={"transport": "scripted"})
+    return result.summary
+
+
+#: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``.
+KPIS = ("sim_time", "tasks_completed", "tasks_cancelled", *(f"cancelled_{r.value}" for r in Reason),
+        "distance", "parts_moved", "errors")
+
+
+def kpis(summary: dict[str, Any]) -> dict[str, Any]:
+    """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
+    distance, parts moved and errors; with a closed loop (SPEC §9) every figure of its ``jobs`` section
+    (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``."""
+    robots = summary["robots"].values()
+    reasons = [c["reason"] for r in robots for c in r["cancelled"]]
+    row: dict[str, Any] = {
+        "sim_time": summary["sim_time"],
+        "tasks_completed": sum(len(r["completed"]) for r in robots),
+        "tasks_cancelled": len(reasons),
+        **{f"cancelled_{r.value}": reasons.count(r.value) for r in Reason},
+        "distance": sum(r["distance"] for r in robots),
+        "parts_moved": sum(r["parts_moved"] for r in robots),
+        "errors": summary["errors"],
+    }
+    jobs = summary.get("jobs")
+    if isinstance(jobs, dict):
+        _flatten(row, "jobs_", jobs)
+    utilisation = summary.get("utilisation")
+    if isinstance(utilisation, dict) and "fleet" in utilisation:
+        row["utilisation"] = utilisation["fleet"]
+    return row
+
+
+def _flatten(row: dict[str, Any], prefix: str, table: dict[str, Any]) -> None:
+    for key, value in table.items():
+        if isinstance(value, dict):
+            _flatten(row, f"{prefix}{key}_", value)
+        elif value is None or isinstance(value, (int, float)):
+            row[prefix + key] = value
