@@ -1,0 +1,96 @@
+"""Comparison figures of a sweep, in ``vcran report``'s style: each KPI against each swept parameter.
+
+One figure per parameter (``kpi-by-simulation.task_timeout.png``), one panel per KPI. The parameter's
+values are the x positions, in the order the sweep lists them (values may be numbers, names or poses, so
+they are categories, not a scale). A point is the mean over the runs with that value, its bar the range
+(min to max) over them, and the faint dots the single runs: with one parameter, the spread over seeds.
+With several, each combination of the other parameters is its own line while there are few enough to tell
+apart (:data:`vcran.report.style.TASK_PALETTE`), and all are pooled otherwise. Failed runs have no KPIs
+and are left out.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from vcran.report.style import TASK_PALETTE, save
+from vcran.sweep.spec import Sweep
+from vcran.sweep.worker import Row
+
+#: KPIs drawn, when the runs have them (closed-loop figures only for closed-loop runs).
+DRAWN = ("sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors", "jobs_done_per_hour",
+         "jobs_lead_time_mean", "utilisation")
+
+
+def draw(sweep: Sweep, rows: list[Row], out: Path, fmt: str = "png") -> list[Path]:
+    ok = [r for r in rows if r.get("error") is None]
+    kpis = [k for k in DRAWN if any(r.get(k) is not None for r in ok)]
+    if not ok or not kpis:
+        return []
+    parameters = (["label"] if sweep.labelled else []) + list(sweep.parameters)
+    files = []
+    for p in parameters:
+        path = out / f"kpi-by-{_slug(p)}.{fmt}"
+        _figure(sweep, ok, p, [q for q in parameters if q != p], kpis, path)
+        files.append(path)
+    return files
+
+
+def _figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpis: list[str], path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    xs = list(dict.fromkeys(_key(r[parameter]) for r in rows))
+    groups: dict[str, list[Row]] = {}
+    for r in rows:
+        groups.setdefault(", ".join(f"{q} = {_key(r[q])}" for q in others), []).append(r)
+    if len(groups) > len(TASK_PALETTE):
+        groups = {f"all {len(groups)} combinations of the other parameters": rows}
+    columns = min(len(kpis), 3)
+    lines = -(-len(kpis) // columns)
+    fig = Figure(figsize=(4.2 * columns, 3.2 * lines + 0.6 + 0.2 * len(groups)))
+    fig.suptitle(f"{sweep.name}: KPIs by {parameter} ({len(sweep.seeds)} seed(s) per variant)", fontsize=10)
+    for n, kpi in enumerate(kpis):
+        ax = fig.add_subplot(lines, columns, n + 1)
+        for g, (name, members) in enumerate(groups.items()):
+            colour = TASK_PALETTE[g % len(TASK_PALETTE)]
+            shift = (g - (len(groups) - 1) / 2) * 0.08
+            means: list[float] = []
+            positions: list[float] = []
+            for i, x in enumerate(xs):
+                values = [r[kpi] for r in members if _key(r[parameter]) == x and r.get(kpi) is not None]
+                if not values:
+                    continue
+                mean = sum(values) / len(values)
+                ax.scatter([i + shift] * len(values), values, s=8, color=colour, alpha=0.3, linewidths=0)
+                ax.errorbar([i + shift], [mean], yerr=[[mean - min(values)], [max(values) - mean]],
+                            fmt="o", color=colour, capsize=3, markersize=4,
+                            label=name if n == 0 and not means else None)
+                means.append(mean)
+                positions.append(i + shift)
+            ax.plot(positions, means, color=colour, linewidth=1, alpha=0.7)
+        ax.set_title(kpi, fontsize=9)
+        ax.set_xticks(range(len(xs)), [_short(x) for x in xs], fontsize=8)
+        ax.set_xlabel(parameter, fontsize=8)
+        ax.tick_params(axis="y", labelsize=8)
+        ax.grid(True, axis="y", color="#e0e0e0", linewidth=0.6)
+        ax.set_axisbelow(True)
+    if others:
+        fig.legend(loc="lower center", fontsize=7, frameon=False, ncols=1)
+    fig.tight_layout(rect=(0, 0.03 + 0.035 * len(groups) if others else 0, 1, 0.95))
+    save(fig, path)
+
+
+def _key(value: Any) -> str:
+    """A parameter value as a label: the same text for equal values, whatever their type."""
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def _short(label: str, width: int = 18) -> str:
+    return label if len(label) <= width else label[: width - 1] + "…"
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "._-" else "_" for c in name.replace("*", "each"))
+
