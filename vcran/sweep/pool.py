@@ -29,7 +29,8 @@ class Pool(Protocol):
     name: str
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
-        """(position in ``jobs``, result or exception), in the order they finish."""
+        """Submit every job now; the returned iterator yields (position in ``jobs``, result or
+        exception) in the order they finish."""
         ...
 
     def stop(self) -> None:
@@ -94,6 +95,9 @@ class LocalPool:
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
         self._futures = [self._executor.submit(fn, *job) for job in jobs]
+        return self._finished()
+
+    def _finished(self) -> Iterator[tuple[int, Any]]:
         position = {id(f): i for i, f in enumerate(self._futures)}
         pending = set(self._futures)
         while pending:
@@ -135,11 +139,14 @@ class DaskPool:
         self._futures: list[Any] = []
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
+        self._futures = [self._client.submit(fn, *job, pure=False) for job in jobs]
+        return self._finished()
+
+    def _finished(self) -> Iterator[tuple[int, Any]]:
         from distributed import as_completed
 
-        self._futures = [self._client.submit(fn, *job, pure=False) for job in jobs]
         position = {f.key: i for i, f in enumerate(self._futures)}
-        for f in as_completed(self._futures):
+        for f in as_completed(self._futures, loop=self._client.loop):
             if f.cancelled():
                 continue
             exc = f.exception()
