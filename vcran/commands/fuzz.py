@@ -10,6 +10,11 @@ The search is hypothesis's :func:`~hypothesis.find` with no example database and
 seeded by ``--seed``, so one seed always tries the same examples and shrinks to the same script. On a
 violation the shrunk, minimal script is printed as a scenario file, saved to ``--save``, and the command
 exits 1; ``vcran run`` on that file reproduces the failure.
+
+``--workers K`` or ``--cluster ADDRESS`` (SPEC §10) split the examples into searches of at most 25 with
+consecutive seeds from ``--seed`` (:func:`vcran.testing.campaign.chunks`) and run them on a local process
+pool or a Dask cluster; the first failure stops them all, and its header names the one search, ``--seed
+S --examples M``, that finds it again in a single process.
 """
 
 from __future__ import annotations
@@ -30,25 +35,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--window", type=int, default=3, help="how far a reordering moves a message (default 3)")
     parser.add_argument("--max-ops", type=int, default=8, help="most perturbations per example (default 8)")
     parser.add_argument("--fast", action="store_true", help="skip the second run and the replay of each variant")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="split the examples into searches with consecutive seeds on N local processes")
+    parser.add_argument("--cluster", metavar="ADDRESS", default=None,
+                        help="run those searches on a Dask scheduler, e.g. tcp://10.0.0.5:8786 (needs vcran[sweep])")
 
 
 def run(args: argparse.Namespace) -> int:
     import importlib.util
-    import random
-    import tempfile
     import time
 
-    from hypothesis import HealthCheck, find, settings
-    from hypothesis.errors import NoSuchExample
-
     from vcran.commands import CommandError, load_scenario
-    from vcran.testing.checks import run_variant
-    from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
+    from vcran.testing.campaign import Options, Outcome, search
+    from vcran.testing.scripts import perturbed_toml
 
     if args.examples < 1:
         raise CommandError("--examples must be at least 1")
+    if args.workers is not None and args.workers < 1:
+        raise CommandError("--workers must be at least 1")
+    if args.workers is not None and args.cluster is not None:
+        raise CommandError("--workers and --cluster exclude each other: a cluster's workers are its own")
     base = load_scenario(args.scenario)
-    entries = list(base.messages())
     try:
         perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
     except ValueError as exc:
@@ -56,46 +63,71 @@ def run(args: argparse.Namespace) -> int:
     malformed = importlib.util.find_spec("vcran.core.codec") is not None
     if not malformed:
         print("vcran fuzz: vcran.core.codec is not installed; malformed payloads are not injected", file=sys.stderr)
-    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window,
-                             malformed=malformed, max_ops=args.max_ops)
-    calls = {"generated": 0, "shrinking": 0}
-    found = False
-
-    def violated(ops: list[Perturbation]) -> bool:
-        nonlocal found
-        calls["shrinking" if found else "generated"] += 1
-        with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
-            bad = bool(run_variant(load_text(perturbed_toml(base, ops)), Path(work), again=not args.fast))
-        found = found or bad
-        return bad
-
-    options = settings(max_examples=args.examples, database=None, deadline=None,
-                       suppress_health_check=list(HealthCheck))
+    options = Options(window=args.window, max_ops=args.max_ops, fast=args.fast, malformed=malformed)
+    text = args.scenario.read_text(encoding="utf-8")
     start = time.perf_counter()
-    try:
-        minimal = find(strategy, violated, settings=options, random=random.Random(args.seed))
-    except NoSuchExample:
-        wall = time.perf_counter() - start
-        n = calls["generated"]
-        rate = f", {60 * n / wall:,.0f} examples/min" if wall > 0 else ""
-        print(f"vcran fuzz: {n} examples of {args.scenario} ran clean (seed {args.seed}): {wall:.1f} s{rate}")
-        return 0
+    if args.workers in (None, 1) and args.cluster is None:
+        outcome: Outcome | None = search(text, str(args.scenario), args.seed, args.examples, options)
+        examples = outcome.examples
+    else:
+        outcome, examples = _campaign(args, text, options)
     wall = time.perf_counter() - start
-    text = perturbed_toml(base, minimal)
-    with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
-        problems = run_variant(load_text(text), Path(work), again=not args.fast)
+    if outcome is None or outcome.failure is None:
+        rate = f", {60 * examples / wall:,.0f} examples/min" if wall > 0 else ""
+        print(f"vcran fuzz: {examples} examples of {args.scenario} ran clean (seed {args.seed}): {wall:.1f} s{rate}")
+        return 0
+    failure = outcome.failure
     header = "\n".join([
-        f"vcran fuzz {args.scenario} --examples {args.examples} --seed {args.seed}: a minimal failing script",
-        f"perturbations: {minimal!r}",
-        *(f"violation: {p}" for p in problems),
+        f"vcran fuzz {args.scenario} --examples {outcome.asked} --seed {outcome.seed}: a minimal failing script",
+        f"perturbations: {failure.ops!r}",
+        *(f"violation: {p}" for p in failure.problems),
         "re-run: vcran run THIS_FILE --out DIR",
     ])
-    text = perturbed_toml(base, minimal, header)
+    text = perturbed_toml(base, failure.ops, header)
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     save.write_text(text, encoding="utf-8")
     print(text)
-    print(f"vcran fuzz: rule violated after {calls['generated']} examples ({calls['shrinking']} shrinking runs, "
+    print(f"vcran fuzz: rule violated after {examples} examples ({outcome.shrinking} shrinking runs, "
           f"{wall:.1f} s); the minimal script above is saved in {save}", file=sys.stderr)
-    for p in problems:
+    for p in failure.problems:
         print(f"  {p}", file=sys.stderr)
     return 1
+
+
+def _campaign(args: argparse.Namespace, text: str, options):  # type: ignore[no-untyped-def]
+    """Searches with consecutive seeds on a pool (SPEC §10); the first failure stops them all.
+    Returns the failing outcome (or None) and the examples tried in all searches that finished."""
+    from vcran.commands import CommandError
+    from vcran.sweep.pool import PoolError, open_pool
+    from vcran.sweep.progress import Progress
+    from vcran.testing.campaign import chunks, search
+
+    plan = chunks(args.examples, args.workers or 1, args.seed)
+    try:
+        pool = open_pool(args.workers, args.cluster, jobs=len(plan))
+    except PoolError as exc:
+        raise CommandError(str(exc)) from None
+    print(f"vcran fuzz: {args.examples} examples as {len(plan)} searches (seeds {plan[0][0]}..{plan[-1][0]}) "
+          f"on {pool.name}", file=sys.stderr)
+    progress = Progress(sys.stderr, args.examples, "examples")
+    examples = 0
+    try:
+        for i, outcome in pool.run(search, [(text, str(args.scenario), seed, n, options) for seed, n in plan]):
+            if isinstance(outcome, BaseException):
+                pool.stop()
+                raise CommandError(f"the search with seed {plan[i][0]} could not run: "
+                                   f"{type(outcome).__name__}: {outcome}")
+            examples += outcome.examples
+            progress.update(outcome.failure is not None, outcome.examples)
+            if outcome.failure is not None:
+                pool.stop()
+                return outcome, examples
+    except KeyboardInterrupt:
+        pool.stop()
+        progress.close()
+        print(f"vcran fuzz: interrupted after {examples} examples, all clean", file=sys.stderr)
+        raise
+    finally:
+        progress.close()
+        pool.close()
+    return None, examples

@@ -27,8 +27,8 @@ class Progress:
         self.line = InPlaceLine(stream)
         self.done = self.failed = 0
 
-    def update(self, failed: bool) -> None:
-        self.done += 1
+    def update(self, failed: bool, count: int = 1) -> None:
+        self.done += count
         self.failed += failed
         if self.quiet or not self.due():
             return

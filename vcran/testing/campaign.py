@@ -1,0 +1,103 @@
+"""One fuzz search as a pure function of plain data: scenario text, search seed, examples -> outcome.
+
+``vcran fuzz`` runs one search in this process, or, with ``--workers``/``--cluster`` (SPEC §10), many
+searches with consecutive seeds on a pool, each exactly what ``vcran fuzz --seed S --examples M`` runs
+alone: a campaign's failure is reproduced by its chunk's command line as well as by the saved scenario.
+The search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random``
+seeded by the search seed, so one seed always tries the same examples and shrinks to the same script.
+"""
+
+from __future__ import annotations
+
+import random
+import tempfile
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from vcran.core.scenario import Scenario
+from vcran.io.scenario_file import parse
+from vcran.testing.checks import run_variant
+from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
+
+
+@dataclass(frozen=True, slots=True)
+class Options:
+    """How variants are drawn and checked (``vcran fuzz`` --window, --max-ops, --fast)."""
+
+    window: int = 3
+    max_ops: int = 8
+    fast: bool = False
+    malformed: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class Outcome:
+    """What one search found. ``failure`` is None when every example ran clean; else the minimal
+    perturbations and the violations they cause."""
+
+    seed: int
+    #: Examples asked for (``--examples`` of the search) and examples tried before the end or a failure.
+    asked: int
+    examples: int
+    shrinking: int
+    wall_seconds: float
+    failure: Failure | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Failure:
+    #: The shrunk perturbations (plain frozen dataclasses): ``perturbed_toml(base, ops)`` is the script.
+    ops: list[Perturbation]
+    problems: tuple[str, ...]
+
+
+def base_scenario(text: str, source: str) -> Scenario:
+    """The scenario a search perturbs, read as :func:`vcran.io.scenario_file.load` reads its file."""
+    return parse(tomllib.loads(text), source, default_name=Path(source).stem)
+
+
+def search(text: str, source: str, seed: int, examples: int, options: Options = Options()) -> Outcome:
+    """Try ``examples`` perturbed variants of the scenario ``text``; shrink the first that breaks a rule."""
+    from hypothesis import HealthCheck, find, settings
+    from hypothesis.errors import NoSuchExample
+
+    base = base_scenario(text, source)
+    strategy = perturbations(list(base.messages()), [r.id for r in base.robots], window=options.window,
+                             malformed=options.malformed, max_ops=options.max_ops)
+    calls = {"generated": 0, "shrinking": 0}
+    found = False
+
+    def violated(ops: list[Perturbation]) -> bool:
+        nonlocal found
+        calls["shrinking" if found else "generated"] += 1
+        bad = bool(check(base, ops, options))
+        found = found or bad
+        return bad
+
+    hypothesis_settings = settings(max_examples=examples, database=None, deadline=None,
+                                   suppress_health_check=list(HealthCheck))
+    start = time.perf_counter()
+    try:
+        minimal = find(strategy, violated, settings=hypothesis_settings, random=random.Random(seed))
+    except NoSuchExample:
+        return Outcome(seed, examples, calls["generated"], 0, time.perf_counter() - start)
+    wall = time.perf_counter() - start
+    failure = Failure(minimal, tuple(check(base, minimal, options)))
+    return Outcome(seed, examples, calls["generated"], calls["shrinking"], wall, failure)
+
+
+def check(base: Scenario, ops: list[Perturbation], options: Options) -> list[str]:
+    """The rule violations of one variant, run in a temporary folder (:func:`run_variant`)."""
+    with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
+        return run_variant(load_text(perturbed_toml(base, ops)), Path(work), again=not options.fast)
+
+
+def chunks(examples: int, workers: int, seed: int, most: int = 25) -> list[tuple[int, int]]:
+    """(search seed, examples) for a campaign of ``examples`` on ``workers``: consecutive seeds from
+    ``seed``, at most ``most`` examples each (a failure stops the campaign within one chunk's time, and
+    a slow chunk does not hold the others up), never fewer chunks than workers while examples last."""
+    size = max(1, min(most, -(-examples // max(workers, 1))))
+    n = -(-examples // size)
+    return [(seed + i, min(size, examples - i * size)) for i in range(n)]
