@@ -116,7 +116,10 @@ class LocalPool:
         for p in processes:
             p.terminate()
         for p in processes:
-            p.join(timeout=5)
+            p.join(timeout=2)
+            if p.is_alive():  # SIGTERM not acted on in time (a loaded machine): no second chance
+                p.kill()
+                p.join()
 
     def close(self) -> None:
         self._executor.shutdown(wait=True, cancel_futures=True)
