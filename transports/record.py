@@ -2,15 +2,26 @@
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.core.wire import Frame, Inbound, Outbound
-from vcran.io.trace import TraceWriter
+from vcran.core.wire import Frame, Inbound, Outbound, Publish
+
+
+class TraceSink(Protocol):
+    """Where records go: :class:`vcran.io.trace.TraceWriter` (files), or memory (``vcran.simulate``)."""
+
+    def inbound(self, t: float, inbound: Inbound) -> None: ...
+    def publish(self, out: Publish) -> None: ...
+    def frame(self, frame: Frame) -> None: ...
+    def end(self, t: float) -> None: ...
+    def close(self) -> None: ...
 
 
 class RecordingTransport(Transport):
-    def __init__(self, inner: Transport, writer: TraceWriter) -> None:
+    def __init__(self, inner: Transport, writer: TraceSink) -> None:
         self.inner, self.writer = inner, writer
         self._env: simpy.Environment | None = None
 

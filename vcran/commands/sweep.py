@@ -33,9 +33,9 @@ def run(args: argparse.Namespace) -> int:
     from vcran.commands import CommandError
     from vcran.sweep.pool import PoolError, open_pool
     from vcran.sweep.progress import Progress
-    from vcran.sweep.runs import head, run_sweep
+    from vcran.sweep.runs import execute
     from vcran.sweep.spec import SweepError, load
-    from vcran.sweep.table import columns, have_parquet, write_csv, write_parquet
+    from vcran.sweep.table import have_parquet
 
     if args.workers is not None and args.workers < 1:
         raise CommandError("--workers must be at least 1")
@@ -58,20 +58,15 @@ def run(args: argparse.Namespace) -> int:
     progress = Progress(sys.stderr, runs, quiet=args.quiet)
     start = time.perf_counter()
     try:
-        result = run_sweep(sweep, pool, keep_runs=out if args.keep_runs else None,
-                           on_row=lambda row: progress.update(row["error"] is not None))
+        result = execute(sweep, pool, keep_runs=out if args.keep_runs else None,
+                         on_row=lambda row: progress.update(row["error"] is not None))
     finally:
         progress.close()
         pool.close()
     wall = time.perf_counter() - start
 
-    names = columns(result.rows, head(sweep))
-    files = [out / "runs.csv"]
-    write_csv(files[0], result.rows, names)
-    if have_parquet():
-        files.append(out / "runs.parquet")
-        write_parquet(files[-1], result.rows, names)
-    elif not args.quiet:
+    files = result.write(out)
+    if not have_parquet() and not args.quiet:
         print("vcran sweep: runs.parquet not written: pyarrow is not installed (pip install 'vcran[sweep]')",
               file=sys.stderr)
     if not result.interrupted:

@@ -12,10 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from vcran.report.folder import ReportError, Run, read_run
+from vcran.report.folder import JobFigures, ReportError, Run, read_run
 from vcran.report.kpi import Kpi, kpis
 from vcran.report.spans import histories
-from vcran.report.tables import csv_text, markdown
+from vcran.report.tables import csv_text, jobs_markdown, markdown
 
 __all__ = [
     "FORMATS", "MatplotlibMissing", "Report", "ReportError", "Run", "read_run", "require_matplotlib", "write_report",
@@ -34,6 +34,8 @@ class MatplotlibMissing(ReportError):
 class Report:
     files: list[Path]
     kpis: list[Kpi]
+    #: A closed-loop run's job KPIs, else None.
+    jobs: JobFigures | None
     #: Robots the timeline left out (beyond its page limit); they are in the KPI tables all the same.
     robots_not_drawn: int
 
@@ -81,9 +83,12 @@ def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int
     for name, text in (("kpi.md", _kpi_markdown(run, rows)), ("kpi.csv", csv_text(rows))):
         (out / name).write_text(text, encoding="utf-8")
         files.append(out / name)
-    return Report(files, rows, len(run.robots) - drawn)
+    return Report(files, rows, run.jobs, len(run.robots) - drawn)
 
 
 def _kpi_markdown(run: Run, rows: list[Kpi]) -> str:
-    return (f"# KPIs: {run.scenario}\n\nSeed {run.seed}, {run.sim_time:g} s simulated, {len(run.robots)} robot(s). "
+    text = (f"# KPIs: {run.scenario}\n\nSeed {run.seed}, {run.sim_time:g} s simulated, {len(run.robots)} robot(s). "
             "Columns are defined in vcran's docs/report.md.\n\n" + markdown(rows))
+    if run.jobs is not None:
+        text += "\n## Jobs\n\nA fleet manager ran this scenario's jobs (docs/outputs.md).\n\n" + jobs_markdown(run.jobs)
+    return text

@@ -76,6 +76,17 @@ def write_parquet(path: Path, rows: list[Row], names: list[str]) -> None:
     os.replace(tmp, path)
 
 
+def write_tables(out: Path, rows: list[Row], names: list[str]) -> list[Path]:
+    """``runs.csv``, and ``runs.parquet`` if pyarrow is installed; the files written."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "runs.csv"]
+    write_csv(files[0], rows, names)
+    if have_parquet():
+        files.append(out / "runs.parquet")
+        write_parquet(files[1], rows, names)
+    return files
+
+
 def _typed(values: list[Any]) -> tuple[Any, list[Any]]:
     present = [v for v in values if v is not None]
     if present and all(isinstance(v, bool) for v in present):

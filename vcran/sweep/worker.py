@@ -3,18 +3,19 @@
 This is all a worker executes, in a process of the local pool or on a Dask worker on another machine, so
 it takes and returns only strings, numbers, lists and dicts: nothing about pools, clusters or files
 leaks into the simulation, and a worker needs vcran installed but not the sweep's files. The run is the
-one ``vcran run`` does on the overridden scenario (same loader, same transport, same options), which is
-why a run in a sweep is byte-identical to the same variant and seed run alone.
+one ``vcran run`` does on the overridden scenario (same loader, then :func:`vcran.simulate`, its script or
+its fleet manager), which is why a run in a sweep is byte-identical to the same variant and seed run
+alone. Without a folder to keep, nothing touches the disk.
 """
 
 from __future__ import annotations
 
-import tempfile
 import time
 import tomllib
 from pathlib import Path
 from typing import Any
 
+from vcran.api import simulate
 from vcran.core.effects import Reason
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps
@@ -35,30 +36,16 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
     try:
         data = apply(tomllib.loads(scenario_text), overrides)
         scenario = parse(data, source, default_name=Path(source).stem)
-        if out is None:
-            with tempfile.TemporaryDirectory(prefix="vcran-sweep-") as work:
-                summary = simulate(scenario, Path(work))
-        else:
+        if out is not None:
             folder = Path(out)
             folder.mkdir(parents=True, exist_ok=True)
             data.setdefault("simulation", {})["name"] = scenario.settings.name
             (folder / "scenario.toml").write_text(dumps(data), encoding="utf-8")
-            summary = simulate(scenario, folder)
-        row: Row = {"error": None, **kpis(summary)}
+        row: Row = {"error": None, **kpis(simulate(scenario, out=out).summary)}
     except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
         row = {"error": f"{type(exc).__name__}: {exc}".strip()}
     row["wall_seconds"] = time.perf_counter() - start
     return row
-
-
-def simulate(scenario: Any, out: Path) -> dict[str, Any]:
-    """The run ``vcran run`` does, into ``out``; its summary. The one place that knows how a run is
-    started: switching to ``vcran.simulate`` (SPEC §9) changes only this function."""
-    from transports.scripted import ScriptedTransport
-    from vcran.runner import run_to
-
-    result = run_to(scenario, out, ScriptedTransport(scenario.messages()), options={"transport": "scripted"})
-    return result.summary
 
 
 #: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``.
@@ -94,5 +81,5 @@ def _flatten(row: dict[str, Any], prefix: str, table: dict[str, Any]) -> None:
     for key, value in table.items():
         if isinstance(value, dict):
             _flatten(row, f"{prefix}{key}_", value)
-        elif value is None or isinstance(value, (int, float)):
+        elif isinstance(value, (int, float)):  # None (no lead time without a completed job): an empty cell
             row[prefix + key] = value
