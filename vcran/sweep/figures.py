@@ -49,36 +49,44 @@ def _figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kp
         groups = {f"all {len(groups)} combinations of the other parameters": rows}
     columns = min(len(kpis), 3)
     lines = -(-len(kpis) // columns)
-    fig = Figure(figsize=(4.2 * columns, 3.2 * lines + 0.6 + 0.2 * len(groups)))
+    fig = Figure(figsize=(4.2 * columns, 3.0 * lines + 0.8 + (0.3 + 0.16 * len(groups) if others else 0)))
     fig.suptitle(f"{sweep.name}: KPIs by {parameter} ({len(sweep.seeds)} seed(s) per variant)", fontsize=10)
     for n, kpi in enumerate(kpis):
         ax = fig.add_subplot(lines, columns, n + 1)
         for g, (name, members) in enumerate(groups.items()):
             colour = TASK_PALETTE[g % len(TASK_PALETTE)]
             shift = (g - (len(groups) - 1) / 2) * 0.08
+            dots_x: list[float] = []
+            dots_y: list[float] = []
+            at: list[float] = []
             means: list[float] = []
-            positions: list[float] = []
+            low: list[float] = []
+            high: list[float] = []
             for i, x in enumerate(xs):
                 values = [r[kpi] for r in members if _key(r[parameter]) == x and r.get(kpi) is not None]
-                if not values:
-                    continue
-                mean = sum(values) / len(values)
-                ax.scatter([i + shift] * len(values), values, s=8, color=colour, alpha=0.3, linewidths=0)
-                ax.errorbar([i + shift], [mean], yerr=[[mean - min(values)], [max(values) - mean]],
-                            fmt="o", color=colour, capsize=3, markersize=4,
-                            label=name if n == 0 and not means else None)
-                means.append(mean)
-                positions.append(i + shift)
-            ax.plot(positions, means, color=colour, linewidth=1, alpha=0.7)
+                if values:
+                    mean = sum(values) / len(values)
+                    dots_x += [i + shift] * len(values)
+                    dots_y += values
+                    at.append(i + shift)
+                    means.append(mean)
+                    low.append(mean - min(values))
+                    high.append(max(values) - mean)
+            ax.scatter(dots_x, dots_y, s=8, color=colour, alpha=0.3, linewidths=0)
+            ax.errorbar(at, means, yerr=[low, high], fmt="o-", color=colour, capsize=3, markersize=4,
+                        linewidth=1, label=name if n == 0 else None)
         ax.set_title(kpi, fontsize=9)
         ax.set_xticks(range(len(xs)), [_short(x) for x in xs], fontsize=8)
         ax.set_xlabel(parameter, fontsize=8)
         ax.tick_params(axis="y", labelsize=8)
         ax.grid(True, axis="y", color="#e0e0e0", linewidth=0.6)
         ax.set_axisbelow(True)
+    legend = 0.3 + 0.16 * len(groups) if others else 0.0  # inches below the panels
+    height = fig.get_figheight()
+    fig.subplots_adjust(left=0.07, right=0.98, top=1 - 0.55 / height, bottom=(legend + 0.5) / height,
+                        hspace=0.55, wspace=0.25)
     if others:
         fig.legend(loc="lower center", fontsize=7, frameon=False, ncols=1)
-    fig.tight_layout(rect=(0, 0.03 + 0.035 * len(groups) if others else 0, 1, 0.95))
     save(fig, path)
 
 

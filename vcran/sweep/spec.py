@@ -62,6 +62,8 @@ class RunSpec:
 
 @dataclass(frozen=True, slots=True)
 class Sweep:
+    """A loaded sweep file: the scenario (its path and text) and every variant, each validated."""
+
     source: str
     name: str
     scenario_path: Path
@@ -82,6 +84,7 @@ class Sweep:
 
 
 def load(path: str | Path) -> Sweep:
+    """The sweep file at ``path``, checked through: :class:`SweepError` names what is wrong and where."""
     path = Path(path)
     try:
         with path.open("rb") as f:
