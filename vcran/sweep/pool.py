@@ -2,8 +2,8 @@
 pool, or a Dask cluster (SPEC §10). All three take the same plain-data jobs and yield results as they
 finish; a job's result is whatever the function returned, or the exception that stopped it.
 
-The local pool is :class:`concurrent.futures.ProcessPoolExecutor` with the ``spawn`` start method (no
-forked copies of a parent's threads and locks; the same on every OS). Its workers ignore SIGINT, so
+The local pool is :class:`concurrent.futures.ProcessPoolExecutor` with the ``forkserver`` start method
+(``spawn`` where there is none: no forked copies of a parent's threads and locks). Its workers ignore SIGINT, so
 Ctrl-C reaches only this process, which stops the pool and keeps what is done. Past one machine, a Dask
 ``distributed`` client does the same job over a scheduler's workers: vcran brings no scheduler of its own.
 """
@@ -14,7 +14,7 @@ import os
 import signal
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from multiprocessing import get_context
+from multiprocessing import get_all_start_methods, get_context
 from typing import Any, Protocol
 
 Job = tuple[Any, ...]
@@ -83,14 +83,29 @@ class InProcess:
         pass
 
 
+def _context() -> Any:
+    """``forkserver`` where the OS has it: a clean server process (no parent threads or locks, unlike
+    ``fork``) that imported vcran once and forks each worker ready to run, where ``spawn`` makes every
+    worker import it again (a second or more per worker on a loaded machine). ``spawn`` elsewhere."""
+    if "forkserver" in get_all_start_methods():
+        context = get_context("forkserver")
+        context.set_forkserver_preload(PRELOAD)
+        return context
+    return get_context("spawn")
+
+
 def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+#: Modules a fork server imports once, before it forks the workers: what every job needs.
+PRELOAD = ["vcran.sweep.worker"]
 
 
 class LocalPool:
     def __init__(self, workers: int) -> None:
         self.name = f"{workers} local processes"
-        self._executor = ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=_ignore_sigint)
+        self._executor = ProcessPoolExecutor(workers, mp_context=_context(), initializer=_ignore_sigint)
         self._futures: list[Future[Any]] = []
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
