@@ -23,6 +23,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+
 HELP = "perturb a scenario's message script and check the rules on every variant"
 
 
@@ -35,10 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--window", type=int, default=3, help="how far a reordering moves a message (default 3)")
     parser.add_argument("--max-ops", type=int, default=8, help="most perturbations per example (default 8)")
     parser.add_argument("--fast", action="store_true", help="skip the second run and the replay of each variant")
-    parser.add_argument("--workers", type=int, default=None,
-                        help="split the examples into searches with consecutive seeds on N local processes")
-    parser.add_argument("--cluster", metavar="ADDRESS", default=None,
-                        help="run those searches on a Dask scheduler, e.g. tcp://10.0.0.5:8786 (needs vcran[sweep])")
+    add_pool_arguments(parser, "the examples, as searches of at most 25 with consecutive seeds,", "1")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -51,10 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.examples < 1:
         raise CommandError("--examples must be at least 1")
-    if args.workers is not None and args.workers < 1:
-        raise CommandError("--workers must be at least 1")
-    if args.workers is not None and args.cluster is not None:
-        raise CommandError("--workers and --cluster exclude each other: a cluster's workers are its own")
+    check_pool_options(args)
     base = load_scenario(args.scenario)
     try:
         perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
@@ -98,15 +94,11 @@ def _campaign(args: argparse.Namespace, text: str, options):  # type: ignore[no-
     """Searches with consecutive seeds on a pool (SPEC §10); the first failure stops them all.
     Returns the failing outcome (or None) and the examples tried in all searches that finished."""
     from vcran.commands import CommandError
-    from vcran.sweep.pool import PoolError, open_pool
     from vcran.sweep.progress import Progress
     from vcran.testing.campaign import chunks, search
 
     plan = chunks(args.examples, args.workers or 1, args.seed)
-    try:
-        pool = open_pool(args.workers, args.cluster, jobs=len(plan))
-    except PoolError as exc:
-        raise CommandError(str(exc)) from None
+    pool = pool_for(args, len(plan))
     print(f"vcran fuzz: {args.examples} examples as {len(plan)} searches (seeds {plan[0][0]}..{plan[-1][0]}) "
           f"on {pool.name}", file=sys.stderr)
     progress = Progress(sys.stderr, args.examples, "examples")

@@ -13,16 +13,15 @@ import sys
 import time
 from pathlib import Path
 
+from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+
 HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("sweep", type=Path, help="sweep file (TOML): scenario, seeds, [grid], [[variants]]")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
-    parser.add_argument("--workers", type=int, default=None,
-                        help="local worker processes (default: one per CPU; 1 runs in this process)")
-    parser.add_argument("--cluster", metavar="ADDRESS", default=None,
-                        help="run on a Dask scheduler instead, e.g. tcp://10.0.0.5:8786 (needs vcran[sweep])")
+    add_pool_arguments(parser, "the runs", "one per CPU")
     parser.add_argument("--keep-runs", action="store_true",
                         help="keep every run's folder (trace, events, summary, scenario.toml) in DIR/runs/NNNN")
     parser.add_argument("--format", choices=("png", "svg"), default="png", help="figure format (default: png)")
@@ -31,16 +30,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vcran.commands import CommandError
-    from vcran.sweep.pool import PoolError, open_pool
     from vcran.sweep.progress import Progress
     from vcran.sweep.runs import execute
     from vcran.sweep.spec import SweepError, load
     from vcran.sweep.table import have_parquet
 
-    if args.workers is not None and args.workers < 1:
-        raise CommandError("--workers must be at least 1")
-    if args.workers is not None and args.cluster is not None:
-        raise CommandError("--workers and --cluster exclude each other: a cluster's workers are its own")
+    check_pool_options(args)
     try:
         sweep = load(args.sweep)
     except SweepError as exc:
@@ -48,17 +43,14 @@ def run(args: argparse.Namespace) -> int:
     runs = len(sweep.seeds) * len(sweep.variants)
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
-    try:
-        pool = open_pool(args.workers, args.cluster, jobs=runs)
-    except PoolError as exc:
-        raise CommandError(str(exc)) from None
+    pool = pool_for(args, runs)
     if not args.quiet:
         print(f"sweep {sweep.name}: {len(sweep.variants)} variant(s) x {len(sweep.seeds)} seed(s) = {runs} runs "
               f"on {pool.name}", file=sys.stderr)
     progress = Progress(sys.stderr, runs, quiet=args.quiet)
     start = time.perf_counter()
     try:
-        result = execute(sweep, pool, keep_runs=out if args.keep_runs else None,
+        result = execute(sweep, pool, keep_runs=out.resolve() if args.keep_runs else None,
                          on_row=lambda row: progress.update(row["error"] is not None))
     finally:
         progress.close()
