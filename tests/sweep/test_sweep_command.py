@@ -185,6 +185,13 @@ def test_a_bad_sweep_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert err.count("\n") == 1 and not (tmp_path / "o").exists()
 
 
+def test_an_out_folder_that_cannot_be_made_is_one_line(sweep_file, tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    assert main(["sweep", str(sweep_file), "--out", str(tmp_path / "file" / "o"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran sweep: --out ") and "cannot create the folder" in err and err.count("\n") == 1
+
+
 def test_an_unreachable_scheduler_is_a_pool_error():
     pytest.importorskip("distributed")
     from vcran.sweep.pool import DaskPool, PoolError

@@ -136,3 +136,12 @@ def test_the_demo_sweep_is_what_its_comment_says():
     sweep = load(ROOT / "scenarios" / "demo-sweep.toml")
     assert len(sweep.runs()) == 2 * 2 * 3
     assert tomllib.loads(sweep.scenario_text) == tomllib.loads(DEMO.read_text())
+
+
+def test_a_broken_scenario_is_the_scenario_loaders_message_behind_the_sweep_file(tmp_path):
+    broken = tmp_path / "broken.toml"
+    broken.write_text(DEMO.read_text().replace("task_timeout = 30.0", "task_timeout = 0.0"))
+    path = write(tmp_path, "seeds = [1]\n", scenario=broken)
+    with pytest.raises(SweepError, match=r"s\.toml: field 'scenario': .*base\.toml: simulation: field 'task_timeout': "
+                                         r"must be positive"):
+        load(path)

@@ -42,7 +42,10 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     runs = len(sweep.seeds) * len(sweep.variants)
     out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CommandError(f"--out {out}: cannot create the folder: {exc.strerror or exc}") from None
     pool = pool_for(args, runs)
     if not args.quiet:
         print(f"sweep {sweep.name}: {len(sweep.variants)} variant(s) x {len(sweep.seeds)} seed(s) = {runs} runs "

@@ -117,7 +117,10 @@ def parse_sweep(data: dict[str, Any], path: Path) -> Sweep:
         raise SweepError(f"{source}: field 'scenario': {scenario_path}: no such file") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise SweepError(f"{source}: field 'scenario': {scenario_path}: cannot read it: {exc}") from None
-    parse(base, str(scenario_path), default_name=scenario_path.stem)  # the scenario's own errors, as they are
+    try:
+        parse(base, str(scenario_path), default_name=scenario_path.stem)
+    except ScenarioError as exc:  # the scenario's own message, which names its file
+        raise SweepError(f"{source}: field 'scenario': {exc}") from None
 
     for _label, params in [*variants, (None, grid)]:
         for key, _ in params:
