@@ -14,14 +14,15 @@ The fleet is ``vcran gen --robots 10 --hours 1 --seed 1``; the sweep crosses fou
 
 The Dask overhead per run shows best on many tiny runs, so ``--tiny N`` also runs N seeds of the demo
 (a few milliseconds each) on the pool and on Dask. Every pool must give the same rows (wall time aside);
-the script checks it. Each figure is the least of ``--repeat`` sweeps. Wall-clock figures on a shared
-machine: compare the ratios of one run.
+the script checks it. Each figure is the least of ``--repeat`` rounds in which the pools take turns.
+Wall-clock figures on a shared machine: compare the ratios of one run, and mind the load it prints.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 import time
@@ -54,20 +55,31 @@ def tiny_file(folder: Path, runs: int) -> Path:
     return path
 
 
-def timed(sweep: Sweep, pool: Callable[[], Pool], repeat: int) -> tuple[float, list[dict]]:
-    """The least wall time of ``repeat`` sweeps, each on a fresh pool (its start-up counts): on a shared
-    machine the least is the one the others' load disturbed least."""
-    walls = []
+def once(sweep: Sweep, pool: Callable[[], Pool]) -> tuple[float, list[dict]]:
+    """One sweep on a fresh pool (its start-up counts): wall time and rows without the wall column."""
+    start = time.perf_counter()
+    opened = pool()
+    try:
+        result = execute(sweep, opened)
+    finally:
+        opened.close()
+    wall = time.perf_counter() - start
+    assert result.failed == 0, [r["error"] for r in result.rows if r["error"]]
+    return wall, [{k: v for k, v in r.items() if k != "wall_seconds"} for r in result.rows]
+
+
+def interleaved(cases: dict[str, tuple[Sweep, Callable[[], Pool]]], repeat: int) -> dict[str, float]:
+    """The least wall time of ``repeat`` rounds per case, the cases taking turns within each round: on a
+    shared machine whose load drifts, no case gets the quiet minutes alone, and the least of a case's
+    times is the one the others' load disturbed least. Every case of one sweep must give the same rows."""
+    walls: dict[str, list[float]] = {name: [] for name in cases}
+    rows: dict[int, list[dict]] = {}
     for _ in range(repeat):
-        start = time.perf_counter()
-        opened = pool()
-        try:
-            result = execute(sweep, opened)
-        finally:
-            opened.close()
-        walls.append(time.perf_counter() - start)
-        assert result.failed == 0, [r["error"] for r in result.rows if r["error"]]
-    return min(walls), [{k: v for k, v in r.items() if k != "wall_seconds"} for r in result.rows]
+        for name, (sweep, pool) in cases.items():
+            wall, got = once(sweep, pool)
+            walls[name].append(wall)
+            assert rows.setdefault(id(sweep), got) == got, f"{name} gave other rows"
+    return {name: min(w) for name, w in walls.items()}
 
 
 def main() -> int:
@@ -89,17 +101,17 @@ def main() -> int:
                           scheduler_port=0, dashboard_address=None) as cluster:
             figures["dask_start"] = time.perf_counter() - start
             address = cluster.scheduler_address
-            r = args.repeat
-            figures["one"], expected = timed(fleet, InProcess, r)
-            figures["pool"], rows = timed(fleet, lambda: LocalPool(2), r)
-            assert rows == expected, "the process pool gave other rows"
-            figures["dask"], rows = timed(fleet, lambda: DaskPool(address), r)
-            assert rows == expected, "Dask gave other rows"
-            figures["tiny_pool"], tiny_rows = timed(tiny, lambda: LocalPool(2), r)
-            figures["tiny_dask"], rows = timed(tiny, lambda: DaskPool(address), r)
-            assert rows == tiny_rows, "Dask gave other rows (tiny)"
+            figures.update(interleaved({
+                "one": (fleet, InProcess),
+                "pool": (fleet, lambda: LocalPool(2)),
+                "dask": (fleet, lambda: DaskPool(address)),
+                "tiny_pool": (tiny, lambda: LocalPool(2)),
+                "tiny_dask": (tiny, lambda: DaskPool(address)),
+            }, args.repeat))
+    load_average = os.getloadavg()[0]
     per_run = figures["one"] / runs
-    print(f"## Sweep: {runs} runs of the 10-robot hour (vcran gen --robots 10 --hours 1), 2 cores shared\n")
+    print(f"## Sweep: {runs} runs of the 10-robot hour (vcran gen --robots 10 --hours 1), {os.cpu_count()} cores, "
+          f"load average {load_average:.1f} at the end, least of {args.repeat} interleaved rounds\n")
     print("| pool | wall s | s per run | speed-up vs 1 worker |")
     print("|---|---|---|---|")
     for key, name in (("one", "1 worker (this process)"), ("pool", "2 local processes"),
