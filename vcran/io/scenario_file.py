@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -37,20 +36,14 @@ from vcran.core.scenario import (
     task_entries,
 )
 from vcran.core.schema import MessageError
-from vcran.io.toml_table import ScenarioError, Table, is_number
+from vcran.io.toml_table import ScenarioError, Table, is_number, read_toml
 
 __all__ = ["ScenarioError", "load", "parse"]
 
 
 def load(path: str | Path) -> Scenario:
     path = Path(path)
-    try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    _, data = read_toml(path)
     return parse(data, str(path), default_name=path.stem)
 
 

@@ -8,6 +8,8 @@ about scenarios, not about reading TOML.
 from __future__ import annotations
 
 import math
+import tomllib
+from pathlib import Path
 from typing import Any, NoReturn
 
 from vcran.core.orion_rules import FORBIDDEN_CHARS
@@ -19,6 +21,20 @@ class ScenarioError(ValueError):
 
 def is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def read_toml(path: Path) -> tuple[str, dict[str, Any]]:
+    """The text of the TOML file at ``path`` and its table; a missing or broken file is a ScenarioError
+    naming it (scenario and sweep files alike)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+        return text, tomllib.loads(text)
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: cannot read it: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
 
 
 _MISSING = object()

@@ -22,13 +22,12 @@ scenario loader itself (:mod:`vcran.sweep.overrides`), so a sweep accepts exactl
 from __future__ import annotations
 
 import itertools
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from vcran.io.scenario_file import parse
-from vcran.io.toml_table import ScenarioError, Table
+from vcran.io.toml_table import ScenarioError, Table, read_toml
 from vcran.sweep.overrides import OverrideError, apply, canonical
 
 SEED_PATH = "simulation.seed"
@@ -87,12 +86,9 @@ def load(path: str | Path) -> Sweep:
     """The sweep file at ``path``, checked through: :class:`SweepError` names what is wrong and where."""
     path = Path(path)
     try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
-    except FileNotFoundError:
-        raise SweepError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"{path}: not valid TOML: {exc}") from None
+        _, data = read_toml(path)
+    except ScenarioError as exc:
+        raise SweepError(str(exc)) from None
     return parse_sweep(data, path)
 
 
@@ -111,13 +107,7 @@ def parse_sweep(data: dict[str, Any], path: Path) -> Sweep:
     except ScenarioError as exc:
         raise SweepError(str(exc)) from None
     try:
-        text = scenario_path.read_text(encoding="utf-8")
-        base = tomllib.loads(text)
-    except FileNotFoundError:
-        raise SweepError(f"{source}: field 'scenario': {scenario_path}: no such file") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise SweepError(f"{source}: field 'scenario': {scenario_path}: cannot read it: {exc}") from None
-    try:
+        text, base = read_toml(scenario_path)
         parse(base, str(scenario_path), default_name=scenario_path.stem)
     except ScenarioError as exc:  # the scenario's own message, which names its file
         raise SweepError(f"{source}: field 'scenario': {exc}") from None
