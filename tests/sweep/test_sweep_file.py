@@ -93,6 +93,7 @@ def test_paths_that_lead_nowhere_say_where_they_stopped(path, message):
     ("seeds = [1]\n[grid]\n\"simulation.task_timeout\" = [1.0]\n[[variants]]\n\"simulation.task_timeout\" = 2.0\n",
      "also in \\[grid\\]"),
     ("seeds = [1]\n[grid]\nmanager = [\"a:B\"]\n\"manager.class\" = [\"c:D\"]\n", "names the same field as 'manager'"),
+    ("seeds = [1]\n[[variants]]\nname = \"a\"\n[[variants]]\nname = \"a\"\n", "two are named 'a'"),
 ])
 def test_bad_sweep_files_fail_before_running(tmp_path, text, message):
     with pytest.raises(SweepError, match=message):

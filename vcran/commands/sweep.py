@@ -12,8 +12,13 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+
+if TYPE_CHECKING:
+    from vcran.sweep.spec import Sweep
+    from vcran.sweep.worker import Row
 
 HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
 
@@ -80,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
-def figures(sweep, rows, out: Path, fmt: str, quiet: bool) -> list[Path]:  # type: ignore[no-untyped-def]
+def figures(sweep: Sweep, rows: list[Row], out: Path, fmt: str, quiet: bool) -> list[Path]:
     """The comparison figures, when there is something to compare and matplotlib to draw it."""
     if not sweep.parameters and not sweep.labelled:
         return []

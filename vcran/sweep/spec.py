@@ -116,6 +116,10 @@ def parse_sweep(data: dict[str, Any], path: Path) -> Sweep:
         for key, _ in params:
             if canonical(key) == SEED_PATH:
                 raise SweepError(f"{source}: {key!r}: the seed is swept by 'seeds', not by a path")
+    labels = [label for label, _ in variants if label is not None]
+    if len(set(labels)) != len(labels):
+        twice = next(label for label in labels if labels.count(label) > 1)
+        raise SweepError(f"{source}: [[variants]]: two are named {twice!r}; a name is the variant's label in the table")
     grid_keys = {canonical(k): k for k, _ in grid}
     built: list[Variant] = []
     for label, params in variants or [(None, [])]:
