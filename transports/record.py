@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 import simpy
@@ -21,8 +22,10 @@ class TraceSink(Protocol):
 
 
 class RecordingTransport(Transport):
-    def __init__(self, inner: Transport, writer: TraceSink) -> None:
+    def __init__(self, inner: Transport, writer: TraceSink, *, after_frame: Callable[[], None] | None = None) -> None:
+        """``after_frame`` runs after each telemetry frame is written (live mode flushes the files there)."""
         self.inner, self.writer = inner, writer
+        self._after_frame = after_frame
         self._env: simpy.Environment | None = None
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
@@ -37,6 +40,8 @@ class RecordingTransport(Transport):
     def send(self, out: Outbound) -> None:
         if isinstance(out, Frame):
             self.writer.frame(out)
+            if self._after_frame is not None:
+                self._after_frame()
         else:
             self.writer.publish(out)
         self.inner.send(out)

@@ -28,6 +28,7 @@ from vcran.io.scenario_file import ScenarioError, load
 from vcran.io.trace import telemetry
 from vcran.runner import EventLog, run_model, trace_writer, write_summary
 from vcran.sim.loop import ClosedLoop
+from vcran.sim.model import Model
 
 #: What names a fleet manager: an instance, a FleetManager subclass, or ``"module:Class"``.
 ManagerLike = FleetManager | type[FleetManager] | str
@@ -112,8 +113,10 @@ def run(
     manager: ManagerLike | None = None,
     out: str | Path | None = None,
     progress: Callable[[float, int], None] | None = None,
+    on_start: Callable[[Model], None] | None = None,
 ) -> Result:
-    """:func:`simulate`, with a progress observer (what ``vcran run`` shows)."""
+    """:func:`simulate`, with a progress observer (what ``vcran run`` shows) and ``on_start``, called with
+    the model before it runs (``vcran run`` stops it there on a signal)."""
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
     fleet_manager, name = build_manager(manager, sc)
     folder = Path(out) if out is not None else None
@@ -133,7 +136,7 @@ def run(
         transport = loop = ClosedLoop(sc, fleet_manager, events.write)
         options = {"transport": "loop", "manager": name, "link": sc.link.as_dict()}
     trace = trace_writer(sc, folder, options) if folder is not None else Frames()
-    model, wall = run_model(sc, transport, trace, events, progress=progress)
+    model, wall = run_model(sc, transport, trace, events, progress=progress, on_start=on_start)
     summary = model.summary()
     if loop is not None:
         t = model.env.now

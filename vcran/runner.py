@@ -35,6 +35,9 @@ class EventLog:
         self._f.write(dumps({"t": t, "robot": robot, "event": name, **fields}) + b"\n")
         self.count += 1
 
+    def flush(self) -> None:
+        self._f.flush()
+
     def close(self) -> None:
         self._f.close()
 
@@ -65,16 +68,25 @@ def run_to(
     env: simpy.Environment | None = None,
     on_start: Callable[[Model], None] | None = None,
     progress: Callable[[float, int], None] | None = None,
+    flush_every_tick: bool = False,
 ) -> RunResult:
     """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
 
     ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
     (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
+    ``flush_every_tick`` (live mode) hands the trace, telemetry and events to the operating system at
+    every telemetry tick, so that a run killed outright keeps its recording up to its last tick.
     """
     out.mkdir(parents=True, exist_ok=True)
     events = EventLog(out / "events.jsonl")
-    model, wall = run_model(scenario, transport, trace_writer(scenario, out, options), events,
-                            env=env, on_start=on_start, progress=progress)
+    writer = trace_writer(scenario, out, options)
+
+    def flush() -> None:
+        writer.flush()
+        events.flush()
+
+    model, wall = run_model(scenario, transport, writer, events, env=env, on_start=on_start, progress=progress,
+                            after_frame=flush if flush_every_tick else None)
     summary = model.summary()
     write_summary(out, summary)
     return RunResult(summary, events.count, wall, model)
@@ -104,10 +116,12 @@ def run_model(
     env: simpy.Environment | None = None,
     on_start: Callable[[Model], None] | None = None,
     progress: Callable[[float, int], None] | None = None,
+    after_frame: Callable[[], None] | None = None,
 ) -> tuple[Model, float]:
     """Build the model, run it to its end with every message recorded into ``trace`` and every event into
-    ``events``, close both; return the model and the wall-clock seconds it took."""
-    recording = RecordingTransport(transport, trace)
+    ``events``, close both; return the model and the wall-clock seconds it took. ``after_frame`` runs
+    after each telemetry frame is recorded."""
+    recording = RecordingTransport(transport, trace, after_frame=after_frame)
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)

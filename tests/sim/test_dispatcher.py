@@ -85,3 +85,21 @@ def test_a_robot_freed_by_a_failed_job_takes_the_next_one():
     jobs = job(0, "doomed", pickup="b", dropoff="a") + job(1, "fine")
     result = vcran.simulate(scenario(jobs), manager=Dispatcher(max_tries=1))
     assert [r.outcome for r in result.jobs] == ["failed", "completed"]
+
+
+def test_a_failed_pickup_waits_before_its_retry_so_a_producing_station_can_catch_up():
+    from dataclasses import replace
+
+    base = scenario(job(0, "j1"), parts=0)
+    producing = replace(base, stations=tuple(replace(s, produce_every=30.0) if s.id == "a" else s
+                                             for s in base.stations))  # the first part appears at t = 30
+    eager = vcran.simulate(producing, manager=Dispatcher(retry_after=0.0))  # three loads before t = 30
+    assert eager.job("j1").outcome == "failed"
+    patient = vcran.simulate(producing, manager=Dispatcher())  # waits 10 s, then 20 s
+    assert patient.job("j1").outcome == "completed"
+    assert patient.job("j1").tasks == ("j1_pick1", "j1_pick2", "j1_pick3", "j1_drop3")  # n = tries + 1
+    cancels = [e["t"] for e in of(patient, "task_cancelled")]
+    retries = [e["t"] for e in of(patient, "job_assigned")][1:3]
+    # the manager learns of a cancel at the next status tick (<= 1 s) plus the link's 50 ms
+    for cancelled, retried, wait in zip(cancels, retries, (10.0, 20.0), strict=True):
+        assert cancelled + wait <= retried <= cancelled + wait + 1.05

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError, load_scenario
+from vcran.commands._signals import StopSignals
 
 if TYPE_CHECKING:
     from vcran.api import Result
@@ -39,13 +40,27 @@ def run(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
+    models = []
+
+    def progress(now: float, tasks_done: int) -> None:
+        # the telemetry tick is the safe point to act on a signal (never inside a write or an event)
+        if bar is not None:
+            bar(now, tasks_done)
+        if signals.requested is not None and models:
+            models.pop().stop()
+
     try:
-        result = simulate(scenario, manager=args.manager, out=args.out, progress=bar)
+        with StopSignals() as signals:
+            result = simulate(scenario, manager=args.manager, out=args.out, progress=progress, on_start=models.append)
     except (ScenarioError, ManagerError) as exc:
         raise CommandError(str(exc)) from None
     finally:
         if bar is not None:
             bar.close()
+    if signals.requested is not None:
+        print(f"vcran run: stopped by {signals.name} at t={result.summary['sim_time']:g} s; "
+              f"outputs up to then in {args.out}/", file=sys.stderr)
+        return signals.exit_code
     if not args.quiet:
         print_summary(result, args.out)
     if args.report:

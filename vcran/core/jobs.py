@@ -131,6 +131,41 @@ class JobBook:
         self.open -= 1
 
 
+def waiting_spans(events: list[dict[str, Any]], end: float) -> list[tuple[str, float, float]]:
+    """``(job, from, to)`` from a closed-loop run's events (docs/outputs.md): a job waits for a robot
+    from its arrival, and again from its latest task's cancellation, until the manager sends a task for
+    it or reports it ended; a span still open at ``end`` ends there. The loop property "no robot idles
+    while a job waits" (:mod:`vcran.testing.loop`) and the report's fleet figure both count this way."""
+    since: dict[str, float] = {}
+    latest: dict[tuple[str, str], str] = {}  # (robot, task) -> job, for the job's latest task
+    spans = []
+
+    def stop(job: str, t: float) -> None:
+        start = since.pop(job, None)
+        if start is not None:
+            spans.append((job, start, t))
+
+    for e in events:
+        kind = e["event"]
+        if kind == "job_arrived":
+            since[e["job"]] = e["t"]
+        elif kind == "job_assigned":
+            stop(e["job"], e["t"])
+            for key in [k for k, j in latest.items() if j == e["job"]]:
+                del latest[key]
+            latest[(e["robot"], e["task"])] = e["job"]
+        elif kind in ("job_completed", "job_failed"):
+            stop(e["job"], e["t"])
+            for key in [k for k, j in latest.items() if j == e["job"]]:
+                del latest[key]
+        elif kind == "task_cancelled":
+            job = latest.pop((e["robot"], e["task"]), None)
+            if job is not None:
+                since[job] = e["t"]
+    spans += [(job, start, end) for job, start in since.items()]
+    return spans
+
+
 def quantile(ordered: list[float], q: float) -> float:
     """The ``q`` quantile of sorted values, interpolating linearly between the two nearest ranks (the
     definition numpy and pandas use by default): rank ``q * (n - 1)`` counted from 0."""

@@ -8,10 +8,12 @@
   completed, drive to the drop-off's dock and ``unload``. When the second completes, the job is done.
 * How a task ended comes from the robot's ``ran_status``: the ids of recently completed tasks, and of
   cancelled ones with the reason (``timeout``, ``action_failed``, ``cancelled``, ...).
-* A cancelled task costs the job one try. A failed pickup puts the job back in the queue at its old
-  place (the robot is idle again, and the next dispatch may choose another one); a failed drop-off is
-  retried by the same robot, which still carries the part. After ``max_tries`` cancelled tasks the job
-  is reported failed.
+* A cancelled task costs the job one try. The retry waits ``retry_after`` seconds, doubled for each
+  further try (10, 20, 40 s by default): a pickup at an empty station fails within seconds, and
+  retrying at once would burn every try before the station produces a part. A failed pickup frees the
+  robot at once (it may take other jobs meanwhile) and puts the job back in the queue at its old place
+  when the wait is over; a failed drop-off is sent again to the same robot, which still carries the
+  part. After ``max_tries`` cancelled tasks the job is reported failed.
 """
 
 from __future__ import annotations
@@ -44,14 +46,17 @@ class Trip:
 
 
 class Dispatcher(FleetManager):
-    """FIFO jobs, nearest idle robot, re-planning after a cancelled task, failure after ``max_tries``."""
+    """FIFO jobs, nearest idle robot, re-planning after a cancelled task (with back-off), failure after
+    ``max_tries``."""
 
     attributes = frozenset({"ran_status"})
 
-    def __init__(self, max_tries: int = 3) -> None:
+    def __init__(self, max_tries: int = 3, retry_after: float = 10.0) -> None:
         if max_tries < 1:
             raise ValueError(f"max_tries must be at least 1, got {max_tries}")
-        self.max_tries = max_tries
+        if retry_after < 0:
+            raise ValueError(f"retry_after must not be negative, got {retry_after}")
+        self.max_tries, self.retry_after = max_tries, retry_after
 
     def on_start(self) -> None:
         self.queue: list[Trip] = []                      # jobs waiting for a robot, head first
@@ -111,11 +116,18 @@ class Dispatcher(FleetManager):
         if trip.tries >= self.max_tries:
             self.handle.job_failed(trip.job, reason)  # the last task's reason; the event counts the tasks
             self.release(robot)
-        elif trip.phase == DROPOFF:
-            self.send(robot, trip)  # the robot still carries the part
+            return
+        wait = self.retry_after * 2 ** (trip.tries - 1)
+        if trip.phase == DROPOFF:
+            self.handle.call_later(wait, self.send, robot, trip)  # the robot still carries the part
         else:
-            bisect.insort(self.queue, trip, key=lambda t: t.order)
             self.release(robot)
+            self.handle.call_later(wait, self.requeue, trip)
+
+    def requeue(self, trip: Trip) -> None:
+        """``trip``'s wait after a failed pickup is over: back in the queue at its old place."""
+        bisect.insort(self.queue, trip, key=lambda t: t.order)
+        self.dispatch()
 
     # --- actions ------------------------------------------------------------------------------------------
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import random
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import Any, Protocol
 
 import simpy
 
@@ -31,6 +31,18 @@ from vcran.sim.link import Link
 from vcran.sim.timing import JOB, TIMER, at
 
 
+class ManagerLink(Protocol):
+    """What a closed loop needs of the link between its manager and the robots (:class:`Link`, or Orion)."""
+
+    def write(self, robot: str, attribute: str, message: Message | None, raw: Any = None) -> None: ...
+
+    @property
+    def inbound_idle(self) -> bool: ...
+
+    @property
+    def outbound_idle(self) -> bool: ...
+
+
 class ClosedLoop(Transport):
     """The RAN's transport in a closed loop. ``log`` receives the ``job_*`` events (events.jsonl)."""
 
@@ -38,7 +50,7 @@ class ClosedLoop(Transport):
         self.scenario, self.manager = scenario, manager
         self.fleet = Fleet.of(scenario)
         self.jobs = JobBook(log)
-        self.link: Link | None = None
+        self.link: ManagerLink | None = None
         self.handle: SimHandle | None = None
         self.timers = 0
         self._workload: Iterator[Job] = scenario.workload()
@@ -51,15 +63,21 @@ class ClosedLoop(Transport):
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         seed = self.scenario.settings.seed
-        self.link = Link(env, self.fleet.robot_ids, self.scenario.link, random.Random(f"link:{seed}"), deliver,
-                         self._notified)
+        self.link = self.make_link(env, deliver)
         self.handle = SimHandle(env, self, random.Random(f"manager:{seed}"))
         self.manager._bind(self.fleet, self.handle)
         self._next_job(env)
         self._call("on_start")
 
+    def make_link(self, env: simpy.Environment, deliver: Deliver) -> ManagerLink:
+        """The link between manager and RAN: Orion in simulated time. ``vcran manage`` puts a real Orion
+        here (:class:`transports.orion.manage.OrionLink`): anything with :meth:`Link.write`,
+        ``inbound_idle`` and ``outbound_idle`` that calls :meth:`notified` with what reaches the manager."""
+        return Link(env, self.fleet.robot_ids, self.scenario.link, random.Random(f"link:{self.scenario.settings.seed}"),
+                    deliver, self.notified)
+
     def send(self, out: Outbound) -> None:
-        assert self.link is not None
+        assert isinstance(self.link, Link)
         self.link.publish(out)
 
     @property
@@ -84,7 +102,7 @@ class ClosedLoop(Transport):
         self._call("on_job", job)
         self._next_job(env)
 
-    def _notified(self, batch: list[Outbound]) -> None:
+    def notified(self, batch: list[Outbound]) -> None:
         """One batch of the RAN's publications reaches the manager: Orion's view changes, and the
         manager is notified of each actual change of an attribute it subscribed to."""
         assert self.handle is not None
@@ -120,7 +138,7 @@ class ClosedLoop(Transport):
         self._frame = frame
 
     def latest(self, robot: str, attribute: str) -> Message | None:
-        if attribute == "current_motion":
+        if attribute == "current_motion" and self._frame is not None:
             return self.motion(robot)
         return self._latest.get((robot, attribute))
 
