@@ -70,6 +70,37 @@ def test_a_campaign_on_dask_stops_at_the_first_failure_which_its_seed_reproduces
     assert f"rule violated after {tried} examples" in alone_err  # the campaign counted nothing past that search
 
 
+@pytest.mark.slow
+def test_a_fleet_managers_campaign_runs_on_local_processes_and_saves_a_scenario_naming_its_search(tmp_path, capsys):
+    """A manager that never replans a failed task (tests/testing/loop_managers.py) leaves a job open
+    (SPEC §9's loop property); the worker processes import it by name, as a Dask worker would. Each
+    search shrinks its failure (~130 runs), so the campaign is two searches of one example."""
+    from dataclasses import replace
+
+    import vcran
+    from vcran.io.scenario_toml import dumps, loop_dict
+    from vcran.testing.loop import check_jobs_ended
+
+    warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    small = replace(warehouse, robots=warehouse.robots[:2], settings=replace(warehouse.settings, duration=400.0))
+    scenario = tmp_path / "small.toml"
+    scenario.write_text(dumps(loop_dict(small)))
+    manager = "tests.testing.loop_managers:NeverReplans"
+    saved = tmp_path / "fail.toml"
+    assert main(["fuzz", str(scenario), "--manager", manager, "--jobs", "3", "--horizon", "30", "--examples", "2",
+                 "--seed", "1", "--workers", "2", "--save", str(saved)]) == 1
+    err = capsys.readouterr().err
+    assert "as 2 searches (seeds 1..2) on 2 local processes" in err and f"{manager} broke a loop property" in err
+    text = saved.read_text()
+    first = text.splitlines()[0]
+    assert first.startswith(f"# vcran fuzz {scenario} --manager {manager} --examples 1 --seed ")
+    assert "# violation: job" in text
+    failing = vcran.load_scenario(saved)
+    assert failing.manager.path == manager
+    assert check_jobs_ended(vcran.simulate(failing)) and not check_jobs_ended(
+        vcran.simulate(failing, manager=vcran.managers.Dispatcher))
+
+
 @pytest.mark.parametrize(("argv", "message"), [
     (["--workers", "0"], "--workers must be at least 1"),
     (["--workers", "2", "--cluster", "tcp://127.0.0.1:9"], "--workers and --cluster exclude each other"),

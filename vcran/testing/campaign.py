@@ -1,6 +1,8 @@
 """One fuzz search as a pure function of plain data: scenario text, search seed, examples -> outcome.
 
-``vcran fuzz`` runs one search in this process, or, with ``--workers``/``--cluster`` (SPEC §10), many
+A search perturbs a scenario's message script and checks the rules (:func:`search`), or varies a
+closed loop's workload, stock and link and checks its fleet manager (:func:`search_loop`). ``vcran fuzz``
+runs one search in this process, or, with ``--workers``/``--cluster`` (SPEC §10), many
 searches with consecutive seeds on a pool, each exactly what ``vcran fuzz --seed S --examples M`` runs
 alone: a campaign's failure is reproduced by its chunk's command line as well as by the saved scenario.
 The search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random``
@@ -13,10 +15,11 @@ import random
 import tempfile
 import time
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
-from vcran.core.scenario import Scenario
+from vcran.core.scenario import ManagerSpec, Scenario
 from vcran.io.scenario_file import parse
 from vcran.testing.checks import run_variant
 from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
@@ -48,9 +51,21 @@ class Outcome:
 
 @dataclass(frozen=True, slots=True)
 class Failure:
-    #: The shrunk perturbations (plain frozen dataclasses): ``perturbed_toml(base, ops)`` is the script.
-    ops: list[Perturbation]
     problems: tuple[str, ...]
+    #: A script's search: the shrunk perturbations (plain frozen dataclasses); ``perturbed_toml(base, ops)``.
+    ops: list[Perturbation] | None = None
+    #: A fleet manager's search: the shrunk failing scenario as plain data (``scenario_toml.dumps`` writes it).
+    scenario: dict[str, Any] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class LoopOptions:
+    """How a fleet manager is fuzzed (``vcran fuzz`` --manager, --jobs, --horizon, --idle-bound)."""
+
+    manager: str | None = None
+    max_jobs: int = 8
+    horizon: float = 300.0
+    bound: float = 60.0
 
 
 def base_scenario(text: str, source: str) -> Scenario:
@@ -84,8 +99,31 @@ def search(text: str, source: str, seed: int, examples: int, options: Options = 
     except NoSuchExample:
         return Outcome(seed, examples, calls["generated"], 0, time.perf_counter() - start)
     wall = time.perf_counter() - start
-    failure = Failure(minimal, tuple(check(base, minimal, options)))
+    failure = Failure(tuple(check(base, minimal, options)), ops=minimal)
     return Outcome(seed, examples, calls["generated"], calls["shrinking"], wall, failure)
+
+
+def search_loop(text: str, source: str, seed: int, examples: int, options: LoopOptions) -> Outcome:
+    """Search for a workload, stock and link under which the fleet manager (``options.manager``, else the
+    scenario's own) breaks a loop property (:func:`vcran.testing.loop.fuzz_manager`)."""
+    from vcran.io.scenario_toml import loop_dict
+    from vcran.testing.loop import fuzz_manager
+
+    base = loop_base(text, source, options.manager)
+    start = time.perf_counter()
+    finding = fuzz_manager(base, None, examples=examples, seed=seed, bound=options.bound,
+                           max_jobs=options.max_jobs, horizon=options.horizon)
+    wall = time.perf_counter() - start
+    if finding is None:
+        return Outcome(seed, examples, examples, 0, wall)
+    failure = Failure(tuple(finding.problems), scenario=loop_dict(finding.scenario))
+    return Outcome(seed, examples, finding.examples, finding.shrinks, wall, failure)
+
+
+def loop_base(text: str, source: str, manager: str | None) -> Scenario:
+    """The closed-loop scenario a manager's search varies, with ``manager`` in place of its own."""
+    base = base_scenario(text, source)
+    return replace(base, manager=ManagerSpec(manager)) if manager is not None else base
 
 
 def check(base: Scenario, ops: list[Perturbation], options: Options) -> list[str]:
