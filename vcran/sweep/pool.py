@@ -3,9 +3,10 @@ pool, or a Dask cluster (SPEC §10). All three take the same plain-data jobs and
 finish; a job's result is whatever the function returned, or the exception that stopped it.
 
 The local pool is :class:`concurrent.futures.ProcessPoolExecutor` with the ``forkserver`` start method
-(``spawn`` where there is none: no forked copies of a parent's threads and locks). Its workers ignore SIGINT, so
-Ctrl-C reaches only this process, which stops the pool and keeps what is done. Past one machine, a Dask
-``distributed`` client does the same job over a scheduler's workers: vcran brings no scheduler of its own.
+(``spawn`` where there is none: no forked copies of a parent's threads and locks). Its workers ignore
+SIGINT, so Ctrl-C reaches only this process, which stops the pool and keeps what is done. Past one
+machine, a Dask ``distributed`` client does the same job over a scheduler's workers: vcran brings no
+scheduler of its own.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ class Pool(Protocol):
     name: str
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
-        """Submit every job now; the returned iterator yields (position in ``jobs``, result or
-        exception) in the order they finish."""
+        """Start the jobs (a pool submits them all at once, this process one by one as the iterator is
+        read); the iterator yields (position in ``jobs``, result or exception) in the order they finish."""
         ...
 
     def stop(self) -> None:
@@ -83,6 +84,10 @@ class InProcess:
         pass
 
 
+#: Modules a fork server imports once, before it forks the workers: what every job needs.
+PRELOAD = ["vcran.sweep.worker"]
+
+
 def _context() -> Any:
     """``forkserver`` where the OS has it: a clean server process (no parent threads or locks, unlike
     ``fork``) that imported vcran once and forks each worker ready to run, where ``spawn`` makes every
@@ -98,11 +103,9 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-#: Modules a fork server imports once, before it forks the workers: what every job needs.
-PRELOAD = ["vcran.sweep.worker"]
-
-
 class LocalPool:
+    """Jobs on ``workers`` processes of this machine, each job pickled to a free worker."""
+
     def __init__(self, workers: int) -> None:
         self.name = f"{workers} local processes"
         self._executor = ProcessPoolExecutor(workers, mp_context=_context(), initializer=_ignore_sigint)

@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from vcran.sweep.pool import Pool, open_pool
 from vcran.sweep.spec import RunSpec, Sweep, load
@@ -95,12 +94,9 @@ def head(sweep: Sweep) -> list[str]:
 def row(sweep: Sweep, spec: RunSpec, result: Row | BaseException) -> Row:
     """The table row of run ``spec``: its identity and parameters, then what ``run_one`` returned (or,
     when the pool lost the run, a worker that died, the error that says so)."""
-    head: dict[str, Any] = {"run": spec.index, "variant": spec.variant.index}
-    if sweep.labelled:
-        head["label"] = spec.variant.label
     chosen = dict(spec.variant.params)
-    head.update({name: chosen.get(name) for name in sweep.parameters})
-    head["seed"] = spec.seed
+    identity = {"run": spec.index, "variant": spec.variant.index, "label": spec.variant.label, "seed": spec.seed}
+    first = {name: identity[name] if name in identity else chosen.get(name) for name in head(sweep)}
     if isinstance(result, BaseException):
-        return {**head, "error": f"{type(result).__name__}: {result}".strip(), "wall_seconds": None}
-    return {**head, **result}
+        return {**first, "error": f"{type(result).__name__}: {result}".strip(), "wall_seconds": None}
+    return {**first, **result}

@@ -2,11 +2,11 @@
 
 A search perturbs a scenario's message script and checks the rules (:func:`search`), or varies a
 closed loop's workload, stock and link and checks its fleet manager (:func:`search_loop`). ``vcran fuzz``
-runs one search in this process, or, with ``--workers``/``--cluster`` (SPEC §10), many
-searches with consecutive seeds on a pool, each exactly what ``vcran fuzz --seed S --examples M`` runs
-alone: a campaign's failure is reproduced by its chunk's command line as well as by the saved scenario.
-The search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random``
-seeded by the search seed, so one seed always tries the same examples and shrinks to the same script.
+runs one search in this process, or, with ``--workers``/``--cluster`` (SPEC §10), many searches with
+consecutive seeds on a pool, each exactly what ``vcran fuzz --seed S --examples M`` runs alone: a
+campaign's failure is reproduced by its search's command line as well as by the saved scenario. A
+search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random`` seeded
+by the search seed, so one seed always tries the same examples and shrinks to the same failure.
 """
 
 from __future__ import annotations
@@ -37,8 +37,7 @@ class Options:
 
 @dataclass(frozen=True, slots=True)
 class Outcome:
-    """What one search found. ``failure`` is None when every example ran clean; else the minimal
-    perturbations and the violations they cause."""
+    """What one search found: ``failure`` is None when every example ran clean."""
 
     seed: int
     #: Examples asked for (``--examples`` of the search) and examples tried before the end or a failure.
@@ -51,6 +50,8 @@ class Outcome:
 
 @dataclass(frozen=True, slots=True)
 class Failure:
+    """A search's shrunk failure: the violations, and what to write as the failing scenario file."""
+
     problems: tuple[str, ...]
     #: A script's search: the shrunk perturbations (plain frozen dataclasses); ``perturbed_toml(base, ops)``.
     ops: list[Perturbation] | None = None
