@@ -82,7 +82,7 @@ def test_a_fleet_managers_campaign_runs_on_local_processes_and_saves_a_scenario_
     from vcran.testing.loop import check_jobs_ended
 
     warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
-    small = replace(warehouse, robots=warehouse.robots[:2], settings=replace(warehouse.settings, duration=400.0))
+    small = replace(warehouse, robots=warehouse.robots[:1], settings=replace(warehouse.settings, duration=120.0))
     scenario = tmp_path / "small.toml"
     scenario.write_text(dumps(loop_dict(small)))
     manager = "tests.testing.loop_managers:NeverReplans"
