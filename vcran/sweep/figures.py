@@ -33,12 +33,13 @@ def draw(sweep: Sweep, rows: list[Row], out: Path, fmt: str = "png") -> list[Pat
     files = []
     for p in parameters:
         path = out / f"kpi-by-{_slug(p)}.{fmt}"
-        _figure(sweep, ok, p, [q for q in parameters if q != p], kpis, path)
+        save(figure(sweep, ok, p, [q for q in parameters if q != p], kpis), path)
         files.append(path)
     return files
 
 
-def _figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpis: list[str], path: Path) -> None:
+def figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpis: list[str]) -> Any:
+    """The matplotlib ``Figure`` of ``kpis`` against ``parameter``, one line per combination of ``others``."""
     from matplotlib.figure import Figure
 
     xs = list(dict.fromkeys(_key(r[parameter]) for r in rows))
@@ -87,7 +88,7 @@ def _figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kp
                         hspace=0.55, wspace=0.25)
     if others:
         fig.legend(loc="lower center", fontsize=7, frameon=False, ncols=1)
-    save(fig, path)
+    return fig
 
 
 def _key(value: Any) -> str:
