@@ -92,6 +92,7 @@ def main() -> int:
     from distributed import LocalCluster
 
     figures: dict[str, float] = {}
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="vcran-bench-sweep-") as tmp:
         folder = Path(tmp)
         fleet, tiny = load(sweep_file(folder, args.runs)), load(tiny_file(folder, args.tiny))
@@ -111,7 +112,8 @@ def main() -> int:
     load_average = os.getloadavg()[0]
     per_run = figures["one"] / runs
     print(f"## Sweep: {runs} runs of the 10-robot hour (vcran gen --robots 10 --hours 1), {os.cpu_count()} cores, "
-          f"load average {load_average:.1f} at the end, least of {args.repeat} interleaved rounds\n")
+          f"load average {load_before:.1f} before and {load_average:.1f} at the end (this benchmark's own processes "
+          f"count), least of {args.repeat} interleaved rounds\n")
     print("| pool | wall s | s per run | speed-up vs 1 worker |")
     print("|---|---|---|---|")
     for key, name in (("one", "1 worker (this process)"), ("pool", "2 local processes"),
