@@ -1,29 +1,28 @@
 """Shared test helpers (run a scenario written inline as TOML, read its outputs back) and suite settings.
 
-Hypothesis runs without a per-example deadline and without the too_slow health check: CI tests a fresh
-clone (no .hypothesis cache, so the first text draw builds Unicode tables) on a shared machine whose
-load varies, and neither timing says anything about vcran's behaviour.
+Hypothesis runs with the ``vcran`` profile of vcran's own pytest plugin (:mod:`vcran.testing.pytest_plugin`,
+the one users opt into): no per-example deadline, no too_slow health check. ``pytest
+--hypothesis-profile=vcran-deep`` overrides it for a long campaign (hypothesis loads a profile given on the
+command line after this file).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
-from hypothesis import HealthCheck, settings
+from hypothesis import settings
 
 from transports.scripted import ScriptedTransport
 from vcran.core.scenario import Scenario
 from vcran.io.scenario_file import parse
 from vcran.runner import run_to
 
-settings.register_profile("vcran", deadline=None, suppress_health_check=[HealthCheck.too_slow])
-settings.load_profile("vcran")
+settings.load_profile("vcran")  # registered by the plugin, which pytest loaded before this file
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = Path(__file__).resolve().parent / "data"
@@ -63,15 +62,3 @@ def run_toml(tmp_path: Path):
         return run_scenario(scenario, tmp_path / f"run{next(counter)}")
 
     return run
-
-
-# --- hypothesis profiles (docs/fuzzing.md) ------------------------------------------------------------------
-# ``ci`` (the default) keeps the whole fuzz set well under a minute on two cores; ``deep`` is for long
-# campaigns: ``pytest --hypothesis-profile=deep`` or ``VCRAN_HYPOTHESIS_PROFILE=deep pytest``. Both build on
-# the ``vcran`` profile above (no deadline). The example database (.hypothesis/) replays earlier failures
-# first; it stays out of git.
-
-settings.register_profile("ci", parent=settings.get_profile("vcran"), max_examples=100, stateful_step_count=50)
-settings.register_profile("deep", parent=settings.get_profile("vcran"), max_examples=5_000,
-                          stateful_step_count=120)
-settings.load_profile(os.environ.get("VCRAN_HYPOTHESIS_PROFILE", "ci"))

@@ -15,7 +15,8 @@ def _readme_files() -> set[str]:
     files = set()
     for folder, modules in re.findall(r"^\| `(vcran/[^`]*)` \| ([^|]+) \|", section, flags=re.M):
         for name in re.findall(r"`([^`]+)`", modules):
-            files.add(folder + (name if "." in name else name + ".py"))
+            # `name.ext` is a file, `name/` a link to a folder (git lists it as one entry), `name` a module
+            files.add(folder + (name if "." in name else name[:-1] if name.endswith("/") else name + ".py"))
     return files
 
 

@@ -119,6 +119,7 @@ def run(
     the model before it runs (``vcran run`` stops it there on a signal)."""
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
     fleet_manager, name = build_manager(manager, sc)
+    _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
     folder = Path(out) if out is not None else None
     if folder is not None:
         folder.mkdir(parents=True, exist_ok=True)
@@ -126,13 +127,9 @@ def run(
     transport: Transport
     loop: ClosedLoop | None = None
     if fleet_manager is None:
-        if sc.has_workload:
-            raise ScenarioError(f"{sc.source}: the scenario has jobs but no fleet manager to give them to: name one "
-                                "in [manager] or pass one (--manager module:Class)")
         transport = ScriptedTransport(sc.messages())
         options: dict[str, Any] = {"transport": "scripted"}
     else:
-        _check_closed_loop(sc)
         transport = loop = ClosedLoop(sc, fleet_manager, events.write)
         options = {"transport": "loop", "manager": name, "link": sc.link.as_dict()}
     trace = trace_writer(sc, folder, options) if folder is not None else Frames()
@@ -151,7 +148,13 @@ def run(
                   trace.frames if isinstance(trace, Frames) else None)
 
 
-def _check_closed_loop(sc: Scenario) -> None:
+def _check_mode(sc: Scenario, managed: bool) -> None:
+    """A scenario with jobs needs a manager; a manager needs a scenario without a script, with a duration."""
+    if not managed:
+        if sc.has_workload:
+            raise ScenarioError(f"{sc.source}: the scenario has jobs but no fleet manager to give them to: name one "
+                                "in [manager] or pass one (--manager module:Class)")
+        return
     if sc.script or sc.cycles:
         raise ScenarioError(f"{sc.source}: a fleet manager plays the fleet manager's part; this scenario has a "
                             "[[script]] that would play it too (remove one)")

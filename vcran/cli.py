@@ -3,15 +3,25 @@
 Each command module exposes ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``.
 Command modules import their heavy dependencies inside ``run`` so that ``vcran --help`` and the fast
 commands start quickly; the CLI is the one place that wires scenario, environment and transport together.
+
+:func:`main` is the one error boundary (README "Exit status"): whatever a command cannot do because of its
+input or its surroundings ends as one line ``vcran COMMAND: message`` on stderr and exit status 2, never a
+traceback. Commands say what went wrong with :class:`~vcran.commands.CommandError`; a file or folder the
+system refuses (missing, a folder where a file was meant, read-only, a full disk) is an ``OSError`` that
+reaches this boundary and is worded here. Anything else is a bug in vcran: one line too, exit status 70,
+and ``VCRAN_DEBUG=1`` shows its traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
+from vcran import __version__
 from vcran.commands import CommandError
 from vcran.commands._signals import Terminated, terminate_like_interrupt
 
@@ -29,17 +39,33 @@ COMMANDS: dict[str, str] = {
     "report": "report",
     "broker": "broker",
     "decode": "decode",
+    "schema": "schema",
 }
+
+#: Exit statuses (README "Exit status"); argparse's usage errors are 2 as well.
+OK, FOUND, BAD_INPUT, BUG, INTERRUPTED, TERMINATED = 0, 1, 2, 70, 130, 143
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the boundary's manners: a usage error is one line ``vcran COMMAND: message`` (the
+    usage itself is one ``--help`` away), exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The parser; with ``only``, just that command's module is imported (the others stay known by
     name): start-up time counts when ``vcran run`` of a small scenario takes well under a second."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vcran",
         description="Headless, deterministic fleet simulator for FIWARE/OPIL robot fleets (VC-RAN).",
+        epilog="Exit status: 0 done; 1 done, and it found what it looks for (a difference, a rule violation, "
+               "a refused message, a fleet manager that raised); 2 bad input or usage; 70 a bug in vcran; "
+               "130 interrupted (Ctrl-C); 143 terminated (SIGTERM).",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    parser.add_argument("--version", action="version", version=f"vcran {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, title="commands")
     for name, module_name in COMMANDS.items():
         if only is not None and name != only:
             sub.add_parser(name)
@@ -53,23 +79,66 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser(argv[0] if argv and argv[0] in COMMANDS else None).parse_args(argv)
+    if not argv:  # a bare `vcran` asks what there is
+        build_parser().print_help()
+        return OK
+    args = build_parser(argv[0] if argv[0] in COMMANDS else None).parse_args(argv)
     try:
         with terminate_like_interrupt():  # SIGTERM ends any command as Ctrl-C does
             return int(args._run(args) or 0)
     except CommandError as exc:
-        print(f"vcran {args.command}: {exc}", file=sys.stderr)
-        return exc.code
+        return _fail(args.command, str(exc), exc.code)
+    except BrokenPipeError:  # `vcran gen ... | head`: the reader has all it wanted
+        _silence_stdout()
+        return OK
+    except OSError as exc:
+        return _fail(args.command, _os_message(exc), BAD_INPUT)
     except KeyboardInterrupt as exc:
-        print("vcran: interrupted", file=sys.stderr)
-        return 143 if isinstance(exc, Terminated) else 130
-    except TypeError as exc:  # orjson turns a Ctrl-C inside its ``default`` callback into a TypeError
-        if not isinstance(exc.__cause__, KeyboardInterrupt):
+        return _fail(args.command, "interrupted", TERMINATED if isinstance(exc, Terminated) else INTERRUPTED)
+    except Exception as exc:
+        if isinstance(exc, TypeError) and isinstance(exc.__cause__, KeyboardInterrupt):
+            # orjson turns a Ctrl-C inside its ``default`` callback into a TypeError
+            code = TERMINATED if isinstance(exc.__cause__, Terminated) else INTERRUPTED
+            return _fail(args.command, "interrupted", code)
+        if os.environ.get("VCRAN_DEBUG"):
             raise
-        print("vcran: interrupted", file=sys.stderr)
-        return 143 if isinstance(exc.__cause__, Terminated) else 130
-    except BrokenPipeError:
-        return 0
+        from vcran.sim.loop import manager_note
+
+        note = manager_note(exc)
+        if note is not None:  # the user's fleet manager failed, not vcran
+            return _fail(args.command, f"the fleet manager raised {type(exc).__name__}: {exc} ({note}; VCRAN_DEBUG=1 "
+                                       "shows the traceback)", FOUND)
+        return _fail(args.command, f"internal error (a bug in vcran; VCRAN_DEBUG=1 shows where): "
+                                   f"{type(exc).__name__}: {exc}", BUG)
+
+
+def _fail(command: str, message: str, code: int) -> int:
+    """``vcran COMMAND: message`` as one line on stderr; ``code`` is the exit status."""
+    line = " ".join(part.strip() for part in message.splitlines() if part.strip())
+    print(f"vcran {command}: {line}", file=sys.stderr)
+    return code
+
+
+def _os_message(exc: OSError) -> str:
+    """``path: reason`` in the system's words (``out/x: Permission denied``), without errno numbers."""
+    reason = exc.strerror or str(exc)
+    if exc.filename is None:
+        return reason
+    if exc.filename2 is not None:
+        return f"{exc.filename} -> {exc.filename2}: {reason}"
+    if isinstance(exc, FileExistsError) and not os.path.isdir(exc.filename):
+        reason = "exists and is not a folder"  # mkdir's "File exists" for an --out that is a file
+    return f"{exc.filename}: {reason}"
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's final flush cannot fail again (Python docs,
+    "Note on SIGPIPE")."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout is no file (in-process tests)
+        pass
 
 
 if __name__ == "__main__":

@@ -4,9 +4,11 @@ raw-socket client for requests httpx will not send (no Content-Length, chunked).
 from __future__ import annotations
 
 import socket
+import sys
 import threading
 from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -17,9 +19,43 @@ class Received:
     body: bytes
 
 
+class _Server(ThreadingHTTPServer):
+    """Handler threads are joined on close, so none outlives its test; a request that fails (the
+    broker hung up on a slow answer) is kept in ``errors``, not printed on whatever stderr is current
+    (socketserver's default, which a later test's captured stderr would receive)."""
+
+    daemon_threads = False
+    block_on_close = True
+
+    def __init__(self, *args: object) -> None:
+        super().__init__(*args)  # type: ignore[arg-type]
+        self.errors: list[BaseException] = []
+        self.connections: set[socket.socket] = set()
+
+    def process_request_thread(self, request: Any, client_address: Any) -> None:
+        self.connections.add(request)
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self.connections.discard(request)
+
+    def handle_error(self, request: object, client_address: object) -> None:
+        self.errors.append(sys.exc_info()[1])  # type: ignore[arg-type]
+
+    def server_close(self) -> None:
+        """Ends kept-alive connections (their handlers wait for a next request that a client holding
+        the connection open may never send) but lets a handler answer the request it already read."""
+        for connection in list(self.connections):
+            try:
+                connection.shutdown(socket.SHUT_RD)
+            except OSError:
+                pass
+        super().server_close()  # joins the handler threads
+
+
 class Listener:
     """A notification listener on 127.0.0.1 that answers every request with ``status`` (once ``gate``,
-    if given, is set: a slow listener)."""
+    if given, is set: a slow listener). ``stop()`` returns once every request it took is answered."""
 
     def __init__(self, status: int = 200, gate: threading.Event | None = None) -> None:
         self.received: list[Received] = []
@@ -43,8 +79,7 @@ class Listener:
             def log_message(self, *args: object) -> None:
                 pass
 
-        self._server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self._server.daemon_threads = True
+        self._server = _Server(("127.0.0.1", 0), Handler)
         self.port = self._server.server_address[1]
         self.url = f"http://127.0.0.1:{self.port}/notify"
         self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)

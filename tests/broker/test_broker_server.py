@@ -158,4 +158,8 @@ def test_stop_does_not_wait_for_a_delivery_in_flight() -> None:
     finally:
         broker.stop()
         gate.set()
-        stuck.stop()
+        stuck.stop()  # answers the delivery the broker left in flight, and joins its handler thread
+        for thread in threading.enumerate():  # the delivery's worker ends with it, before the next test
+            if thread.name.startswith("vcran-notifier-"):
+                thread.join(timeout=10)
+                assert not thread.is_alive(), f"{thread.name} outlived its broker"

@@ -114,12 +114,12 @@ def mutated_reference(value: Any, field: str = "byte") -> bytes:
     ],
     ids=["truncated", "not-utf8", "too-deep", "array", "string", "byte-256", "surrogate", "byte-nan", "missing-field", "value-array"],
 )
-def test_decode_bad_input_exits_non_zero_with_the_codec_message(
+def test_decode_bad_input_exits_2_with_the_codec_message(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, data: bytes, message: str
 ) -> None:
     feed_stdin(monkeypatch, data)
     code, out, err = decode(capsys, "-")
-    assert code == 1
+    assert code == 2  # bad input, as in every command (README "Exit status")
     assert out == ""
     assert err.startswith(f"vcran decode: stdin: {message}")
     assert err.count("\n") == 1  # one line, no traceback
@@ -127,7 +127,7 @@ def test_decode_bad_input_exits_non_zero_with_the_codec_message(
 
 def test_decode_missing_file(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     code, out, err = decode(capsys, str(tmp_path / "nope.json"))
-    assert (code, out) == (1, "")
+    assert (code, out) == (2, "")
     assert err == f"vcran decode: {tmp_path / 'nope.json'}: No such file or directory\n"
 
 
@@ -149,5 +149,5 @@ def test_decode_never_crashes(tmp_path: Path, entity: dict[str, Any]) -> None:
     if code == 0:
         assert set(json.loads(out.getvalue())) == set(entity) & set(ATTRIBUTES)
     else:
-        assert code == 1 and out.getvalue() == ""
+        assert code == 2 and out.getvalue() == ""
         assert err.getvalue().startswith(f"vcran decode: {path}: ")

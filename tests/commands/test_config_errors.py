@@ -46,11 +46,12 @@ def test_an_orion_url_that_cannot_work_is_refused_at_start(tmp_path, capsys, com
     ("http://127.0.0.1:70000/notify", "Port out of range"),
     ("http://127.0.0.1:0/notify", "port 0 is no address Orion can send to"),
 ])
-def test_a_malformed_notify_url_is_refused_at_start(tmp_path, capsys, url, says):
+@pytest.mark.parametrize("command", [["live", DEMO], ["manage", "warehouse"]])
+def test_a_malformed_notify_url_is_refused_at_start(tmp_path, capsys, command, url, says):
     out = tmp_path / "out"
-    assert main(["live", DEMO, "--orion", "http://127.0.0.1:1026", "--out", str(out), "--notify-url", url,
+    assert main([*command, "--orion", "http://127.0.0.1:1026", "--out", str(out), "--notify-url", url,
                  "--factor", "1000"]) == 2
-    assert says in one_line_error(capsys, "live")
+    assert says in one_line_error(capsys, command[0])
     assert not out.exists()
 
 
@@ -74,7 +75,8 @@ def test_a_well_formed_but_unreachable_orion_is_ridden_out(tmp_path, capsys):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     scenario = tmp_path / "short.toml"
-    scenario.write_text((ROOT / "scenarios" / "demo.toml").read_text().replace("duration = 600.0", "duration = 3.0"))
+    fleet = (ROOT / "scenarios" / "demo.toml").read_text().split("[[script]]")[0]  # live mode plays no script
+    scenario.write_text(fleet.replace("duration = 600.0", "duration = 3.0"))
     code = main(["live", str(scenario), "--orion", f"http://127.0.0.1:{port}", "--out", str(tmp_path / "o"),
                  "--factor", "10", "--quiet"])
     assert code == 0

@@ -86,7 +86,7 @@ def test_sigterm_ends_any_other_command_like_ctrl_c():
     time.sleep(1.0)
     proc.send_signal(signal.SIGTERM)
     _, stderr = proc.communicate(timeout=20)
-    assert proc.returncode == 143 and stderr.strip().endswith("vcran: interrupted"), stderr
+    assert proc.returncode == 143 and stderr.strip().endswith("vcran gen: interrupted"), stderr
 
 
 def test_a_ctrl_c_inside_orjsons_callback_is_an_interruption_not_a_type_error(monkeypatch, capsys):
@@ -104,4 +104,4 @@ def test_a_ctrl_c_inside_orjsons_callback_is_an_interruption_not_a_type_error(mo
 
     monkeypatch.setattr(run_command, "run", interrupted_in_orjson)
     assert main(["run", str(DEMO), "--out", "unused"]) == 130
-    assert capsys.readouterr().err == "vcran: interrupted\n"
+    assert capsys.readouterr().err == "vcran run: interrupted\n"

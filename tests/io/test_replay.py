@@ -141,3 +141,38 @@ def test_recording_without_duration_replays(demo_run, tmp_path):
     header["fleet"]["simulation"]["until_idle"] = False
     path.write_text("\n".join([json.dumps(header), *lines[1:]]) + "\n")
     assert replay(path, tmp_path / "rep") == 0
+
+
+# --- `vcran replay TRACE --verify` without --out: a temporary folder, removed afterwards ---------------------
+
+
+@pytest.fixture
+def scratch(tmp_path, monkeypatch):
+    """The folder tempfile uses, so that a test sees what a replay left there."""
+    folder = tmp_path / "scratch"
+    folder.mkdir()
+    monkeypatch.setattr("tempfile.tempdir", str(folder))
+    return folder
+
+
+def test_verify_without_out_replays_into_a_temporary_folder_and_removes_it(demo_run, scratch, capsys):
+    before = sorted(p.name for p in demo_run.iterdir())
+    assert main(["replay", str(demo_run / "trace.jsonl"), "--verify"]) == 0
+    out, err = capsys.readouterr()
+    assert "verify: every outbound record, telemetry row and event matches the recording" in out and err == ""
+    assert list(scratch.iterdir()) == []
+    assert sorted(p.name for p in demo_run.iterdir()) == before  # and nothing beside the recording
+
+
+def test_verify_without_out_of_a_run_folder_finds_a_difference_and_still_cleans_up(demo_run, scratch, capsys):
+    rewrite(demo_run / "trace.jsonl", lambda r: r.get("attr") == "ran_status" and r["t"] > 20
+            and r["value"].update(robot_state=99) is None)
+    assert main(["replay", str(demo_run), "--verify", "--quiet"]) == 1
+    assert "robot_state" in capsys.readouterr().err
+    assert list(scratch.iterdir()) == []
+
+
+def test_replay_without_out_or_verify_is_a_usage_error(demo_run, capsys):
+    assert main(["replay", str(demo_run / "trace.jsonl")]) == 2
+    assert capsys.readouterr().err == ("vcran replay: --out DIR is required (with --verify it may be left out: the "
+                                       "replay then goes to a temporary folder)\n")

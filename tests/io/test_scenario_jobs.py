@@ -143,6 +143,9 @@ def test_bad_streams_fail_to_load(more, message):
     ('\n[job_stream]\nmean_interval = 1.0\npickup = ["a", "a"]\ndropoff = ["b"]\n', "names 'a' twice"),
     ('\n[job_stream]\nmean_interval = 1.0\npickup = {a = 0}\ndropoff = ["b"]\n', "positive number"),
     ('\n[job_stream]\nmean_interval = -1.0\npickup = ["a"]\ndropoff = ["b"]\n', "mean_interval"),
+    ('\n[job_stream]\npickup = ["a"]\ndropoff = ["b"]\n', "give exactly one of rate"),  # neither
+    ('\n[[job_stream]]\nrate = 1.0\npickup = ["a"]\ndropoff = ["b"]\n', "job_stream: expected a table, got list"),
+    ('\n[manager]\nclass = "vcran.managers:Dispatcher"\noptions = 3\n', "manager.options: expected a table"),
 ])
 def test_bad_station_choices_fail_to_load(table, message):
     with pytest.raises(ScenarioError, match=message):
@@ -156,7 +159,7 @@ def test_link_defaults_are_subscription_and_50_ms():
 
 @pytest.mark.parametrize("table, message", [
     ("\n[link]\nlatency = 0.0\n", "latency"),
-    ("\n[link]\ninbound = 'carrier pigeon'\n", "expected 'subscription' or 'polling'"),
+    ("\n[link]\ninbound = 'carrier pigeon'\n", "unknown inbound 'carrier pigeon'; known: subscription, polling"),
     ("\n[link]\njitter = -0.1\n", "jitter"),
     ("\n[link]\nloss = 0.1\n", "loss"),
     ("\n[manager]\nclass = 'no colon'\n", "expected 'module:Class'"),
@@ -171,6 +174,11 @@ def test_manager_table_keeps_its_options_for_the_class():
     sc = load("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { max_tries = 5 }\n")
     assert sc.manager is not None
     assert sc.manager.path == "vcran.managers:Dispatcher" and dict(sc.manager.options) == {"max_tries": 5}
+
+
+def test_a_dock_of_the_wrong_shape_fails_to_load():
+    with pytest.raises(ScenarioError, match=r"stations\[0\]: field 'dock': expected \[x, y\] or \[x, y, theta\]"):
+        parse(tomllib.loads(FLEET.replace('position = [0.0, 0.0]', 'position = [0.0, 0.0]\ndock = [1.0]')))
 
 
 def test_station_dock_loads_with_or_without_heading():

@@ -150,17 +150,23 @@ def test_kpis_of_a_summary_written_by_hand():
         "sim_time": 100.0, "errors": 2,
         "robots": {
             "a": {"completed": ["t1", "t2"], "cancelled": [{"task": "t3", "reason": "timeout"}],
-                  "distance": 1.5, "parts_moved": 1},
+                  "distance": 1.5, "parts_moved": 1, "collisions": 1,
+                  "battery": {"charge": 9.75, "percentage": 97.5, "used": 0.25, "charged": 0.0}},
             "b": {"completed": [], "cancelled": [{"task": "t4", "reason": "cancelled"},
-                                                 {"task": "t5", "reason": "timeout"}],
-                  "distance": 2.0, "parts_moved": 0},
+                                                 {"task": "t5", "reason": "timeout"},
+                                                 {"task": "t6", "reason": "collision"}],
+                  "distance": 2.0, "parts_moved": 0, "collisions": 1},  # a and b met once (SPEC §4)
+            "c": {"completed": [], "cancelled": [], "distance": 0.0, "parts_moved": 0,
+                  "battery": {"charge": 9.5, "percentage": 95.0, "used": 0.5, "charged": 0.0}},
         },
         "jobs": {"arrived": 4, "completed": 3, "lead_time": {"mean": 12.5, "p95": None}},
         "utilisation": {"a": 0.5, "b": 0.25, "fleet": 0.375},
     }
     assert worker.kpis(summary) == {
-        "sim_time": 100.0, "tasks_completed": 2, "tasks_cancelled": 3, "cancelled_timeout": 2,
-        "cancelled_cancelled": 1, "cancelled_action_failed": 0, "distance": 3.5, "parts_moved": 1, "errors": 2,
+        "sim_time": 100.0, "tasks_completed": 2, "tasks_cancelled": 4, "cancelled_timeout": 2,
+        "cancelled_cancelled": 1, "cancelled_action_failed": 0, "cancelled_battery_empty": 0,
+        "cancelled_motion_failed": 0, "cancelled_collision": 1, "distance": 3.5, "parts_moved": 1, "errors": 2,
+        "collisions": 1, "battery_used": 0.75,
         "jobs_arrived": 4, "jobs_completed": 3, "jobs_lead_time_mean": 12.5,  # p95 None: an empty cell
         "utilisation": 0.375,
     }

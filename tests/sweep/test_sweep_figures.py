@@ -16,7 +16,7 @@ MADE_UP = {(0.5, 1.5): [0, 1, 2], (0.5, 30.0): [3, 3, 3], (1.0, 1.5): [1, 1, 4],
 
 
 def made_up_rows():
-    sweep = load(ROOT / "scenarios" / "demo-sweep.toml")  # grid: task_timeout [1.5, 30.0] x max_velocity [0.5, 1.0]
+    sweep = load(ROOT / "scenarios" / "sweeps" / "demo-sweep.toml")  # grid: task_timeout [1.5, 30.0] x max_velocity [0.5, 1.0]
     rows = []
     for spec in sweep.runs():
         params = dict(spec.variant.params)
@@ -64,3 +64,14 @@ def test_failed_runs_are_left_out_and_a_figure_per_parameter_is_written(tmp_path
     assert [f.name for f in files] == ["kpi-by-simulation.task_timeout.svg", "kpi-by-robots.each.max_velocity.svg"]
     assert all(f.stat().st_size > 0 for f in files)
     assert draw(sweep, [{**r, "error": "x"} for r in rows], tmp_path, "svg") == []
+
+
+def test_a_panel_per_kpi_the_runs_have_and_collisions_only_when_some_run_had_one():
+    from vcran.sweep.figures import drawn
+
+    plain = {"sim_time": 9.0, "tasks_completed": 3, "tasks_cancelled": 0, "distance": 4.0, "errors": 0,
+             "collisions": 0}
+    assert drawn([plain, plain]) == ["sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors"]
+    loop = {**plain, "collisions": 1, "battery_used": 0.5, "jobs_done_per_hour": 120.0}
+    assert drawn([plain, loop]) == ["sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors",
+                                    "collisions", "battery_used", "jobs_done_per_hour"]

@@ -134,7 +134,7 @@ def test_missing_scenario_and_broken_toml(tmp_path):
 
 
 def test_the_demo_sweep_is_what_its_comment_says():
-    sweep = load(ROOT / "scenarios" / "demo-sweep.toml")
+    sweep = load(ROOT / "scenarios" / "sweeps" / "demo-sweep.toml")
     assert len(sweep.runs()) == 2 * 2 * 3
     assert tomllib.loads(sweep.scenario_text) == tomllib.loads(DEMO.read_text())
 

@@ -1,4 +1,5 @@
-"""Deliberately broken fleet managers (SPEC §9, issue 10): the loop properties must catch each one.
+"""Deliberately broken fleet managers (SPEC §9, issue 10): the loop properties must catch each one, and
+the CLI must blame the manager, not vcran, for one that raises.
 
 Importable as ``tests.testing.loop_managers:Class`` so that ``vcran fuzz --manager`` can run them too.
 """
@@ -31,3 +32,20 @@ class NeverReplans(Dispatcher):
 
     def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
         self.release(robot)
+
+
+class ForgetsMotionFailures(Dispatcher):
+    """Re-plans after every cancel but a ``motion_failed`` one (SPEC §4): that job is forgotten."""
+
+    def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
+        if reason == "motion_failed":
+            self.release(robot)
+        else:
+            super().task_cancelled(robot, trip, reason)
+
+
+class Raising(Dispatcher):
+    """A bug in one hook: raises on the first job."""
+
+    def on_job(self, job: object) -> None:
+        raise RuntimeError("my bug")

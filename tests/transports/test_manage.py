@@ -52,3 +52,17 @@ def test_manage_refuses_a_scenario_without_a_manager_and_an_unreachable_orion(tm
     assert main(["manage", str(WAREHOUSE), "--orion", f"http://127.0.0.1:{free_port()}", "--notify-url", notify]) == 2
     err = capsys.readouterr().err
     assert err.startswith("vcran manage: cannot subscribe to the fleet") and "unreachable" in err
+
+
+def test_a_manager_that_raises_ends_manage_with_one_line_and_exit_1(broker_process, tmp_path):  # noqa: F811
+    """The same boundary as ``vcran run``: the user's manager failed (which hook, when), not vcran."""
+    url = broker_process
+    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
+    manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "100", "--jobs", "1", "--quiet",
+                   "--manager", "tests.testing.loop_managers:Raising",
+                   "--notify-url", f"http://127.0.0.1:{free_port()}/notify", cwd=ROOT)
+    out, err = manage.communicate(timeout=60)
+    assert (manage.returncode, out) == (1, ""), err
+    assert err.startswith("vcran manage: the fleet manager raised RuntimeError: my bug (in fleet manager "
+                          "Raising: on_job at t=") and err.count("\n") == 1, err
+    assert httpx.get(f"{url}/v2/subscriptions").json() == []  # it still cleaned up after itself

@@ -129,9 +129,13 @@ class Notifier:
             status: int | None = response.status_code
             reason = ""
         except Exception as exc:  # noqa: BLE001 - any failure is this delivery's, never the worker's
+            if self._closed:  # cut off by close(): no outcome to record, and no log from a stopped broker
+                return
             status, reason = None, _failure_reason(exc)
             log.warning("notification of subscription %s to %s failed: %s", notification.subscription_id,
                         one_line(notification.url), one_line(reason))  # fmt: skip
+        if self._closed:  # finished after close(): its outcome no longer matters (close's docstring)
+            return
         try:
             self._on_result(notification, status, reason)
         except Exception:  # a bug in bookkeeping must not stop deliveries

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
+
+#: The scenarios shipped in the package (vcran/scenarios; a test keeps this list in step with it).
+BUNDLED = ("battery", "crossing", "demo", "faults", "warehouse")
 
 
 class CommandError(Exception):
@@ -15,6 +19,12 @@ class CommandError(Exception):
     def __init__(self, message: str, code: int = 2) -> None:
         super().__init__(message)
         self.code = code
+
+
+def add_scenario_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    """The SCENARIO argument every scenario command takes, with the same words in every ``--help``."""
+    parser.add_argument("scenario", type=Path, metavar="SCENARIO",
+                        help=f"scenario file (TOML){what}, or a bundled scenario by name: {', '.join(BUNDLED)}")
 
 
 def load_scenario(path: Path) -> Scenario:

@@ -55,6 +55,12 @@ def check_url(option: str, url: str, schemes: tuple[str, ...]) -> SplitResult:
     return parts
 
 
+def check_notify_url(url: str) -> None:
+    """``--notify-url``: vcran's listener speaks plain HTTP, and Orion must be able to POST there."""
+    if check_url("--notify-url", url, ("http",)).port == 0:
+        raise CommandError(f"--notify-url {url!r}: port 0 is no address Orion can send to")
+
+
 def setup_logging(quiet: bool = False) -> None:
     logging.basicConfig(level=logging.ERROR if quiet else logging.INFO, stream=sys.stderr,
                         format="vcran: %(message)s")

@@ -2,7 +2,8 @@
 
 Prints one JSON object keyed by attribute, each the message's plain form (ids as canonical uuid strings
 with their descriptions). Attributes that are not RAN messages are listed on stderr as skipped, so that a
-whole entity read from Orion can be inspected. Bad input exits 1 with the codec's message on stderr.
+whole entity read from Orion can be inspected. Bad input is a CommandError (exit 2) with the codec's
+message, which names the field path.
 """
 
 from __future__ import annotations
@@ -21,16 +22,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from vcran.commands import CommandError
     from vcran.core.codec import decode_entity, unknown_attributes
     from vcran.core.plain import to_plain
 
+    name = "stdin" if args.file == "-" else args.file
     try:
         entity = _load(args.file)
         messages = decode_entity(entity)
     except OSError as exc:
-        return _fail(args.file, exc.strerror or str(exc))
+        raise CommandError(f"{name}: {exc.strerror or exc}") from None
     except ValueError as exc:  # bad JSON, or a CodecError naming the field path
-        return _fail(args.file, str(exc))
+        raise CommandError(f"{name}: {exc}") from None
     skipped = unknown_attributes(entity)
     if skipped:
         print(f"vcran decode: skipped attributes that are not RAN messages: {', '.join(skipped)}", file=sys.stderr)
@@ -48,7 +51,3 @@ def _load(file: str) -> Any:
     except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, over-long integers
         raise ValueError(f"bad JSON: {exc}") from None
 
-
-def _fail(file: str, message: str) -> int:
-    print(f"vcran decode: {'stdin' if file == '-' else file}: {message}", file=sys.stderr)
-    return 1

@@ -31,17 +31,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from vcran.commands import add_scenario_argument
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
 
 if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
     from vcran.testing.campaign import Failure, LoopOptions, Options, Outcome
 
-HELP = "perturb a scenario's message script and check the rules on every variant"
+HELP = ("perturb a scenario's message script and check the rules on every variant; with a fleet manager, vary "
+        "its workload and link and check the loop properties")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
+    add_scenario_argument(parser, "")
     parser.add_argument("--examples", type=int, default=100, help="perturbed variants to try (default 100)")
     parser.add_argument("--seed", type=int, default=0, help="search seed: same seed, same examples (default 0)")
     parser.add_argument("--save", type=Path, default=None,
@@ -65,24 +67,24 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from vcran.commands import CommandError, load_scenario
+    from vcran.io.scenario_file import resolve
+
+    if importlib.util.find_spec("hypothesis") is None:
+        raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'")
     from vcran.testing.campaign import Options, search, search_loop
 
     if args.examples < 1:
         raise CommandError("--examples must be at least 1")
     check_pool_options(args)
     base = load_scenario(args.scenario)
-    text = args.scenario.read_text(encoding="utf-8")
+    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     loop = args.manager is not None or base.manager is not None
     if loop:
-        options: Options | LoopOptions = _loop_options(args, base)
+        options: Options | LoopOptions = _loop_options(args, base, text)
         fn = search_loop
     else:
         _check_script(base)
-        malformed = importlib.util.find_spec("vcran.core.codec") is not None
-        if not malformed:
-            print("vcran fuzz: vcran.core.codec is not installed; malformed payloads are not injected",
-                  file=sys.stderr)
-        options = Options(window=args.window, max_ops=args.max_ops, fast=args.fast, malformed=malformed)
+        options = Options(window=args.window, max_ops=args.max_ops, fast=args.fast)
         fn = search
     start = time.perf_counter()
     if args.workers in (None, 1) and args.cluster is None:
@@ -132,7 +134,7 @@ def _check_script(base: Scenario) -> None:
         raise CommandError(str(exc)) from None
 
 
-def _loop_options(args: argparse.Namespace, base: Scenario) -> LoopOptions:
+def _loop_options(args: argparse.Namespace, base: Scenario, text: str) -> LoopOptions:
     """A fleet manager's campaign, checked before any example runs."""
     from vcran.api import ManagerError, build_manager
     from vcran.commands import CommandError
@@ -143,7 +145,7 @@ def _loop_options(args: argparse.Namespace, base: Scenario) -> LoopOptions:
     if base.script or base.cycles:
         raise CommandError(f"{args.scenario}: has a [[script]]; a fleet manager plays that part (remove one)")
     try:  # a manager that cannot be built fails now, not as every example's crash
-        build_manager(None, loop_base(args.scenario.read_text(encoding="utf-8"), str(args.scenario), args.manager))
+        build_manager(None, loop_base(text, str(args.scenario), args.manager))
     except ManagerError as exc:
         raise CommandError(str(exc)) from None
     return LoopOptions(args.manager, args.jobs, args.horizon, args.idle_bound)

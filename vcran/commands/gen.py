@@ -15,11 +15,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from vcran.commands import CommandError
     from vcran.io.gen import generate
 
     try:
-        sys.stdout.write(generate(args.robots, args.hours, args.seed))
+        text = generate(args.robots, args.hours, args.seed)
     except ValueError as exc:
-        print(f"vcran gen: {exc}", file=sys.stderr)
-        return 2
+        raise CommandError(str(exc)) from None
+    sys.stdout.write(text)
     return 0

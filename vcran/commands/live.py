@@ -6,17 +6,17 @@ import argparse
 import sys
 from pathlib import Path
 
-from vcran.commands import CommandError, load_scenario
-from vcran.commands._orion import add_connection_arguments, check_url, client_from_args, setup_logging
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML); its [[script]] is not played")
+    add_scenario_argument(parser, "; its [[script]] is not played")
     add_connection_arguments(parser)
-    parser.add_argument("--out", type=Path, required=True, help="output folder (trace, events, summary)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (trace, events, summary)")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
     parser.add_argument("--notify-url", metavar="URL",
                         help="subscribe, with notifications to this URL (vcran listens there); default: polling")
@@ -39,11 +39,9 @@ def run(args: argparse.Namespace) -> int:
 
     setup_logging(args.quiet)
     if not args.factor > 0 or not args.poll_interval > 0:
-        print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
-        return 2
-    if args.notify_url is not None:  # vcran's listener speaks plain HTTP; Orion must be able to POST there
-        if check_url("--notify-url", args.notify_url, ("http",)).port == 0:
-            raise CommandError(f"--notify-url {args.notify_url!r}: port 0 is no address Orion can send to")
+        raise CommandError("--factor and --poll-interval must be positive")
+    if args.notify_url is not None:
+        check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))

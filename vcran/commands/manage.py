@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import argparse
 import signal
-import sys
 from pathlib import Path
 from typing import Any
 
-from vcran.commands import CommandError, load_scenario
-from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 
 HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
 
@@ -26,7 +25,7 @@ CHECK_EVERY = 0.25
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML) with the fleet and its jobs")
+    add_scenario_argument(parser, " with the fleet and its jobs")
     add_connection_arguments(parser)
     parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])")
     parser.add_argument("--notify-url", metavar="URL", required=True,
@@ -54,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("--factor must be positive")
     if args.jobs is not None and args.jobs < 0:
         raise CommandError("--jobs must not be negative")
+    check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)
     if args.jobs is not None:
         scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
@@ -104,11 +104,7 @@ def run(args: argparse.Namespace) -> int:
     link = loop.link
     assert isinstance(link, OrionLink)
     try:
-        env.run(until=done)
-    except Exception as exc:  # noqa: BLE001 - the manager's own bug: say which hook and when, exit 1
-        notes = "; ".join(getattr(exc, "__notes__", []))
-        print(f"vcran manage: the fleet manager raised {type(exc).__name__}: {exc} ({notes})", file=sys.stderr)
-        return 1
+        env.run(until=done)  # an exception the manager raises ends the run: the CLI says which hook and when
     finally:
         link.close()
         client.close()

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
-from vcran.commands import load_scenario
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 
 HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robot entities in Orion"
@@ -14,7 +12,7 @@ HELP = "create (init: delete, then recreate) or remove (delete) the fleet's robo
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", choices=("init", "delete"))
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML): its robots are the entities")
+    add_scenario_argument(parser, "; its robots are the entities")
     add_connection_arguments(parser)
 
 
@@ -47,8 +45,7 @@ def run(args: argparse.Namespace) -> int:
         for body in split_batch(entities):
             client.update(body)
     except OrionError as exc:
-        print(f"vcran orion {args.action}: {exc}", file=sys.stderr)
-        return 1
+        raise CommandError(f"{args.action}: {exc}") from None
     finally:
         client.close()
     print(f"initialised {len(scenario.robots)} entities of type {entity_type} ({removed} replaced)")

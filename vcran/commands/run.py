@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
 from vcran.commands._signals import StopSignals
 
 if TYPE_CHECKING:
@@ -22,8 +22,8 @@ HELP = "simulate a scenario with its message script, or its jobs with a fleet ma
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    add_scenario_argument(parser, "")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if missing)")
     parser.add_argument("--manager", metavar="MODULE:CLASS",
                         help="run the scenario's jobs with this fleet manager (default: the scenario's [manager]), "
                              "e.g. vcran.managers:Dispatcher")
@@ -39,6 +39,13 @@ def run(args: argparse.Namespace) -> int:
     from vcran.io.scenario_file import ScenarioError
 
     scenario = load_scenario(args.scenario)
+    if args.report:  # a missing extra is said at once, not after the run
+        from vcran.report import ReportError, require_matplotlib
+
+        try:
+            require_matplotlib()
+        except ReportError as exc:
+            raise CommandError(str(exc)) from None
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
     models = []
 

@@ -11,9 +11,8 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
-from vcran.commands import load_scenario
+from vcran.commands import CommandError, add_scenario_argument, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
 
@@ -21,7 +20,7 @@ HELP = "play the scenario's message script into Orion in real time, as the fleet
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", type=Path, help="scenario file (TOML) whose [[script]] is played")
+    add_scenario_argument(parser, " whose [[script]] is played")
     add_connection_arguments(parser)
     parser.add_argument("--factor", type=float, default=1.0, help="script seconds per wall second (default 1)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -30,8 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     setup_logging(args.quiet)
     if not args.factor > 0:
-        print("vcran send: --factor must be positive", file=sys.stderr)
-        return 2
+        raise CommandError("--factor must be positive")
     scenario = load_scenario(args.scenario)
     client = client_from_args(args)
     signals = StopSignals()  # stop between two messages, never in the middle of one

@@ -24,8 +24,8 @@ SLACK = 1.0
 def generate(robots: int, hours: float, seed: int) -> str:
     if robots < 1:
         raise ValueError(f"--robots must be at least 1, got {robots}")
-    if not hours > 0:
-        raise ValueError(f"--hours must be positive, got {hours}")
+    if not (hours > 0 and math.isfinite(hours)):
+        raise ValueError(f"--hours must be a positive number, got {hours}")
     rng = random.Random(seed)
     duration = hours * 3600.0
     columns = math.ceil(math.sqrt(robots))

@@ -3,7 +3,11 @@ closed loop's jobs, link and fleet manager (SPEC §9), into a :class:`~vcran.cor
 
 The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
 an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
-the entry and the field, before anything runs.
+the entry and the field, before anything runs. The format's JSON Schema is recorded from these readers
+(:mod:`vcran.io.scenario_schema`; the rules for writing a reader are in :mod:`vcran.io.toml_table`).
+
+A scenario argument that names no file but a bundled scenario (``demo``) loads that one: the repository's
+``scenarios/`` folder, shipped inside the package as ``vcran/scenarios`` (docs/scenarios.md).
 """
 
 from __future__ import annotations
@@ -11,15 +15,20 @@ from __future__ import annotations
 import json
 import math
 import re
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from vcran.core import build
+from vcran.core.battery import BatteryConfig
+from vcran.core.faults import KINDS as FAULT_KINDS
+from vcran.core.faults import RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
 from vcran.core.scenario import (
     ACTION_KINDS,
+    COLLISION_MODES,
     POLLING,
     SUBSCRIPTION,
     Cycle,
@@ -36,28 +45,61 @@ from vcran.core.scenario import (
     task_entries,
 )
 from vcran.core.schema import MessageError
-from vcran.io.toml_table import ScenarioError, Table, is_number, read_toml
+from vcran.io.toml_table import ScenarioError, Table, read_toml
 
-__all__ = ["ScenarioError", "load", "parse"]
+__all__ = ["ScenarioError", "bundled", "load", "parse", "read", "resolve"]
+
+
+def bundled() -> dict[str, Path]:
+    """The bundled scenarios, name -> file (``demo`` -> ``.../vcran/scenarios/demo.toml``)."""
+    folder = Path(str(resources.files("vcran") / "scenarios"))
+    return {f.stem: f for f in sorted(folder.glob("*.toml"))}
+
+#: Actions a script may send: the configurable ones and ``charge`` (SPEC §4, a robot with a battery).
+SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
+
+
+def resolve(path: str | Path) -> Path:
+    """``path``, or the bundled scenario of that name when no such file exists."""
+    path = Path(path)
+    if not path.exists() and path.name == str(path):
+        names = bundled()
+        if path.suffix or path.name not in names:
+            raise ScenarioError(f"{path}: no such file (and no bundled scenario of that name; "
+                                f"bundled: {', '.join(names)})")
+        return names[path.name]
+    return path
 
 
 def load(path: str | Path) -> Scenario:
-    path = Path(path)
+    """The scenario file at ``path``, or the bundled scenario of that name when no such file exists."""
+    path = resolve(path)
     _, data = read_toml(path)
     return parse(data, str(path), default_name=path.stem)
 
 
 def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = "scenario") -> Scenario:
-    top = Table(data, source, "")
+    """The scenario in ``data`` (a TOML document as read by tomllib); ``source`` names it in errors."""
+    return read(Table(data, source, ""), default_name)
+
+
+def read(top: Table, default_name: str = "scenario") -> Scenario:
+    """The scenario in the top-level table ``top`` (:func:`parse` with the table already made; the
+    schema generator passes a recording table)."""
+    source = top.source
     settings = _settings(top.table("simulation"), default_name)
     robots = tuple(_robot(t) for t in top.tables("robots"))
     if not robots:
-        raise ScenarioError(f"{source}: at least one [[robots]] entry is needed")
+        top.reject("at least one [[robots]] entry is needed")
     stations = tuple(_station(t) for t in top.tables("stations"))
     script_tables = top.tables("script")
-    job_tables, stream_table = top.tables("jobs"), top.raw("job_stream", None)
+    job_tables, stream_table = top.tables("jobs"), top.optional_table("job_stream")
     link = _link(top.table("link"))
-    manager = _manager(top.table("manager")) if "manager" in top.data else None
+    manager_table = top.optional_table("manager")
+    manager = None if manager_table is None else _manager(manager_table)
+    known = {r.id for r in robots}
+    faults = tuple(sorted((_fault(t, known) for t in top.tables("faults")), key=lambda f: f.t))
+    random_faults = tuple(_random_faults(t, known) for t in top.tables("random_faults"))
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
@@ -67,26 +109,36 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     jobs = sorted(listed, key=lambda j: j.t)  # stable: equal times keep file order
     stream = None
     if stream_table is not None:
-        stream = _job_stream(Table(stream_table, source, "job_stream"), names, settings, [j.id for j in jobs])
-    known = {r.id for r in robots}
+        stream = _job_stream(stream_table, names, settings, [j.id for j in jobs])
     script: list[ScriptEntry] = []
     cycles: list[Cycle] = []
     for t in script_tables:
         entry = _script_entry(t, known)
+        _check_in_run(t, entry, settings.duration)
         if isinstance(entry, Cycle):
             cycles.append(entry)
         else:
             script.extend(entry)
     script.sort(key=lambda e: e.t)  # stable: equal times keep file order
     if settings.duration is None and not settings.until_idle:
-        raise ScenarioError(f"{source}: [simulation]: set duration, or until_idle = true")
+        top.reject("[simulation]: set duration, or until_idle = true")
     if cycles and settings.duration is None:
-        raise ScenarioError(f"{source}: [simulation]: a scenario with cycles needs a duration")
+        top.reject("[simulation]: a scenario with cycles needs a duration")
     if (script or cycles) and (jobs or stream is not None or manager is not None):
-        raise ScenarioError(f"{source}: [[script]] and a closed loop ([[jobs]], [job_stream], [manager]) exclude "
-                            "each other: a script plays the fleet manager's part, jobs go to a fleet manager")
-    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), tuple(jobs), stream, link,
-                    manager)
+        top.reject("[[script]] and a closed loop ([[jobs]], [job_stream], [manager]) exclude each other: a script "
+                   "plays the fleet manager's part, jobs go to a fleet manager")
+    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), faults=faults,
+                    random_faults=random_faults, jobs=tuple(jobs), job_stream=stream, link=link, manager=manager)
+
+
+def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | None) -> None:
+    """An entry the run ends before would never be sent, and its task would time out for no visible
+    reason: refuse it. A message at exactly ``duration`` is still played (inbound messages come first
+    within an instant, docs/determinism.md)."""
+    start = entry.t if isinstance(entry, Cycle) else max((e.t for e in entry), default=0.0)
+    if duration is not None and start > duration:
+        what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
+        t.fail("t", f"the entry {what} at t = {start:g}, after the run ends (duration = {duration:g})")
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -107,7 +159,11 @@ def _settings(t: Table, default_name: str) -> Settings:
         description_period=t.number("description_period", 60.0, positive=True),
         entity_type=t.string("entity_type", "ROBOT"),
         durations=d,
+        collisions=t.string("collisions", "report"),
+        collision_resolution=t.number("collision_resolution", 0.05, positive=True),
     )
+    if s.collisions not in COLLISION_MODES:
+        t.fail("collisions", f"expected one of {', '.join(map(repr, COLLISION_MODES))}, got {s.collisions!r}")
     problem = identifier_error("entity type", s.entity_type)
     if problem:
         t.fail("entity_type", problem)
@@ -125,10 +181,7 @@ def _robot(t: Table) -> RobotConfig:
         if value != rid:
             t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
-    actions = t.strings("actions", list(ACTION_KINDS))
-    for a in actions:
-        if a not in ACTION_KINDS:
-            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS), what="action")
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
     r = RobotConfig(
         id=rid,
@@ -142,6 +195,7 @@ def _robot(t: Table) -> RobotConfig:
         capacity=t.integer("capacity", 1, minimum=0),
         carrying=t.integer("carrying", 0, minimum=0),
         vendor=t.text("vendor", "vcran"),
+        battery=None if (battery := t.optional_table("battery")) is None else _battery(battery),
     )
     if r.carrying > r.capacity:
         t.fail("carrying", f"{r.carrying} exceeds capacity {r.capacity}")
@@ -163,7 +217,8 @@ def _station(t: Table) -> StationConfig:
         produce_every=t.number("produce_every", 0.0, minimum=0.0),
         produce_start=t.number("produce_start", None, minimum=0.0),
         produce_limit=t.integer("produce_limit", 0, minimum=0),
-        dock=_point(t, "dock", t.raw("dock")) if "dock" in t.data else None,
+        charger=t.boolean("charger", False),
+        dock=t.pose("dock", None),
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
@@ -171,18 +226,74 @@ def _station(t: Table) -> StationConfig:
     return s
 
 
+def _battery(t: Table) -> BatteryConfig:
+    capacity = t.number("capacity", positive=True)
+    b = BatteryConfig(
+        capacity=capacity,
+        initial=t.number("initial", None, minimum=0.0),
+        per_metre=t.number("per_metre", 0.0, minimum=0.0),
+        per_action_second=t.number("per_action_second", 0.0, minimum=0.0),
+        per_idle_second=t.number("per_idle_second", 0.0, minimum=0.0),
+        charge_rate=t.number("charge_rate", 0.0, minimum=0.0),
+        low=t.number("low", 0.2, minimum=0.0),
+        swap_after=t.number("swap_after", None, minimum=0.0),
+        voltage=t.number("voltage", 24.0, positive=True),
+        resolution=t.number("resolution", 0.01, positive=True),
+    )
+    if b.initial is not None and b.initial > capacity:
+        t.fail("initial", f"{b.initial} exceeds capacity {capacity}")
+    if b.low >= 1.0:
+        t.fail("low", f"a fraction of capacity below 1 is needed, got {b.low}")
+    if b.resolution > 1.0:
+        t.fail("resolution", f"a fraction of capacity up to 1 is needed, got {b.resolution}")
+    t.done()
+    return b
+
+
+def _fault_robot(t: Table, robots: set[str]) -> str:
+    robot = t.string("robot")
+    if robot not in robots:
+        t.fail("robot", f"no robot {robot!r} in this scenario; robots: {', '.join(sorted(robots))}")
+    return robot
+
+
+def _fault(t: Table, robots: set[str]) -> FaultSpec:
+    time = t.number("t", minimum=0.0)
+    robot = _fault_robot(t, robots)
+    kind = t.choice("kind", tuple(FAULT_KINDS), what="fault")
+    duration = t.number("duration", positive=True) if FAULT_KINDS[kind] else 0.0
+    t.done()
+    return FaultSpec(time, robot, kind, duration)
+
+
+def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
+    kind = t.choice("kind", tuple(RANDOM_KINDS), what="random fault")
+    chosen = t.strings("robots", [])
+    for r in chosen:
+        if r not in robots:
+            t.fail("robots", f"no robot {r!r} in this scenario")
+    source = RandomFaults(
+        kind=kind,
+        mtbf=t.number("mtbf", positive=True),
+        mttr=t.number("mttr", positive=True) if FAULT_KINDS[kind] else 0.0,
+        robots=tuple(chosen),
+        start=t.number("start", 0.0, minimum=0.0),
+        until=t.number("until", math.inf, minimum=0.0),
+    )
+    t.done()
+    return source
+
+
 def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
     time = t.number("t", minimum=0.0)
     robot = t.string("robot")
     if robot not in robots:
         t.fail("robot", f"no robot {robot!r} in this scenario (R11); robots: {', '.join(sorted(robots))}")
-    kind = t.string("kind")
+    kind = t.choice("kind", list(_EXPANDERS))
     try:
-        entries = _EXPANDERS[kind](t, time, robot) if kind in _EXPANDERS else None
+        entries = _EXPANDERS[kind](t, time, robot)
     except (MessageError, IdError) as exc:
         t.fail(kind, str(exc))
-    if entries is None:
-        t.fail("kind", f"unknown kind {kind!r}; known: {', '.join(_EXPANDERS)}")
     t.done()
     return entries
 
@@ -205,13 +316,17 @@ def _motion(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 def _action(t: Table, time: float, robot: str) -> list[ScriptEntry]:
     seq, length = t.sequence("seq")
     category, code = t.integer("category", None), t.integer("code", None)
-    if category is not None or code is not None:
-        a = build.action(t.name("task"), t.name("id"), seq, length, category=category or 0, code=code or 0)
+    kind = t.choice("action", SCRIPT_ACTIONS, None, hint=" (or give category/code)")
+    task, aid = t.name("task"), t.name("id")
+    raw_codes = category is not None or code is not None
+    if kind is not None and raw_codes:
+        t.fail("action", "give either action or category/code, not both")
+    if kind is None and not raw_codes:
+        t.fail("action", f"missing; give action ({', '.join(SCRIPT_ACTIONS)}) or category/code")
+    if kind is not None:
+        a = build.action(task, aid, seq, length, kind)
     else:
-        kind = t.string("action")
-        if kind not in ACTION_KINDS:
-            t.fail("action", f"unknown action {kind!r}; known: {', '.join(ACTION_KINDS)} (or give category/code)")
-        a = build.action(t.name("task"), t.name("id"), seq, length, kind)
+        a = build.action(task, aid, seq, length, category=category or 0, code=code or 0)
     return [ScriptEntry(time, robot, "action_assignment", a)]
 
 
@@ -221,15 +336,13 @@ def _cancel(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 
 
 def _raw(t: Table, time: float, robot: str) -> list[ScriptEntry]:
-    attribute = t.string("attribute")
-    if attribute not in INBOUND:
-        t.fail("attribute", f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+    attribute = t.choice("attribute", list(INBOUND))
     value = t.raw("value")
     if isinstance(value, str):
         try:
             value = json.loads(value)
-        except (json.JSONDecodeError, RecursionError) as exc:
-            t.fail("value", f"not valid JSON: {exc}")
+        except (ValueError, RecursionError) as exc:  # JSONDecodeError, or an integer of over 4300 digits
+            t.fail("value", f"not valid JSON: {str(exc).split('; use sys.set_int_max_str_digits', 1)[0]}")
     try:  # what Orion could hold: TOML dates and times have no JSON form (NaN is kept, to test R12)
         json.dumps(value, allow_nan=True)
     except (TypeError, ValueError, RecursionError) as exc:
@@ -247,12 +360,8 @@ def _task(t: Table, time: float, robot: str) -> list[ScriptEntry]:
 
 def _cycle(t: Table, time: float, robot: str) -> Cycle:
     every = t.number("every", positive=True)
-    tasks = t.raw("tasks")
-    if not isinstance(tasks, list):
-        t.fail("tasks", "expected a list of tables {path = [...], actions = [...]}")
     specs = []
-    for i, v in enumerate(tasks):
-        sub = Table(v, t.source, f"{t.where}.tasks[{i}]")
+    for sub in t.tables("tasks"):
         specs.append(_task_spec(sub))
         sub.done()
     if not specs:
@@ -262,20 +371,11 @@ def _cycle(t: Table, time: float, robot: str) -> Cycle:
 
 
 def _task_spec(t: Table) -> TaskSpec:
-    path = t.list_of("path", lambda i, v: _point(t, f"path[{i}]", v))
-    actions = t.strings("actions", [])
-    for a in actions:
-        if a not in ACTION_KINDS:
-            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+    path = t.poses("path", [])
+    actions = t.choices("actions", SCRIPT_ACTIONS, [], what="action")
     if not path and not actions:
         t.fail("path", "a task needs at least one point or one action")
     return TaskSpec(tuple(path), tuple(actions))
-
-
-def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
-    if not (isinstance(v, list) and len(v) in (2, 3) and all(is_number(c) for c in v)):
-        t.fail(where, f"expected [x, y] or [x, y, theta], got {v!r}")
-    return float(v[0]), float(v[1]), (float(v[2]) if len(v) == 3 else None)
 
 
 # --- the closed loop (SPEC §9) --------------------------------------------------------------------------
@@ -306,10 +406,10 @@ def _job(t: Table, stations: list[str]) -> Job:
 
 
 def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[str]) -> JobStream:
-    has_rate, has_interval = "rate" in t.data, "mean_interval" in t.data
-    if has_rate == has_interval:
+    rate, interval = t.number("rate", None, positive=True), t.number("mean_interval", None, positive=True)
+    if (rate is None) == (interval is None):
         t.fail("rate", "give exactly one of rate (jobs per hour) and mean_interval (seconds)")
-    mean = 3600.0 / t.number("rate", positive=True) if has_rate else t.number("mean_interval", positive=True)
+    mean = 3600.0 / rate if rate is not None else interval
     start = t.number("start", 0.0, minimum=0.0)
     until = t.number("until", settings.duration, minimum=0.0)
     if until is None:
@@ -334,20 +434,8 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
 
 
 def _weights(t: Table, key: str, stations: list[str]) -> tuple[tuple[str, float], ...]:
-    """A list of station ids (equal weights) or a table ``{station = weight}``."""
-    v = t.raw(key)
-    if isinstance(v, list) and all(isinstance(x, str) for x in v):
-        pairs = [(x, 1.0) for x in v]
-    elif isinstance(v, dict):
-        pairs = []
-        for name, w in v.items():
-            if not is_number(w) or w <= 0:
-                t.fail(key, f"weight of {name!r} must be a positive number, got {w!r}")
-            pairs.append((name, float(w)))
-    else:
-        t.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
-    if not pairs:
-        t.fail(key, "names no station")
+    """A list of station ids (equal weights) or a table ``{station = weight}``, each a station of this scenario."""
+    pairs = t.weights(key)
     seen: set[str] = set()
     for name, _ in pairs:
         if name not in stations:
@@ -362,11 +450,9 @@ def _link(t: Table) -> LinkSettings:
     link = LinkSettings(
         latency=t.number("latency", 0.05, positive=True),
         jitter=t.number("jitter", 0.0, minimum=0.0),
-        inbound=t.string("inbound", SUBSCRIPTION),
+        inbound=t.choice("inbound", (SUBSCRIPTION, POLLING), SUBSCRIPTION),
         poll_interval=t.number("poll_interval", 0.25, positive=True),
     )
-    if link.inbound not in (SUBSCRIPTION, POLLING):
-        t.fail("inbound", f"expected {SUBSCRIPTION!r} or {POLLING!r}, got {link.inbound!r}")
     t.done()
     return link
 

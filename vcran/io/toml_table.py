@@ -3,12 +3,19 @@
 Every read names the file, the entry and the field when it fails (:class:`ScenarioError`); ``done()``
 refuses keys nobody read (typos). Kept apart from :mod:`vcran.io.scenario_file` so that the scenario module is
 about scenarios, not about reading TOML.
+
+The JSON Schema of the format (``vcran schema scenario``) is recorded from these reads
+(:mod:`vcran.io.scenario_schema` runs the loader on a recording subclass), so a section reader states what
+it reads through these methods: sub-tables through :meth:`Table.table`/:meth:`Table.tables` (never
+``Table(...)`` directly), a field with a fixed set of values through :meth:`Table.choice`, and a field that
+is required only in some cases as optional, checked afterwards.
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -23,18 +30,26 @@ def is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def read_toml(path: Path) -> tuple[str, dict[str, Any]]:
-    """The text of the TOML file at ``path`` and its table; a missing or broken file is a ScenarioError
-    naming it (scenario and sweep files alike)."""
+def read_toml(path: Path, kind: str = "scenario") -> tuple[str, dict[str, Any]]:
+    """The text of the TOML file at ``path`` and its table. A file that is missing, a folder, unreadable,
+    not UTF-8 or not TOML is a ScenarioError naming it (scenario and sweep files alike: ``kind``)."""
     try:
-        text = path.read_text(encoding="utf-8")
-        return text, tomllib.loads(text)
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise ScenarioError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{path}: cannot read it: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a folder, not a {kind} file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); {kind} files are TOML, which is UTF-8") from None
+    try:
+        return text, tomllib.loads(text)
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
+        reason = str(exc).split("; use sys.set_int_max_str_digits", 1)[0]
+        raise ScenarioError(f"{path}: not valid TOML: {reason}") from None
 
 
 _MISSING = object()
@@ -61,6 +76,11 @@ class Table:
             self.fail(key, "missing")
         return default
 
+    def reject(self, problem: str) -> NoReturn:
+        """A rule between fields or sections is broken: the message names the file (and table), no field."""
+        where = f"{self.where}: " if self.where else ""
+        raise ScenarioError(f"{self.source}: {where}{problem}")
+
     def done(self) -> None:
         unknown = sorted(set(self.data) - self.used)
         if unknown:
@@ -69,10 +89,14 @@ class Table:
     def table(self, key: str) -> Table:
         return Table(self.raw(key, {}), self.source, self._sub(key))
 
+    def optional_table(self, key: str) -> Table | None:
+        """A sub-table whose presence means something (``[manager]``, ``[job_stream]``): None when absent."""
+        return self.table(key) if key in self.data else None
+
     def tables(self, key: str) -> list[Table]:
         value = self.raw(key, [])
         if not isinstance(value, list):
-            self.fail(key, f"expected an array of tables [[{key}]]")
+            self.fail(key, f"expected an array of tables: [[{key}]] sections, or {key} = [{{...}}, ...]")
         return [Table(v, self.source, self._sub(f"{key}[{i}]")) for i, v in enumerate(value)]
 
     def _sub(self, key: str) -> str:
@@ -135,17 +159,30 @@ class Table:
             self.fail(key, f"contains {' '.join(bad)}, which Orion refuses in values")
         return v
 
+    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "",
+               what: str = "") -> Any:
+        """One of ``options`` (a kind, an action); the error names the value as ``what`` (default: the key),
+        lists the options, then ``hint``."""
+        v = self.string(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if v not in options:
+            self.fail(key, f"unknown {what or key} {v!r}; known: {', '.join(options)}{hint}")
+        return v
+
+    def choices(self, key: str, options: Sequence[str], default: list[str], *, what: str = "value") -> list[str]:
+        """A list of values, each one of ``options``."""
+        values = self.strings(key, default)
+        for v in values:
+            if v not in options:
+                self.fail(key, f"unknown {what} {v!r}; known: {', '.join(options)}")
+        return values
+
     def strings(self, key: str, default: list[str]) -> list[str]:
         v = self.raw(key, default)
         if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
             self.fail(key, f"expected a list of strings, got {v!r}")
         return list(v)
-
-    def list_of(self, key: str, item: Any) -> list[Any]:
-        v = self.raw(key, [])
-        if not isinstance(v, list):
-            self.fail(key, f"expected a list, got {v!r}")
-        return [item(i, x) for i, x in enumerate(v)]
 
     def pair(self, key: str, default: Any = _MISSING) -> tuple[float, float]:
         v = self.raw(key, default)
@@ -175,3 +212,38 @@ class Table:
         if not ok:
             self.fail(key, f"expected a list of [x, y] points, got {v!r}")
         return [(float(p[0]), float(p[1])) for p in v]
+
+    def pose(self, key: str, default: Any = _MISSING) -> Any:
+        """A point ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if not (isinstance(v, (list, tuple)) and len(v) in (2, 3) and all(is_number(c) for c in v)):
+            self.fail(key, f"expected [x, y] or [x, y, theta], got {v!r}")
+        return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
+
+    def weights(self, key: str) -> list[tuple[str, float]]:
+        """Names with positive weights: a list of names (equal weights) or a table ``{name = weight}``."""
+        v = self.raw(key)
+        if isinstance(v, list) and all(isinstance(x, str) for x in v):
+            pairs = [(x, 1.0) for x in v]
+        elif isinstance(v, dict):
+            for name, w in v.items():
+                if not is_number(w) or w <= 0:
+                    self.fail(key, f"weight of {name!r} must be a positive number, got {w!r}")
+            pairs = [(name, float(w)) for name, w in v.items()]
+        else:
+            self.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
+        if not pairs:
+            self.fail(key, "names no station")
+        return pairs
+
+    def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
+        """A path: points ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        v = self.raw(key, default)
+        if not isinstance(v, list):
+            self.fail(key, f"expected a list of [x, y] or [x, y, theta] points, got {v!r}")
+        for i, p in enumerate(v):
+            if not (isinstance(p, (list, tuple)) and len(p) in (2, 3) and all(is_number(c) for c in p)):
+                self.fail(f"{key}[{i}]", f"expected [x, y] or [x, y, theta], got {p!r}")
+        return [(float(p[0]), float(p[1]), float(p[2]) if len(p) == 3 else None) for p in v]

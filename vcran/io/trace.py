@@ -37,7 +37,7 @@ _CANONICAL: dict[bytes, str] = {}
 
 def _default(value: Any) -> Any:
     # The only bytes inside messages are Id.uuid: render them as the canonical uuid string, which
-    # makes orjson's native dataclass walk produce exactly vcran.core.plain.to_plain (tests/test_trace.py).
+    # makes orjson's native dataclass walk produce exactly vcran.core.plain.to_plain (tests/io/test_trace.py).
     # A run renders the same few ids many times; the memo is bounded so memory stays flat.
     text = _CANONICAL.get(value)  # type: ignore[call-overload]
     if text is not None:

@@ -30,6 +30,14 @@ from vcran.core.wire import Deliver, Frame, Outbound, Transport
 from vcran.sim.link import Link
 from vcran.sim.timing import JOB, TIMER, at
 
+#: How the note on an exception a fleet manager raised begins (``in fleet manager Mine: on_job at t=1.0``).
+MANAGER_NOTE = "in fleet manager "
+
+
+def manager_note(exc: BaseException) -> str | None:
+    """The note saying which hook of the fleet manager raised ``exc`` and when, or None: not the manager's."""
+    return next((n for n in getattr(exc, "__notes__", ()) if n.startswith(MANAGER_NOTE)), None)
+
 
 class ManagerLink(Protocol):
     """What a closed loop needs of the link between its manager and the robots (:class:`Link`, or Orion)."""
@@ -79,6 +87,14 @@ class ClosedLoop(Transport):
     def send(self, out: Outbound) -> None:
         assert isinstance(self.link, Link)
         self.link.publish(out)
+
+    def outage(self, robot: str, until: float) -> bool:
+        """``link_down`` (SPEC §4) is the link's: Orion between manager and RAN holds what was written, and
+        what the robot publishes (its rows of the fleet's frames too) waits (:meth:`Link.outage`)."""
+        if not isinstance(self.link, Link):
+            return False
+        self.link.outage(robot, until)
+        return True
 
     @property
     def exhausted(self) -> bool:
@@ -165,7 +181,7 @@ class ClosedLoop(Transport):
             fn(*args, **kwargs)
         except Exception as exc:
             assert self.handle is not None
-            exc.add_note(f"in fleet manager {type(self.manager).__name__}: {what} at t={self.handle.now!r}")
+            exc.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
             raise
 
 

@@ -20,13 +20,15 @@ from vcran.sweep.spec import Sweep
 from vcran.sweep.worker import Row
 
 #: KPIs drawn, when the runs have them (closed-loop figures only for closed-loop runs).
-DRAWN = ("sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors", "jobs_done_per_hour",
-         "jobs_lead_time_mean", "utilisation")
+DRAWN = ("sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors", "collisions", "battery_used",
+         "jobs_done_per_hour", "jobs_lead_time_mean", "utilisation")
+#: Drawn only when some run has any: most fleets never collide, and a panel of zeros says nothing new.
+UNLESS_ALL_ZERO = frozenset({"collisions"})
 
 
 def draw(sweep: Sweep, rows: list[Row], out: Path, fmt: str = "png") -> list[Path]:
     ok = [r for r in rows if r.get("error") is None]
-    kpis = [k for k in DRAWN if any(r.get(k) is not None for r in ok)]
+    kpis = drawn(ok)
     if not ok or not kpis:
         return []
     parameters = (["label"] if sweep.labelled else []) + list(sweep.parameters)
@@ -36,6 +38,12 @@ def draw(sweep: Sweep, rows: list[Row], out: Path, fmt: str = "png") -> list[Pat
         save(figure(sweep, ok, p, [q for q in parameters if q != p], kpis), path)
         files.append(path)
     return files
+
+
+def drawn(rows: list[Row]) -> list[str]:
+    """The KPIs that get a panel: those the runs have (a closed loop's, a battery's), collisions if any."""
+    return [k for k in DRAWN if any(r.get(k) is not None for r in rows)
+            and (k not in UNLESS_ALL_ZERO or any(r.get(k) for r in rows))]
 
 
 def figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpis: list[str]) -> Any:

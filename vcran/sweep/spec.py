@@ -86,7 +86,7 @@ def load(path: str | Path) -> Sweep:
     """The sweep file at ``path``, checked through: :class:`SweepError` names what is wrong and where."""
     path = Path(path)
     try:
-        _, data = read_toml(path)
+        _, data = read_toml(path, "sweep")
     except ScenarioError as exc:
         raise SweepError(str(exc)) from None
     return parse_sweep(data, path)

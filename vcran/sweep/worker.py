@@ -48,15 +48,17 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
     return row
 
 
-#: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``.
+#: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``, a
+#: fleet with batteries ``battery_used``.
 KPIS = ("sim_time", "tasks_completed", "tasks_cancelled", *(f"cancelled_{r.value}" for r in Reason),
-        "distance", "parts_moved", "errors")
+        "distance", "parts_moved", "errors", "collisions")
 
 
 def kpis(summary: dict[str, Any]) -> dict[str, Any]:
     """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
-    distance, parts moved and errors; with a closed loop (SPEC §9) every figure of its ``jobs`` section
-    (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``."""
+    distance, parts moved, errors and collisions (SPEC §4: each involves two robots, and each robot's
+    summary counts it); with batteries the charge drawn (Ah); with a closed loop (SPEC §9) every figure
+    of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``."""
     robots = summary["robots"].values()
     reasons = [c["reason"] for r in robots for c in r["cancelled"]]
     row: dict[str, Any] = {
@@ -67,7 +69,11 @@ def kpis(summary: dict[str, Any]) -> dict[str, Any]:
         "distance": sum(r["distance"] for r in robots),
         "parts_moved": sum(r["parts_moved"] for r in robots),
         "errors": summary["errors"],
+        "collisions": sum(r.get("collisions", 0) for r in robots) // 2,
     }
+    batteries = [r["battery"] for r in robots if "battery" in r]
+    if batteries:
+        row["battery_used"] = sum(b["used"] for b in batteries)
     jobs = summary.get("jobs")
     if isinstance(jobs, dict):
         _flatten(row, "jobs_", jobs)

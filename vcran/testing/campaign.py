@@ -32,7 +32,6 @@ class Options:
     window: int = 3
     max_ops: int = 8
     fast: bool = False
-    malformed: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +80,7 @@ def search(text: str, source: str, seed: int, examples: int, options: Options = 
 
     base = base_scenario(text, source)
     strategy = perturbations(list(base.messages()), [r.id for r in base.robots], window=options.window,
-                             malformed=options.malformed, max_ops=options.max_ops)
+                             max_ops=options.max_ops)
     calls = {"generated": 0, "shrinking": 0}
     found = False
 

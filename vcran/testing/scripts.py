@@ -207,8 +207,7 @@ def perturbations(
     """Lists of up to ``max_ops`` perturbations of ``entries`` (module docstring).
 
     ``window`` bounds how far a swap reorders; ``horizon`` (default: the last entry's time plus
-    20 s) bounds when injected messages arrive; ``malformed`` adds undecodable payloads (needs
-    :mod:`vcran.core.codec` at run time).
+    20 s) bounds when injected messages arrive; ``malformed`` adds undecodable payloads (R12).
     """
     n = max(len(entries), 1)
     end = horizon if horizon is not None else max((e.t for e in entries), default=0.0) + 20.0
@@ -236,8 +235,11 @@ def perturbations(
 
 
 def perturbed_toml(base: Scenario, ops: Sequence[Perturbation], header: str = "") -> str:
-    """``base`` with its script perturbed by ``ops``, as a scenario file (cycles expanded)."""
-    return dumps(scenario_dict(base, apply(list(base.messages()), ops)), header)
+    """``base`` with its script perturbed by ``ops``, as a scenario file (cycles expanded). A message
+    delayed or repeated past the run's end never arrives (a scenario file may not send it then)."""
+    end = base.settings.duration
+    entries = [e for e in apply(list(base.messages()), ops) if end is None or e.t <= end]
+    return dumps(scenario_dict(base, entries), header)
 
 
 def load_text(text: str, source: str = "<fuzz>") -> Scenario:

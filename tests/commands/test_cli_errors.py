@@ -1,0 +1,210 @@
+"""The CLI's one error boundary (README "Exit status"; issue 13 item 5, issue 16): every bad input ends as
+one line ``vcran COMMAND: message`` and exit status 2, never a traceback; a bug is one line and 70."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import ROOT
+from tests.io.test_scenario_jobs import FLEET, job
+from vcran import __version__, cli
+
+DEMO = str(ROOT / "scenarios" / "demo.toml")
+
+#: One robot, one motion at ``t`` seconds, a run of ``duration`` seconds; ``extra`` is appended.
+SCENARIO = """\
+[simulation]
+duration = {duration}
+[[robots]]
+id = "r1"
+[[script]]
+t = {t}
+robot = "r1"
+kind = "motion"
+task = "T"
+id = "T_m1"
+seq = [1, 1]
+point = [1.0, 0.0, 0.0]
+{extra}"""
+
+
+def vcran(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    """``vcran ARGV`` in this process: exit status, stdout, stderr."""
+    try:
+        code = cli.main(list(argv))
+    except SystemExit as exc:  # argparse's own exits (--help, --version, usage errors)
+        code = exc.code if isinstance(exc.code, int) else 1
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def scenario_file(tmp_path: Path, *, t: float = 1.0, duration: float = 60.0, extra: str = "") -> Path:
+    path = tmp_path / "s.toml"
+    path.write_text(SCENARIO.format(t=t, duration=duration, extra=extra), encoding="utf-8")
+    return path
+
+
+def read_only_folder(tmp_path: Path) -> Path:
+    """A folder nobody may create anything in. root ignores permission bits, so as root it is /sys
+    (mounted read-only for new entries on Linux)."""
+    if os.geteuid() == 0:
+        return Path("/sys")
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    folder.chmod(0o500)
+    return folder
+
+
+def _bad_inputs(tmp_path: Path) -> list[tuple[list[str], str, str]]:
+    """(argv, command, what the message must say); each a mistake a user has made."""
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x", encoding="utf-8")
+    not_utf8 = tmp_path / "latin1.toml"
+    not_utf8.write_bytes('[simulation]\nname = "café"\n'.encode("latin-1"))
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    huge = "9" * 5000
+    for sub in ("raw_text", "late"):
+        (tmp_path / sub).mkdir()
+    raw_text = scenario_file(tmp_path / "raw_text", extra=f"""
+[[script]]
+t = 2.0
+robot = "r1"
+kind = "raw"
+attribute = "motion_assignment"
+value = '{{"type": "x", "value": {huge}}}'
+""")
+    raw_toml = tmp_path / "raw_toml.toml"
+    raw_toml.write_text(f"[simulation]\nduration = 1.0\nx = {huge}\n", encoding="utf-8")
+    late = scenario_file(tmp_path / "late", t=61.0, duration=60.0)
+    out = str(tmp_path / "out")
+    recording = tmp_path / "recording"
+    assert cli.main(["run", DEMO, "--out", str(recording), "--quiet"]) == 0
+    locked = read_only_folder(tmp_path)
+    return [
+        (["replay", str(recording), "--out", str(locked / "vcran-out")], "replay", "vcran-out: "),
+        (["replay", str(recording), "--out", str(a_file)], "replay", f"{a_file}: exists and is not a folder"),
+        (["report", str(recording), "--out", str(locked / "vcran-out")], "report", "vcran-out: "),
+        (["report", str(recording), "--out", str(a_file / "sub")], "report", f"{a_file / 'sub'}: Not a directory"),
+        (["run", DEMO, "--out", out, "--manager", "vcran.managers:Dispatcher"], "run",
+         "has a [[script]] that would play it too"),
+        (["run", DEMO, "--out", out, "--manager", "no colon"], "run", "expected 'module:Class'"),
+        (["run", str(tmp_path), "--out", out], "run", f"{tmp_path}: is a folder, not a scenario file"),
+        (["run", str(not_utf8), "--out", out], "run", f"{not_utf8}: not UTF-8 text"),
+        (["run", DEMO, "--out", str(a_file)], "run", f"{a_file}: exists and is not a folder"),
+        (["run", DEMO, "--out", str(a_file / "sub")], "run", f"{a_file / 'sub'}: Not a directory"),
+        (["run", DEMO, "--out", str(locked / "vcran-out")], "run", "vcran-out: "),
+        (["replay", str(empty), "--out", out], "replay", f"{empty}: a folder without trace.jsonl"),
+        (["run", str(raw_text), "--out", out], "run", "field 'value': not valid JSON: Exceeds the limit (4300 digits)"),
+        (["run", str(raw_toml), "--out", out], "run", f"{raw_toml}: not valid TOML: Exceeds the limit (4300 digits)"),
+        (["run", str(late), "--out", out], "run", "the entry is sent at t = 61, after the run ends (duration = 60)"),
+        (["gen", "--robots", "2", "--hours", "inf", "--seed", "1"], "gen", "--hours must be a positive number, got inf"),
+        (["gen", "--robots", "2", "--hours", "nan", "--seed", "1"], "gen", "--hours must be a positive number, got nan"),
+        (["decode", str(empty)], "decode", f"{empty}: Is a directory"),
+        (["live", DEMO, "--orion", "http://127.0.0.1:9", "--out", out, "--token-file", str(tmp_path / "no-token")],
+         "live", f"cannot read --token-file {tmp_path / 'no-token'}: No such file or directory"),
+        (["run", str(tmp_path / "nope.toml"), "--out", out], "run", "nope.toml: no such file"),
+        (["run", DEMO], "run", "the following arguments are required: --out"),
+    ]
+
+
+def test_every_bad_input_is_one_line_and_exit_2(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    for argv, command, message in _bad_inputs(tmp_path):
+        code, out, err = vcran(capsys, *argv)
+        assert (code, out) == (2, ""), (argv, code, out, err)
+        assert err.startswith(f"vcran {command}: ") and err.count("\n") == 1, (argv, err)
+        assert message in err, (argv, err)
+        assert "Traceback" not in err
+
+
+def test_nothing_is_written_for_a_scenario_that_does_not_load(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    late = scenario_file(tmp_path, t=61.0, duration=60.0)
+    assert vcran(capsys, "run", str(late), "--out", str(tmp_path / "out"))[0] == 2
+    assert not (tmp_path / "out").exists()
+
+
+def test_nothing_is_written_for_a_run_refused_for_its_fleet_manager(capsys: pytest.CaptureFixture[str],
+                                                                    tmp_path: Path) -> None:
+    """A script and a manager, or jobs and none: refused before the output folder exists."""
+    jobs_only = tmp_path / "jobs.toml"
+    jobs_only.write_text(FLEET + job(1, "j1"), encoding="utf-8")
+    for argv, says in [(["run", DEMO, "--manager", "vcran.managers:Dispatcher"], "would play it too"),
+                       (["run", str(jobs_only)], "no fleet manager to give them to")]:
+        code, _, err = vcran(capsys, *argv, "--out", str(tmp_path / "out"))
+        assert code == 2 and says in err, err
+        assert not (tmp_path / "out").exists()
+
+
+def test_an_entry_at_the_last_instant_still_loads(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """The bound is inclusive: a message at exactly ``duration`` is played (inbound first within an instant)."""
+    code, _, err = vcran(capsys, "run", str(scenario_file(tmp_path, t=60.0, duration=60.0)), "--out", str(tmp_path / "o"), "--quiet")
+    assert (code, err) == (0, "")
+
+
+def test_a_real_process_shows_no_traceback(tmp_path: Path) -> None:
+    """The same boundary when run as a program (stderr as the user's terminal gets it)."""
+    result = subprocess.run([sys.executable, "-m", "vcran", "run", str(tmp_path), "--out", str(tmp_path / "o")],
+                            capture_output=True, text=True, timeout=60)
+    assert (result.returncode, result.stdout) == (2, "")
+    assert result.stderr == f"vcran run: {tmp_path}: is a folder, not a scenario file\n"
+
+
+def test_bare_vcran_prints_help_and_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = vcran(capsys)
+    assert (code, err) == (0, "")
+    assert out.startswith("usage: vcran") and "Exit status:" in out
+    assert all(name in out for name in cli.COMMANDS)
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    assert vcran(capsys, "--version") == (0, f"vcran {__version__}\n", "")
+
+
+def test_a_bug_is_one_line_exit_70_and_debug_shows_it(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+                                                      tmp_path: Path) -> None:
+    def broken(*_args: object, **_kw: object) -> None:
+        raise KeyError("oops")
+
+    monkeypatch.setattr("vcran.api.run_model", broken)
+    code, out, err = vcran(capsys, "run", DEMO, "--out", str(tmp_path / "o"))
+    assert (code, out) == (70, "")
+    assert err == "vcran run: internal error (a bug in vcran; VCRAN_DEBUG=1 shows where): KeyError: 'oops'\n"
+    monkeypatch.setenv("VCRAN_DEBUG", "1")
+    with pytest.raises(KeyError):
+        cli.main(["run", DEMO, "--out", str(tmp_path / "o")])
+
+
+def test_a_fleet_manager_that_raises_is_its_bug_not_vcrans(capsys: pytest.CaptureFixture[str],
+                                                           monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """One line naming the hook and the time, exit 1 (the run found a failure), not 'a bug in vcran' (70)."""
+    argv = ["run", "warehouse", "--out", str(tmp_path / "o"), "--manager", "tests.testing.loop_managers:Raising", "--quiet"]
+    code, out, err = vcran(capsys, *argv)
+    assert (code, out) == (1, "")
+    assert err.startswith("vcran run: the fleet manager raised RuntimeError: my bug (in fleet manager Raising: "
+                          "on_job at t=") and err.endswith("; VCRAN_DEBUG=1 shows the traceback)\n")
+    assert err.count("\n") == 1
+    monkeypatch.setenv("VCRAN_DEBUG", "1")
+    with pytest.raises(RuntimeError, match="my bug"):
+        cli.main(argv)
+
+
+def test_interrupt_is_130(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    def interrupted(*_args: object, **_kw: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("vcran.api.run_model", interrupted)
+    assert vcran(capsys, "run", DEMO, "--out", str(tmp_path / "o")) == (130, "", "vcran run: interrupted\n")
+
+
+def test_a_closed_pipe_is_no_error() -> None:
+    """``vcran gen ... | head -1``: the reader stopped reading; exit 0 and nothing on stderr."""
+    result = subprocess.run(f"{sys.executable} -m vcran gen --robots 200 --hours 1 --seed 1 | head -1",
+                            shell=True, capture_output=True, text=True, timeout=60,
+                            executable="/bin/bash", env={**os.environ, "PYTHONUNBUFFERED": "0"})
+    assert result.stdout.count("\n") == 1
+    assert result.stderr == ""
