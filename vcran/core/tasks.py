@@ -28,11 +28,14 @@ def same_content(a: Assignment, b: Assignment) -> bool:
 
 
 _FLATTENERS: dict[type, Callable[[Any], tuple[Any, ...]]] = {}
+#: Float fields are flattened as ``v + 0.0``, which turns -0.0 into 0.0: R10 compares numbers (-0.0 == 0.0),
+#: so the fingerprint must not tell the signs of a zero apart (pickle would).
+_FLOATS = ("float64", "float32")
 
 
 def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
     """A function returning every primitive of a ``cls`` in schema order, ids by their uuid only
-    (SPEC §2), without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
+    (SPEC §2), zeros unsigned, without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
     costs several times more, and this runs for every assignment of every ended task."""
     key = (cls, skip)
     found = _FLATTENERS.get(key)  # type: ignore[call-overload]
@@ -47,14 +50,16 @@ def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
                 continue
             here = f"{path}.{spec.name}"
             if spec.kind == "prim":
-                parts.append(here)
+                parts.append(f"({here} + 0.0)" if spec.ros in _FLOATS else here)
             elif spec.kind == "id":
                 parts.append(f"{here}.uuid")
             elif spec.kind == "msg":
                 walk(spec.cls, here)  # type: ignore[arg-type]
             else:
                 name = f"_a{len(helpers)}"
-                if spec.cls is None:
+                if spec.cls is None and spec.ros[:-2] in _FLOATS:
+                    helpers[name] = lambda items: (len(items), *(v + 0.0 for v in items))
+                elif spec.cls is None:
                     helpers[name] = lambda items: (len(items), *items)
                 elif spec.cls is Id:
                     helpers[name] = lambda items: (len(items), *(i.uuid for i in items))
