@@ -8,6 +8,7 @@ known once R3 holds, which is also the moment the whole path can go to the AGV.
 from __future__ import annotations
 
 import pickle
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from hashlib import blake2b
@@ -109,10 +110,15 @@ class Task:
     where: dict[tuple[str, Id], int] = field(default_factory=dict)
     #: Number of motions, fixed when the path is dispatched (R3); None before.
     m: int | None = None
-    motions_done: int = 0
+    #: Positions of the dispatched path still to drive, the running leg first (R13 may drop later ones).
+    route: deque[int] = field(default_factory=deque)
     #: Position of the next action to dispatch, and whether one is running.
     next_action: int = 0
     action_running: bool = False
+    #: Positions cancelled one by one (R13): received for R3-R5, never performed.
+    skipped: set[int] = field(default_factory=set)
+    #: When the running leg or action began (R14: a cancel or timeout at that instant abandons it).
+    since: float = float("-inf")
     #: Why the task is ending while its running leg or action finishes (R8), if it is.
     ending: Reason | None = None
     #: The cancel that is ending it, kept for the history so that its re-reads stay silent (R10).
@@ -171,8 +177,29 @@ class Task:
         return len(self.slots) == self.length
 
     def path(self) -> tuple[MotionAssignment, ...]:
+        """The motions to drive: positions 1..m but those cancelled before dispatch (R13)."""
         assert self.m is not None
-        return tuple(self.slots[p] for p in range(1, self.m + 1))  # type: ignore[misc]
+        return tuple(self.slots[p] for p in range(1, self.m + 1) if p not in self.skipped)  # type: ignore[misc]
+
+    def skip_cancelled_actions(self) -> None:
+        """Move ``next_action`` past actions cancelled before their turn (R13)."""
+        while self.next_action in self.skipped:
+            self.next_action += 1
+
+    def refusal(self, pos: int) -> tuple[str, str] | None:
+        """R13: why the assignment at ``pos`` can no longer be cancelled on its own (code, message), or None."""
+        a = self.slots[pos]
+        what = f"{kind_of(a)} {assignment_id(a).label}"
+        if self.m is not None and pos <= self.m:  # a motion of the dispatched path
+            if pos not in self.route:
+                return "assignment_finished", f"{what} was already reached [R13]"
+            if pos == self.route[0]:
+                return "assignment_running", f"{what} is the running leg [R13]"
+        elif self.m is not None and pos < self.next_action:
+            return "assignment_finished", f"{what} was already performed [R13]"
+        elif self.action_running and pos == self.next_action:
+            return "assignment_running", f"{what} is the running action [R13]"
+        return None
 
     def action_at(self, pos: int) -> ActionAssignment:
         a = self.slots[pos]
@@ -180,7 +207,8 @@ class Task:
         return a
 
     def dispatched(self, pos: int) -> bool:
-        """Whether the assignment at ``pos`` has gone to the AGV or AgvAction (R10 replacement limit)."""
+        """Whether the assignment at ``pos`` has gone to the AGV or AgvAction (R10 replacement limit);
+        ``pos`` is not a cancelled one (R13)."""
         if self.m is None:
             return False
         if pos <= self.m:

@@ -8,6 +8,7 @@ and applies it to the stations.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from typing import Any
@@ -15,11 +16,13 @@ from typing import Any
 import simpy
 
 from vcran.core.effects import (
+    Abandon,
     ClearTimer,
     DispatchAction,
     DispatchPath,
     Effect,
     Event,
+    SkipMotion,
     StartTimer,
     StopAfterLeg,
 )
@@ -78,11 +81,6 @@ class TimerFired:
     deadline: simpy.events.Event
 
 
-@dataclass(frozen=True, slots=True)
-class Stop:
-    """RanLogic -> AGV: stop at the end of the running leg (R8)."""
-
-
 class RobotNode:
     """RanLogic + AGV + AgvAction of one robot. ``log`` receives ``(robot, event)`` for every event."""
 
@@ -111,9 +109,15 @@ class RobotNode:
         self.parts_moved = 0
         self._capable = frozenset(ActionKind(a) for a in config.actions)
         self._timers: dict[Id, simpy.events.Event] = {}
+        #: The points of the dispatched path still to drive. RanLogic's commands edit it: StopAfterLeg
+        #: empties it (R8), SkipMotion drops a point (R13). ``agv_commands`` only wakes the AGV up.
+        self._route: deque[MotionAssignment] = deque()
+        #: The dispatched action not yet begun; ``action_orders`` only wakes AgvAction up.
+        self._order: ActionAssignment | None = None
+        self._leg_running = self._acting = False
+        self._agv_process = env.process(self._agv())
+        self._action_process = env.process(self._agv_action())
         env.process(self._ranlogic())
-        env.process(self._agv())
-        env.process(self._agv_action())
 
     # --- RanLogic ---------------------------------------------------------------------------------------
 
@@ -153,11 +157,17 @@ class RobotNode:
             if isinstance(effect, Event):
                 self._log(self, effect)
             elif isinstance(effect, DispatchPath):
-                self.agv_commands.put(effect)
+                self._route = deque(effect.motions)
+                self.agv_commands.put(effect.task)
             elif isinstance(effect, DispatchAction):
-                self.action_orders.put(effect)
+                self._order = effect.action
+                self.action_orders.put(effect.task)
             elif isinstance(effect, StopAfterLeg):
-                self.agv_commands.put(Stop())
+                self._route.clear()  # the running leg finishes; nothing after it (R8)
+            elif isinstance(effect, SkipMotion):
+                self._route = deque(m for m in self._route if m.motion_id != effect.motion)
+            elif isinstance(effect, Abandon):
+                self._abandon()
             elif isinstance(effect, StartTimer):
                 self._start_timer(effect.task, effect.at)
             else:
@@ -169,23 +179,35 @@ class RobotNode:
         self._timers[task] = deadline
         deadline.callbacks.append(lambda event: self.inbox.put(TimerFired(task, event)))
 
+    def _abandon(self) -> None:
+        """R14: the leg or action that began at this instant does not happen (a new one may follow)."""
+        self._route.clear()
+        self._order = None
+        if self._leg_running:
+            self._agv_process.interrupt()
+        if self._acting:
+            self._action_process.interrupt()
+
     # --- AGV --------------------------------------------------------------------------------------------
 
     def _agv(self) -> Process:
         while True:
-            command = yield self.agv_commands.get()
-            if isinstance(command, Stop):
-                continue  # the path it meant has already ended
-            for motion in command.motions:
+            yield self.agv_commands.get()  # a path was dispatched into self._route (maybe emptied since)
+            while self._route:
+                motion = self._route.popleft()
                 leg = self._leg(motion)
                 self.fleet.start(self.index, leg)
-                yield after(self.env, leg.duration, COMPLETION)
+                self._leg_running = True
+                try:
+                    yield after(self.env, leg.duration, COMPLETION)
+                except simpy.Interrupt:  # abandoned as it began (R14): the robot stays where it was
+                    self.fleet.abandon(self.index)
+                    break
+                finally:
+                    self._leg_running = False
                 self.fleet.finish(self.index)
                 self.pose = (leg.x1, leg.y1, leg.end_theta)
                 self.inbox.put(MotionDone(motion.motion_id))
-                if any(isinstance(c, Stop) for c in self.agv_commands.items):
-                    yield self.agv_commands.get()  # consume the Stop: the rest of the path is dropped (R8)
-                    break
 
     def _leg(self, m: MotionAssignment) -> Leg:
         c = self.config
@@ -206,14 +228,22 @@ class RobotNode:
 
     def _agv_action(self) -> Process:
         while True:
-            order = yield self.action_orders.get()
-            action: ActionAssignment = order.action
+            yield self.action_orders.get()
+            action, self._order = self._order, None
+            if action is None:
+                continue  # abandoned before it began (R14)
             kind = action.kind
-            yield after(self.env, self.durations[kind.value], COMPLETION)
+            # A robot without the capability fails the action as it is dispatched, not after its duration (R14).
+            self._acting = True
+            try:
+                yield after(self.env, self.durations[kind.value] if kind in self._capable else 0.0, COMPLETION)
+            except simpy.Interrupt:  # abandoned as it began (R14): nothing is performed
+                continue
+            finally:
+                self._acting = False
             x, y, _ = self.pose
             outcome, carrying = perform(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)
             if outcome.ok and kind is ActionKind.UNLOAD:
                 self.parts_moved += 1
             self.carrying = carrying
             self.inbox.put(ActionDone(action.action_id, outcome.ok, outcome.code, outcome.message))
-
