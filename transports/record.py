@@ -2,16 +2,30 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Protocol
+
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.core.wire import Frame, Inbound, Outbound
-from vcran.io.trace import TraceWriter
+from vcran.core.wire import Frame, Inbound, Outbound, Publish
+
+
+class TraceSink(Protocol):
+    """Where records go: :class:`vcran.io.trace.TraceWriter` (files), or memory (``vcran.simulate``)."""
+
+    def inbound(self, t: float, inbound: Inbound) -> None: ...
+    def publish(self, out: Publish) -> None: ...
+    def frame(self, frame: Frame) -> None: ...
+    def end(self, t: float) -> None: ...
+    def close(self) -> None: ...
 
 
 class RecordingTransport(Transport):
-    def __init__(self, inner: Transport, writer: TraceWriter) -> None:
+    def __init__(self, inner: Transport, writer: TraceSink, *, after_frame: Callable[[], None] | None = None) -> None:
+        """``after_frame`` runs after each telemetry frame is written (live mode flushes the files there)."""
         self.inner, self.writer = inner, writer
+        self._after_frame = after_frame
         self._env: simpy.Environment | None = None
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
@@ -26,6 +40,8 @@ class RecordingTransport(Transport):
     def send(self, out: Outbound) -> None:
         if isinstance(out, Frame):
             self.writer.frame(out)
+            if self._after_frame is not None:
+                self._after_frame()
         else:
             self.writer.publish(out)
         self.inner.send(out)

@@ -8,6 +8,8 @@ internal and may move. ::
 
     scenario = vcran.load_scenario("scenarios/demo.toml")
     print([robot.id for robot in scenario.robots])
+    result = vcran.simulate("scenarios/warehouse.toml")   # in memory; docs/library.md
+    print(result.summary["jobs"]["completed"])
 
 The names are loaded on first use (PEP 562), not at ``import vcran``: every ``import vcran.core.x``
 runs this file first, and the pure core must stay free of SimPy and httpx (an import contract and a
@@ -43,9 +45,21 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "Inbound": ("vcran.core.wire", "Inbound"),
     "Publish": ("vcran.core.wire", "Publish"),
     "Frame": ("vcran.core.wire", "Frame"),
-    # running a scenario into a run folder
+    # running a scenario in process (SPEC §9), or into a run folder with a transport of one's own
+    "simulate": ("vcran.api", "simulate"),
+    "Result": ("vcran.api", "Result"),
+    "ManagerError": ("vcran.api", "ManagerError"),
     "run_to": ("vcran.runner", "run_to"),
     "RunResult": ("vcran.runner", "RunResult"),
+    # a fleet manager in the loop (SPEC §9)
+    "FleetManager": ("vcran.core.manager", "FleetManager"),
+    "Handle": ("vcran.core.manager", "Handle"),
+    "Fleet": ("vcran.core.manager", "Fleet"),
+    "Timer": ("vcran.core.manager", "Timer"),
+    "Job": ("vcran.core.scenario", "Job"),
+    "JobStream": ("vcran.core.scenario", "JobStream"),
+    "LinkSettings": ("vcran.core.scenario", "LinkSettings"),
+    "JobRecord": ("vcran.core.jobs", "JobRecord"),
 }
 
 #: Literal, so that type checkers and linters read it; a test checks it names exactly _EXPORTS.
@@ -55,7 +69,8 @@ __all__ = [
     "load_scenario", "parse_scenario", "ScenarioError",
     "Id", "id_for", "MotionAssignment", "ActionAssignment", "CancelTask",
     "Transport", "Inbound", "Publish", "Frame",
-    "run_to", "RunResult",
+    "simulate", "Result", "ManagerError", "run_to", "RunResult",
+    "FleetManager", "Handle", "Fleet", "Timer", "Job", "JobStream", "LinkSettings", "JobRecord",
 ]
 
 
@@ -74,9 +89,21 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
+    from vcran.api import ManagerError, Result, simulate
     from vcran.core.ids import Id, id_for
+    from vcran.core.jobs import JobRecord
+    from vcran.core.manager import Fleet, FleetManager, Handle, Timer
     from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
-    from vcran.core.scenario import RobotConfig, Scenario, ScriptEntry, Settings, StationConfig
+    from vcran.core.scenario import (
+        Job,
+        JobStream,
+        LinkSettings,
+        RobotConfig,
+        Scenario,
+        ScriptEntry,
+        Settings,
+        StationConfig,
+    )
     from vcran.core.wire import Frame, Inbound, Publish, Transport
     from vcran.io.scenario_file import ScenarioError
     from vcran.io.scenario_file import load as load_scenario

@@ -13,12 +13,14 @@ import sys
 from collections.abc import Sequence
 
 from vcran.commands import CommandError
+from vcran.commands._signals import Terminated, terminate_like_interrupt
 
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {
     "run": "run",
     "replay": "replay",
     "live": "live",
+    "manage": "manage",
     "send": "send",
     "orion": "orion",
     "gen": "gen",
@@ -52,13 +54,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(argv[0] if argv and argv[0] in COMMANDS else None).parse_args(argv)
     try:
-        return int(args._run(args) or 0)
+        with terminate_like_interrupt():  # SIGTERM ends any command as Ctrl-C does
+            return int(args._run(args) or 0)
     except CommandError as exc:
         print(f"vcran {args.command}: {exc}", file=sys.stderr)
         return exc.code
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print("vcran: interrupted", file=sys.stderr)
-        return 130
+        return 143 if isinstance(exc, Terminated) else 130
+    except TypeError as exc:  # orjson turns a Ctrl-C inside its ``default`` callback into a TypeError
+        if not isinstance(exc.__cause__, KeyboardInterrupt):
+            raise
+        print("vcran: interrupted", file=sys.stderr)
+        return 143 if isinstance(exc.__cause__, Terminated) else 130
     except BrokenPipeError:
         return 0
 

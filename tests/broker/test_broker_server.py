@@ -75,6 +75,10 @@ def test_an_unreachable_listener_marks_the_subscription_failed(broker: BrokerHan
         shown = client.get(f"/v2/subscriptions/{subscription}").json()
         assert shown["status"] == "failed"
         assert shown["notification"]["lastFailureReason"] == "Couldn't connect to server"
+        assert shown["notification"]["failsCounter"] == 1  # Orion's count of consecutive failures
+        assert client.patch("/v2/entities/r1/attrs", json={"a": {"value": 2}}).status_code == 204
+        assert broker.wait_notifications(timeout=10)
+        assert client.get(f"/v2/subscriptions/{subscription}").json()["notification"]["failsCounter"] == 2
         assert client.get("/version").status_code == 200  # and the broker carries on
 
 
@@ -122,7 +126,7 @@ def test_vcran_broker_command_prints_its_url_and_stops_on_sigterm() -> None:
         line = process.stdout.readline()
         assert "in memory only" in line
         url = line.split()[4]
-        assert httpx.get(f"{url}/version").json()["orion"]["version"] == "4.7.0-next"
+        assert httpx.get(f"{url}/version").json()["orion"]["version"] == "4.7.0"
         process.send_signal(signal.SIGTERM)
         assert process.wait(timeout=10) == 0
     finally:

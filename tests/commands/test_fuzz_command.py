@@ -49,3 +49,34 @@ def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
 def test_bad_scenario_is_a_usage_error(tmp_path, capsys):
     assert main(["fuzz", str(tmp_path / "missing.toml")]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+# --- a fleet manager in the loop (SPEC §9) ------------------------------------------------------------------
+
+
+def test_fuzzing_a_manager_saves_a_shrunk_failing_scenario_that_names_it(tmp_path, capsys):
+    from dataclasses import replace
+
+    import vcran
+    from vcran.io.scenario_toml import dumps, loop_dict
+    from vcran.testing.loop import check_jobs_ended
+
+    warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    small = replace(warehouse, robots=warehouse.robots[:2], settings=replace(warehouse.settings, duration=400.0))
+    scenario = tmp_path / "small.toml"
+    scenario.write_text(dumps(loop_dict(small)))
+    assert main(["fuzz", str(scenario), "--examples", "5", "--seed", "1", "--jobs", "3", "--horizon", "30"]) == 0
+    assert "vcran.managers:Dispatcher kept the loop properties on 5 examples" in capsys.readouterr().out
+
+    saved = tmp_path / "fail.toml"
+    manager = "tests.testing.loop_managers:NeverReplans"
+    assert main(["fuzz", str(scenario), "--manager", manager, "--examples", "20", "--seed", "1", "--jobs", "3",
+                 "--horizon", "30", "--save", str(saved)]) == 1
+    text = saved.read_text()
+    assert f'class = "{manager}"' in text and "# violation: job job_1" in text
+    failing = vcran.load_scenario(saved)
+    assert len(failing.jobs) == 1 and failing.manager.path == manager
+    assert check_jobs_ended(vcran.simulate(failing)) and not check_jobs_ended(
+        vcran.simulate(failing, manager=vcran.managers.Dispatcher))
+    assert main(["fuzz", str(scenario), "--manager", "no.such:Manager"]) == 2
+    assert "cannot import no.such" in capsys.readouterr().err

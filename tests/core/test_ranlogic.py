@@ -479,4 +479,4 @@ def _restamped(a):
 
     from vcran.core.messages import Header, MotionAssignment, Time
 
-    return replace(a, header=Header(a.header.seq + 1, Time(7, 0), "x")) if isinstance(a, MotionAssignment) else a
+    return replace(a, header=Header((a.header.seq + 1) % 2**32, Time(7, 0), "x")) if isinstance(a, MotionAssignment) else a

@@ -91,11 +91,37 @@ def test_tampered_state_transition_is_found(demo_run, tmp_path, capsys):
     assert "events.jsonl" in capsys.readouterr().err
 
 
-def test_truncated_recording_is_refused(demo_run, tmp_path, capsys):
-    path = demo_run / "trace.jsonl"
-    path.write_text("\n".join(path.read_text().splitlines()[:-1]) + "\n")
-    assert replay(path, tmp_path / "rep") == 2
-    assert "no end record" in capsys.readouterr().err
+def cut_off(run, t_cut: float, tamper: bool = False) -> None:
+    """Leave ``run`` as a killed live run leaves its folder: everything up to ``t_cut``, then half a line
+    of trace and events and half a telemetry row, and no end record (issue 12 item 8)."""
+    for name in ("trace.jsonl", "events.jsonl"):
+        path = run / name
+        text = path.read_text().splitlines(keepends=True)
+        keep = [line for i, line in enumerate(text) if (name == "trace.jsonl" and i == 0)
+                or ("t" in json.loads(line) and json.loads(line).get("dir") != "end" and json.loads(line)["t"] <= t_cut)]
+        rest = text[len(keep)]
+        if tamper and name == "trace.jsonl":
+            keep[-1] = keep[-1].replace('"robot_1"', '"robot_9"')
+        path.write_text("".join(keep) + rest[: len(rest) // 2])
+    data = (run / "telemetry.bin").read_bytes()
+    rows = [data[i:i + 48] for i in range(0, len(data), 48)]  # t + 5 fields of the one robot
+    whole = [row for row in rows if struct.unpack("<d", row[:8])[0] <= t_cut]
+    (run / "telemetry.bin").write_bytes(b"".join(whole) + rows[len(whole)][:20])
+
+
+def test_a_killed_recording_replays_and_verifies_as_far_as_it_goes(demo_run, tmp_path, capsys):
+    cut_off(demo_run, 40.0)
+    assert main(["replay", str(demo_run / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify"]) == 0
+    out, err = capsys.readouterr()
+    assert "no end record" in err and "t=40" in err and "as far as it goes" in out
+    replayed = [json.loads(line) for line in (tmp_path / "rep" / "trace.jsonl").read_text().splitlines()[1:]]
+    assert replayed[-1] == {"t": 40.0, "dir": "end"}  # up to the last recorded instant, not beyond
+
+
+def test_a_killed_recording_still_shows_a_difference(demo_run, tmp_path, capsys):
+    cut_off(demo_run, 40.0, tamper=True)
+    assert replay(demo_run / "trace.jsonl", tmp_path / "rep") == 1
+    assert "trace.jsonl: first difference" in capsys.readouterr().err
 
 
 def test_malformed_inbound_record_names_the_line(demo_run, tmp_path, capsys):

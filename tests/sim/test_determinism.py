@@ -18,10 +18,10 @@ def run_cli(args: list[str], hashseed: str, cwd) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "vcran", *args], env=env, cwd=cwd, capture_output=True, text=True)
 
 
-@pytest.mark.parametrize("scenario", ["demo", "generated"])
+@pytest.mark.parametrize("scenario", ["demo", "generated", "warehouse"])
 def test_outputs_are_byte_identical_across_hash_seeds(tmp_path, scenario):
-    if scenario == "demo":
-        path = ROOT / "scenarios" / "demo.toml"
+    if scenario in ("demo", "warehouse"):  # warehouse: a closed loop with the Dispatcher (§9)
+        path = ROOT / "scenarios" / f"{scenario}.toml"
     else:
         gen = run_cli(["gen", "--robots", "30", "--hours", "0.05", "--seed", "7"], "0", tmp_path)
         assert gen.returncode == 0, gen.stderr

@@ -276,6 +276,24 @@ def test_raw_payloads_orjson_cannot_write_are_rejected_and_replay(run_toml, tmp_
     assert main(["replay", str(out.dir / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
+def test_r12_lone_surrogate_in_a_raw_value_is_rejected_recorded_and_replayed(run_toml, tmp_path):
+    """JSON can carry a lone UTF-16 surrogate ("\\udc00"), which no UTF-8 file can hold: the RAN rejects
+    it (R12), the trace records it (escaped) and a replay rejects it again (§6); nothing crashes."""
+    from vcran.cli import main
+    from vcran.core.build import cancel as build_cancel
+    from vcran.core.codec import encode_attribute
+
+    bad = encode_attribute("cancel_order", build_cancel("T"))
+    bad["value"]["task_id"]["value"]["description"]["value"] = "\udc00"
+    out = run_toml(script(raw(1, "cancel_order", bad), motion(2, "B", "B_m1", 1, 2, 1, 0), action(2, "B", "B_a1", 2, 2)))
+    [rejected] = out.of("rejected")
+    assert rejected["code"] == "malformed" and "surrogate" in rejected["message"]
+    assert out.robot()["completed"] == ["B"]
+    [recorded] = [r for r in out.trace() if r["dir"] == "in" and "raw" in r]
+    assert recorded["raw"]["value"]["task_id"]["value"]["description"]["value"] == "\udc00"
+    assert main(["replay", str(out.dir / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+
+
 def test_raw_value_that_is_not_json_fails_to_load():
     import tomllib
 

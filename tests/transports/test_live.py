@@ -121,6 +121,28 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
     assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
 
 
+def test_a_killed_live_run_keeps_its_recording_up_to_its_last_tick(broker_process, tmp_path):
+    # issue 12 item 8: outputs are flushed every tick, and replay accepts the cut-off recording
+    url = broker_process
+    out = tmp_path / "live"
+    live = vcran("live", str(DEMO), "--orion", url, "--out", str(out), "--factor", "20", "--quiet")
+    try:
+        rows = lambda: (out / "telemetry.bin").stat().st_size // 48 if (out / "telemetry.bin").exists() else 0  # noqa: E731
+        assert wait_until(lambda: rows() >= 20, 20)  # on disk while the run goes on: 20 ticks at least
+        sender = vcran("send", str(DEMO), "--orion", url, "--factor", "20", "--quiet")
+        assert sender.wait(timeout=30) == 0, sender.stderr.read()
+        assert wait_until(lambda: b'"dir":"in"' in (out / "trace.jsonl").read_bytes(), 10)
+        assert (out / "events.jsonl").stat().st_size > 0
+    finally:
+        live.kill()  # SIGKILL: no handler, no close, no summary
+        live.communicate(timeout=20)
+    assert not (out / "summary.json").exists()
+    check = vcran("replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify")
+    stdout, stderr = check.communicate(timeout=60)
+    assert check.returncode == 0, stderr
+    assert "no end record" in stderr and "as far as it goes" in stdout
+
+
 # --- in-process: faults --------------------------------------------------------------------------------
 
 FLEET = """
@@ -242,7 +264,7 @@ def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
         run.stop()
     assert progressed >= 10 * elapsed * 0.8  # kept pace with real time at x10 despite 503s and 300 ms answers
     assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
-    downs = [r for r in caplog.records if "retrying in the background" in r.getMessage()]
+    downs = [r for r in caplog.records if "retrying with backoff" in r.getMessage()]
     assert len(downs) == 1  # logged once, not once per tick
     assert any("is back" in r.getMessage() for r in caplog.records)
 
@@ -316,6 +338,59 @@ def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
             write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
         assert wait_until(lambda: run.model.completed["robot_1"] == ["gap"], 15)
         assert run.transport._subscription not in (None, first)
+    finally:
+        run.stop()
+        broker.stop()
+
+
+def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tmp_path):
+    """A notification whose cancel_order carries "\\udc00" (valid JSON, not valid Unicode) used to kill the
+    live run in the trace writer; it is a malformed input like any other (R12), recorded and replayable."""
+    from vcran.core.build import cancel
+
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        bad = encode_attribute("cancel_order", cancel("T"))
+        bad["value"]["task_id"]["value"]["description"]["value"] = "\udc00"
+        body = json.dumps({"subscriptionId": run.transport._subscription,
+                           "data": [{"id": "robot_1", "type": "ROBOT", "cancel_order": bad}]})
+        listener = run.transport._listener
+        answer = httpx.post(f"http://127.0.0.1:{listener.port}{listener.path}", content=body,
+                            headers={"Content-Type": "application/json"})
+        assert answer.status_code == 204
+        for m in task("after"):
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["after"], 15)
+    finally:
+        result = run.stop()
+        broker.stop()
+    assert result.summary["robots"]["robot_1"]["errors"] == 1
+    assert [e["code"] for e in run.events("rejected")] == ["malformed"]
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+
+
+def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
+    """Orion gives up on a notification (the listener was unreachable, or too slow in a burst) and says
+    so in the subscription's lastFailure/failsCounter; the keeper sees it and reads the entities, so the
+    values those notifications carried still reach the simulation (SPEC §7: no loss window)."""
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url)
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None and run.transport.requests >= 1, 10)
+        sid = run.transport._subscription
+        dead = f"http://127.0.0.1:{free_port()}/notify"  # every notification from now on fails
+        patch = {"notification": {"http": {"url": dead}, "attrs": ["motion_assignment", "action_assignment",
+                                                                  "cancel_order"]}}
+        assert httpx.patch(f"{broker.url}/v2/subscriptions/{sid}", json=patch).status_code == 204
+        for m in task("lost"):
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert broker.wait_notifications(timeout=10)
+        assert httpx.get(f"{broker.url}/v2/subscriptions/{sid}").json()["notification"]["failsCounter"] == 2
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["lost"], 15)
     finally:
         run.stop()
         broker.stop()

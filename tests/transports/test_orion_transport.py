@@ -15,6 +15,7 @@ import time
 
 import httpx
 import numpy as np
+import pytest
 
 from tests.conftest import ROOT
 from transports.orion.client import OrionClient
@@ -22,7 +23,7 @@ from transports.orion.transport import LiveOptions, OrionTransport, _resilient
 from vcran.cli import main
 from vcran.core.build import motion
 from vcran.core.codec import encode_attribute
-from vcran.core.messages import RanError
+from vcran.core.messages import AssignmentStatus, RanError, RanStatus
 from vcran.core.wire import Frame, Publish
 from vcran.sim.live import LiveEnvironment
 
@@ -38,6 +39,7 @@ class FakeOrion:
         self.deleted: list[str] = []
         self.update_status = update_status
         self.fail_next_subscription_check = False
+        self.lose_subscriptions = False  # answer 404 to a subscription check, as a restarted Orion does
         self.lock = threading.Lock()
 
     def __call__(self, request: httpx.Request) -> httpx.Response:
@@ -60,6 +62,8 @@ class FakeOrion:
                 if self.fail_next_subscription_check:
                     self.fail_next_subscription_check = False
                     return httpx.Response(503)
+                if self.lose_subscriptions:
+                    return httpx.Response(404, json={"error": "NotFound", "description": "gone"})
                 return httpx.Response(200, json={"id": sid})
             return httpx.Response(200, json=[])
 
@@ -77,32 +81,244 @@ def frame(t: float) -> Frame:
     return Frame(t, ROBOTS, np.zeros((2, 5)))
 
 
-def test_every_ran_error_of_a_tick_is_delivered_in_order():
+def delivered_errors(orion: FakeOrion) -> list[tuple[str, int]]:
+    return [(e["id"], e["ran_error"]["value"]["count"]["value"])
+            for body in orion.updates for e in body["entities"] if "ran_error" in e]
+
+
+def test_every_ran_error_of_a_tick_is_delivered_in_order_in_one_request():
+    # issue 13 item 4: several errors of one robot cost no extra request; each is an element of its own
     orion = FakeOrion()
     t = transport(orion)
     for n in (1, 2, 3):
         t.send(Publish(0.5, "robot_1", "ran_error", error(n)))
     t.send(Publish(0.5, "robot_2", "ran_error", error(9)))
     t.send(frame(1.0))
-    assert t._deliver_pending()
-    errors = [(e["id"], e["ran_error"]["value"]["count"]["value"])
-              for body in orion.updates for e in body["entities"] if "ran_error" in e]
-    assert errors == [("robot_1", 1), ("robot_2", 9), ("robot_1", 2), ("robot_1", 3)]
-    assert all("current_motion" in e for e in orion.updates[0]["entities"])  # one state round
-    assert len(orion.updates) == 3  # the tick's batch, then one round per further error of robot_1
+    assert t.sender.deliver() is None
+    assert len(orion.updates) == 1
+    assert delivered_errors(orion) == [("robot_1", 1), ("robot_2", 9), ("robot_1", 2), ("robot_1", 3)]
+    assert [sorted(e) for e in orion.updates[0]["entities"]] == [
+        ["current_motion", "id", "ran_error", "type"], ["current_motion", "id", "ran_error", "type"],
+        ["id", "ran_error", "type"], ["id", "ran_error", "type"]]
+    assert (t.sender.counts.attempts, t.sender.counts.accepted, t.sender.counts.errors_delivered) == (1, 1, 4)
 
 
-def test_orion_refusing_a_batch_drops_it_and_does_not_block_the_next(caplog):
+def test_the_broker_applies_repeated_elements_of_an_entity_in_order_and_notifies_each(tmp_path):
+    """What the one-request delivery relies on: Orion applies op/update's elements one by one."""
+    from vcran.broker import start_broker
+
+    broker = start_broker(port=0)
+    seen: list[int] = []
+    from transports.orion.listener import Listener
+
+    listener = Listener("127.0.0.1", 0, "/n", lambda sid, data: seen.extend(
+        e["ran_error"]["value"]["count"]["value"] for e in data))
+    try:
+        client = OrionClient(broker.url)
+        client.subscribe({"subject": {"entities": [{"id": "robot_1", "type": "ROBOT"}],
+                                      "condition": {"attrs": ["ran_error"]}},
+                          "notification": {"http": {"url": f"http://127.0.0.1:{listener.port}/n"},
+                                           "attrs": ["ran_error"]}})
+        t = OrionTransport(client, LiveOptions("ROBOT", ("robot_1",)))
+        for n in (1, 2, 3):
+            t.send(Publish(0.5, "robot_1", "ran_error", error(n)))
+        assert t.sender.deliver() is None
+        deadline = time.monotonic() + 5
+        while len(seen) < 3 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert seen == [1, 2, 3]
+        stored = httpx.get(f"{broker.url}/v2/entities/robot_1/attrs/ran_error").json()
+        assert stored["value"]["count"]["value"] == 3
+        client.close()
+    finally:
+        listener.stop()
+        broker.stop()
+
+
+def test_a_refused_batch_content_drops_its_state_and_retries_its_errors_once(caplog):
     orion = FakeOrion(update_status=400)
-    t = transport(orion)
+    t = transport(orion, backoff_start=0.1, backoff_cap=1.0)
+    t.send(Publish(0.5, "robot_1", "assignment_status", AssignmentStatus()))
+    t.send(Publish(0.5, "robot_1", "ran_error", error(1)))
     t.send(frame(1.0))
     with caplog.at_level(logging.WARNING, logger="vcran.orion"):
-        assert t._deliver_pending()  # dropped, not given back
-    assert not t.outbox.take()
-    assert "refused" in caplog.text
+        assert t.sender.deliver() == 0.1  # refused: back off
+        pending = t.outbox.take()
+        assert pending.state == {} and [e.message.count for e in pending.errors] == [1]
+        t.outbox.give_back(pending)
+        assert t.sender.deliver() == 0.2  # refused again: the error is reported, not sent a third time
+    assert not t.outbox.take().errors
+    assert t.sender.counts.errors_undeliverable == 1 and t.sender.counts.refused == 2
+    assert "1 ran_error(s) refused 2 times" in caplog.text
+    assert sum("Orion refused a batch update" in r.getMessage() for r in caplog.records) == 1  # once per cause
     orion.update_status = 204
     t.send(frame(2.0))
-    assert t._deliver_pending() and len(orion.updates) == 1
+    assert t.sender.deliver() is None and len(orion.updates) == 1  # the next tick is not blocked
+    assert "Orion is back" in caplog.text
+
+
+def test_an_expired_token_keeps_everything_and_backs_off():
+    orion = FakeOrion(update_status=401)
+    t = transport(orion, backoff_start=0.25, backoff_cap=2.0)
+    t.send(Publish(0.5, "robot_2", "ran_status", RanStatus()))
+    t.send(Publish(0.5, "robot_1", "ran_error", error(1)))
+    t.send(Publish(0.6, "robot_1", "ran_error", error(2)))
+    delays = []
+    for tick in range(6):
+        t.send(frame(float(tick)))
+        delays.append(t.sender.deliver())
+    assert delays == [0.25, 0.5, 1.0, 2.0, 2.0, 2.0]
+    orion.update_status = 204
+    assert t.sender.deliver() is None
+    assert delivered_errors(orion) == [("robot_1", 1), ("robot_1", 2)]  # kept through the refusals, in order
+    (body,) = orion.updates
+    assert "ran_status" in body["entities"][1] and body["entities"][0]["current_motion"]  # state kept too
+    assert t.sender.counts.errors_undeliverable == 0
+
+
+def test_errors_still_waiting_when_live_stops_are_reported_undeliverable(caplog):
+    orion = FakeOrion(update_status=503)
+    t = transport(orion)
+    t.send(Publish(0.5, "robot_1", "ran_error", error(1)))
+    t.send(Publish(0.6, "robot_2", "ran_error", error(2)))
+    with caplog.at_level(logging.WARNING, logger="vcran.orion"):
+        t.close()  # one last attempt, refused: said and counted, not silently lost
+    assert "2 ran_error(s) not delivered: batch update: Orion answered 503" in caplog.text
+    assert t.sender.counts.errors_undeliverable == 2 and t.sender.counts.attempts == 1
+    assert "2 undeliverable" in t.status()
+
+
+def test_retry_after_is_honoured_and_capped():
+    from transports.orion.client import retry_after
+    from transports.orion.health import Backoff
+
+    backoff = Backoff(0.25, 5.0)
+    assert backoff.next(3.0) == 3.0 and backoff.next(None) == 0.5 and backoff.next(0.1) == 1.0
+    assert backoff.next(3600.0) == 60.0  # a proxy cannot silence the fleet for an hour
+    assert retry_after("7") == 7.0 and retry_after(None) is None and retry_after("soon") is None
+    assert retry_after("Sun, 22 Nov 2026 20:00:30 GMT", now=1795377600.0) == 30.0
+    assert retry_after("Sun, 22 Nov 2026 19:00:00 GMT", now=1795377600.0) == 0.0  # a date in the past
+
+
+def test_a_failed_body_of_a_split_batch_gives_back_itself_and_the_later_ones():
+    robots = tuple(f"robot_{i}" for i in range(3000))  # ~2 MB of current_motion: three bodies
+    answers = iter([204, 503])
+    sent: list[dict] = []
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        status = next(answers, 204)
+        if status == 204:
+            sent.append(json.loads(request.content))
+        return httpx.Response(status)
+
+    client = OrionClient("http://orion.test", transport=httpx.MockTransport(handler))
+    t = OrionTransport(client, LiveOptions("ROBOT", robots))
+    t.send(Publish(0.5, "robot_2999", "ran_error", error(1)))  # in the last body
+    t.send(Frame(1.0, robots, np.zeros((len(robots), 5))))
+    assert t.sender.deliver() is not None
+    first = [e["id"] for e in sent[0]["entities"]]
+    assert 0 < len(first) < len(robots)
+    assert t.sender.deliver() is None
+    again = [e["id"] for body in sent[1:] for e in body["entities"]]
+    assert again == list(robots)  # the frame comes back whole (a same-value write for the first body) ...
+    assert delivered_errors(FakeOrionView(sent)) == [("robot_2999", 1)]  # ... and the error exactly once
+    assert t.sender.counts.attempts == 2 + len(sent) - 1
+
+
+class RefusingOrion:
+    """Answers every batch update the same way (``mode``) until told otherwise; reads answer []."""
+
+    def __init__(self, mode: str) -> None:
+        self.mode = mode
+        self.attempts = 0
+        self.updates: list[dict] = []
+        self.lock = threading.Lock()
+
+    def __call__(self, request: httpx.Request) -> httpx.Response:
+        if request.url.path != "/v2/op/update":
+            return httpx.Response(200, json=[])
+        with self.lock:
+            self.attempts += 1
+            n, mode = self.attempts, self.mode
+        if mode == "204":
+            self.updates.append(json.loads(request.content))
+            return httpx.Response(204)
+        if mode == "401":
+            return httpx.Response(401, json={"error": "Unauthorized", "description": "token expired"})
+        if mode == "429":
+            return httpx.Response(429, headers={"Retry-After": "1"}, json={"error": "TooManyRequests"})
+        if n % 2:  # 404-drop: a connection dropped without an answer, then a 404, and again
+            raise httpx.RemoteProtocolError("Server disconnected without sending a response.", request=request)
+        return httpx.Response(404, json={"error": "NotFound", "description": "no such service"})
+
+
+@pytest.mark.parametrize("mode, most", [("401", 12), ("429", 4), ("404-drop", 12)])
+def test_a_refusing_orion_gets_a_bounded_number_of_requests_and_every_error_in_the_end(mode, most, caplog):
+    # issue 12 item 1: 40 ticks in 2 s against an Orion refusing everything; then it accepts again
+    orion = RefusingOrion(mode)
+    t = OrionTransport(OrionClient("http://orion.test", transport=httpx.MockTransport(orion)),
+                       LiveOptions("ROBOT", ROBOTS, backoff_start=0.05, backoff_cap=0.4))
+    stop = threading.Event()
+    sender = threading.Thread(target=t.sender.loop, args=(stop,), daemon=True)
+    with caplog.at_level(logging.WARNING, logger="vcran.orion"):
+        sender.start()
+        for tick in range(40):
+            if tick % 4 == 0:
+                t.send(Publish(tick / 20, ROBOTS[tick % 8 // 4], "ran_error", error(tick // 4 + 1)))
+            t.send(frame(tick / 20))
+            time.sleep(0.05)
+        during = orion.attempts
+        faults = [r.getMessage() for r in caplog.records]
+        orion.mode = "204"
+        t.send(frame(2.0))
+        deadline = time.monotonic() + 5
+        while len(delivered_errors(orion)) < 10 and time.monotonic() < deadline:
+            time.sleep(0.02)
+            t.send(frame(2.0))
+        stop.set()
+        t.sender.release()
+        sender.join(5)
+    assert 2 <= during <= most  # not one request per tick (40), let alone the whole fleet each time
+    assert sorted(n for _, n in delivered_errors(orion)) == list(range(1, 11))  # none lost, none twice
+    for robot in ROBOTS:
+        mine = [n for r, n in delivered_errors(orion) if r == robot]
+        assert mine == sorted(mine)  # each robot's in order
+    assert t.sender.counts.errors_undeliverable == 0 and t.sender.counts.errors_delivered == 10
+    assert len(faults) == (2 if mode == "404-drop" else 1)  # one line per distinct cause
+
+
+def test_the_sender_wakes_from_its_backoff_when_the_inbound_side_sees_orion_lost_our_data():
+    # issue 12 item 2: Orion restarted empty; the subscription keeper notices and asks for a resend
+    orion = FakeOrion(update_status=503)
+    t = transport(orion, notify_url="http://127.0.0.1:0/notify", keepalive=0.05, backoff_start=3.0, backoff_cap=3.0)
+    t._env = LiveEnvironment(10)
+    stop = t._stop
+    threads = [threading.Thread(target=t.sender.loop, args=(stop,), daemon=True),
+               threading.Thread(target=t._subscription_loop, daemon=True)]
+    for thread in threads:
+        thread.start()
+    try:
+        t.send(frame(1.0))
+        deadline = time.monotonic() + 5
+        while t.outbound.fault is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert t.outbound.fault is not None  # the sender now sleeps 3 s
+        with orion.lock:
+            orion.update_status, orion.lose_subscriptions = 204, True
+        lost = time.monotonic()
+        while not orion.updates and time.monotonic() < lost + 5:
+            time.sleep(0.01)
+        assert orion.updates and time.monotonic() - lost < 1.5  # well before its 3 s backoff ended
+    finally:
+        stop.set()
+        t.sender.release()
+        for thread in threads:
+            thread.join(5)
+
+
+class FakeOrionView:
+    def __init__(self, updates: list[dict]) -> None:
+        self.updates = updates
 
 
 def test_transient_keepalive_failure_keeps_the_subscription():

@@ -10,8 +10,11 @@ error message, a log line or a repr.
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Iterable
 from dataclasses import dataclass
+from datetime import UTC
+from email.utils import parsedate_to_datetime
 from typing import Any
 
 import httpx
@@ -23,7 +26,10 @@ MAX_QUERY_IDS_CHARS = 6000
 
 
 class OrionError(Exception):
-    """Base of the client's errors."""
+    """Base of the client's errors. ``retry_after``: the seconds Orion (or a proxy in front of it) asked
+    the client to wait, from a ``Retry-After`` header on a 429 or 503; None when it did not say."""
+
+    retry_after: float | None = None
 
 
 class OrionUnavailable(OrionError):
@@ -122,14 +128,18 @@ class OrionClient:
             raise OrionUnavailable(f"create subscription: no subscription id in Location {location!r}")
         return sid
 
-    def subscription_exists(self, sid: str) -> bool:
+    def subscription(self, sid: str) -> dict[str, Any] | None:
+        """The subscription as Orion shows it (with its delivery record), or None when Orion has no
+        such subscription."""
         try:
-            self._call("GET", f"/v2/subscriptions/{sid}", "read subscription")
+            found = self._json("GET", f"/v2/subscriptions/{sid}", "read subscription")
         except OrionRejected as exc:
             if exc.status == 404:
-                return False
+                return None
             raise
-        return True
+        if not isinstance(found, dict):
+            raise OrionUnavailable(f"read subscription: expected a JSON object, got {type(found).__name__}")
+        return found
 
     def unsubscribe(self, sid: str) -> None:
         try:
@@ -155,12 +165,32 @@ class OrionClient:
             raise OrionUnavailable(f"{what}: Orion at {self.url} did not answer in time") from exc
         except httpx.HTTPError as exc:
             raise OrionUnavailable(f"{what}: Orion at {self.url} is unreachable ({type(exc).__name__})") from exc
-        if response.status_code >= 500:
-            raise OrionUnavailable(f"{what}: Orion answered {response.status_code}")
         if response.status_code >= 400:
-            error, description = _error_body(response)
-            raise OrionRejected(response.status_code, error, description, what)
+            failure: OrionError
+            if response.status_code >= 500:
+                failure = OrionUnavailable(f"{what}: Orion answered {response.status_code}")
+            else:
+                failure = OrionRejected(response.status_code, *_error_body(response), what)
+            failure.retry_after = retry_after(response.headers.get("Retry-After"))
+            raise failure
         return response
+
+
+def retry_after(value: str | None, now: float | None = None) -> float | None:
+    """Seconds from a ``Retry-After`` header: delta-seconds or an HTTP date (RFC 9110 §10.2.3); None
+    when absent or unreadable (a malformed header must not stop the sender, it only loses the hint)."""
+    if not value:
+        return None
+    value = value.strip()
+    if value.isdigit():
+        return float(value)
+    try:
+        when = parsedate_to_datetime(value)
+    except (TypeError, ValueError, IndexError):
+        return None
+    if when.tzinfo is None:  # an HTTP date is GMT; a naive result means the header said "-0000"
+        when = when.replace(tzinfo=UTC)
+    return max(0.0, when.timestamp() - (time.time() if now is None else now))
 
 
 def _error_body(response: httpx.Response) -> tuple[str, str]:

@@ -1,11 +1,13 @@
 """The notification listener: where Orion POSTs subscription notifications (SPEC §7).
 
-A threaded ``http.server`` whose handlers take one lock: notifications are handled one at a time, so the
-order in which Orion sent them on a connection is the order they enter the simulation, while an idle
-keep-alive connection or a stuck client cannot block others or delay shutdown. It refuses bodies over ``max_body``
-(413) and malformed ones (400) without reading more than it must, answers fast, and never lets a bad
-request take it down. What to do with a good notification is the ``on_notification`` callback's
-business (the transport checks the subscription id and forwards the attributes).
+A threaded ``http.server`` (:class:`vcran.io.http_server.Server`: deep listen backlog, idle and request
+deadlines, quiet disconnects) whose handlers take one lock: notifications are handled one at a time, so
+the order in which Orion sent them on a connection is the order they enter the simulation, while an
+idle keep-alive connection or a slow client cannot block others or delay shutdown. It answers 415 to a
+body that is not ``application/json``, 411 without a Content-Length, 413 over ``max_body`` (reading and
+dropping what the client still sends, so that it sees the answer), 400 to a malformed notification, and
+never lets a bad request take it down. What to do with a good notification is the ``on_notification``
+callback's business (the transport checks the subscription id and forwards the attributes).
 """
 
 from __future__ import annotations
@@ -14,28 +16,34 @@ import json
 import logging
 import threading
 from collections.abc import Callable
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
+
+from vcran.io.http_server import Handler, Server, drain, one_line
 
 log = logging.getLogger("vcran.orion")
 
 OnNotification = Callable[[str, list[dict[str, Any]]], None]
+
+#: Seconds a kept-alive connection may sit without a request (Orion reconnects when it needs to).
+IDLE_TIMEOUT = 30.0
+#: Seconds for a notification to arrive in full and be answered; Orion itself gives up after 5.
+REQUEST_TIMEOUT = 10.0
 
 
 class Listener:
     """Serve ``POST path`` on ``host:port`` in a daemon thread until :meth:`stop`."""
 
     def __init__(self, host: str, port: int, path: str, on_notification: OnNotification,
-                 max_body: int = 1_048_576) -> None:
+                 max_body: int = 1_048_576, *, idle_timeout: float = IDLE_TIMEOUT,
+                 request_timeout: float = REQUEST_TIMEOUT) -> None:
         listener = self
 
-        class Handler(BaseHTTPRequestHandler):
-            protocol_version = "HTTP/1.1"
-            timeout = 10
-
+        class NotificationHandler(Handler):
             def do_POST(self) -> None:  # noqa: N802 - http.server's naming
                 status, problem = listener._receive(self)
                 self._answer(status, problem)
+                if status in (411, 413):  # the body was not read
+                    drain(self.connection)
 
             def do_GET(self) -> None:  # noqa: N802
                 self._answer(405, "notifications are POSTed")
@@ -52,25 +60,29 @@ class Listener:
                 self.end_headers()
                 self.wfile.write(body)
 
-            def log_message(self, format: str, *args: Any) -> None:  # quiet: the transport logs what matters
+            def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 - the transport logs what matters
                 pass
 
         self.path = path
         self.max_body = max_body
         self._on = on_notification
         self._lock = threading.Lock()
-        self._server = ThreadingHTTPServer((host, port), Handler)
+        self._server = Server((host, port), NotificationHandler, idle_timeout=idle_timeout,
+                              request_timeout=request_timeout)
         self._server.daemon_threads = True
         self._server.block_on_close = False
         self.port = self._server.server_address[1]
         self._thread = threading.Thread(target=self._server.serve_forever, name="vcran-listener", daemon=True)
         self._thread.start()
 
-    def _receive(self, request: BaseHTTPRequestHandler) -> tuple[int, str]:
+    def _receive(self, request: Handler) -> tuple[int, str]:
         if request.path.split("?", 1)[0] != self.path:
-            return self._refuse(404, f"no listener at {request.path}")
-        length = request.headers.get("Content-Length")
-        if length is None or not length.isdigit():
+            return self._refuse(404, f"no listener at {one_line(request.path)}")
+        media = request.headers.get("Content-Type", "").split(";", 1)[0].strip().lower()
+        if media != "application/json":
+            return self._refuse(415, f"Content-Type {one_line(media or 'missing', 60)}: notifications are application/json")
+        length = request.headers.get("Content-Length", "").strip()
+        if not length.isdigit():
             return self._refuse(411, "Content-Length required")
         if int(length) > self.max_body:
             return self._refuse(413, f"notification of {length} bytes is over the {self.max_body}-byte limit")

@@ -4,8 +4,8 @@ State attributes (``current_motion``, ``assignment_status``, ``ran_status``, ``r
 kept as the latest value per robot and attribute: after an outage Orion receives each robot's latest
 state once, not the backlog of every tick it missed. ``ran_error`` is different: each one reports a
 distinct rejected input (SPEC §2, "on each rejected input"), so errors queue in order and every one is
-delivered, oldest first (a bounded queue: past ``ERRORS_MAX`` pending errors the oldest are dropped and
-counted).
+kept until it is delivered or reported undeliverable, oldest first (a bounded queue: past ``ERRORS_MAX``
+pending errors the oldest are dropped and counted).
 
 The simulation thread puts; the sender thread takes a :class:`Batch`, sends it and, if Orion could not
 take it, gives it back; anything newer that arrived meanwhile wins over what is given back. The outbox
@@ -25,11 +25,21 @@ from vcran.core.wire import Frame
 ERRORS_MAX = 10_000
 
 
+@dataclass(eq=False)
+class PendingError:
+    """A ``ran_error`` on its way to Orion; ``refusals`` counts the updates Orion refused as invalid
+    content (400, 413, 422) while carrying it."""
+
+    robot: str
+    message: Message
+    refusals: int = 0
+
+
 @dataclass
 class Batch:
     state: dict[str, dict[str, Message]] = field(default_factory=dict)
     frame: Frame | None = None
-    errors: list[tuple[str, Message]] = field(default_factory=list)
+    errors: list[PendingError] = field(default_factory=list)
 
     def __bool__(self) -> bool:
         return bool(self.state or self.frame is not None or self.errors)
@@ -41,7 +51,7 @@ class Outbox:
         self._pending: dict[str, dict[str, Message]] = {}
         self._latest: dict[str, dict[str, Message]] = {}
         self._frame: Frame | None = None
-        self._errors: deque[tuple[str, Message]] = deque()
+        self._errors: deque[PendingError] = deque()
         self.errors_dropped = 0
 
     def put(self, robot: str, attribute: str, message: Message) -> None:
@@ -50,7 +60,7 @@ class Outbox:
                 if len(self._errors) >= ERRORS_MAX:
                     self._errors.popleft()
                     self.errors_dropped += 1
-                self._errors.append((robot, message))
+                self._errors.append(PendingError(robot, message))
                 return
             self._pending.setdefault(robot, {})[attribute] = message
             self._latest.setdefault(robot, {})[attribute] = message

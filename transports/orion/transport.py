@@ -4,10 +4,10 @@ Threads and what they own:
 
 * the **simulation thread** (SimPy, :class:`~vcran.sim.live.LiveEnvironment`) calls :meth:`send`, which
   only writes into the :class:`Outbox` and wakes the sender: it never waits on the network;
-* the **sender** takes the outbox at every telemetry tick and writes the fleet's changes with
-  ``POST /v2/op/update`` (one request per tick; more only when a body would pass Orion's 1 MB limit, or
-  when several ``ran_error`` of one robot are waiting, since each is delivered); when Orion is down it
-  keeps the latest value per robot and attribute and retries with capped backoff;
+* the **sender** (:mod:`transports.orion.sender`) takes the outbox at every telemetry tick and writes
+  the fleet's changes with ``POST /v2/op/update`` (one request per tick, every ``ran_error`` included;
+  more only when a body would pass Orion's 1 MB limit); when Orion is down or refuses, it keeps the
+  latest value per robot and attribute and every error, and retries with capped backoff;
 * the **inbound** thread polls ``GET /v2/entities`` for the whole fleet, or, with a notification URL,
   keeps one subscription alive (re-created only when Orion says it is gone) and reads the entities
   after each (re)subscription so nothing Orion holds is missed; notifications arrive on the
@@ -26,7 +26,7 @@ import logging
 import math
 import statistics
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from time import monotonic
@@ -36,18 +36,17 @@ from urllib.parse import urlsplit
 import simpy
 
 from transports.base import Deliver, Transport
-from transports.orion.client import OrionClient, OrionError, OrionRejected
+from transports.orion.client import OrionClient, OrionError
+from transports.orion.health import Backoff, Health
 from transports.orion.listener import Listener
-from transports.orion.outbox import Batch, Outbox
-from vcran.core.build import motion_message
-from vcran.core.messages import INBOUND, Message, Time
+from transports.orion.outbox import Outbox
+from transports.orion.sender import Sender
+from vcran.core.messages import INBOUND
 from vcran.core.wire import Frame, Inbound, Outbound, Publish
+from vcran.io.http_server import one_line
 from vcran.sim.live import LiveEnvironment
 
 log = logging.getLogger("vcran.orion")
-
-#: Order of attributes inside one entity of a batch update.
-ATTRIBUTE_ORDER = ("current_motion", "assignment_status", "ran_status", "robot_description", "ran_error")
 
 
 @dataclass(frozen=True)
@@ -67,48 +66,23 @@ class LiveOptions:
     backoff_cap: float = 5.0
 
 
-class Health:
-    """One line per change of state, not one per failed tick (SPEC §7 "each fault is logged once")."""
-
-    def __init__(self, what: str) -> None:
-        self.what = what
-        self.fault: str | None = None
-        self.since = 0.0
-
-    def failed(self, message: str) -> None:
-        if self.fault is None:
-            self.since = monotonic()
-            log.warning("%s: %s; retrying in the background", self.what, message)
-        elif message != self.fault:
-            log.warning("%s: %s", self.what, message)
-        self.fault = message
-
-    def ok(self, detail: str = "") -> None:
-        if self.fault is not None:
-            log.warning("%s: Orion is back after %.1f s%s", self.what, monotonic() - self.since,
-                        f", {detail}" if detail else "")
-        self.fault = None
-
-    def describe(self) -> str:
-        return "ok" if self.fault is None else f"down {monotonic() - self.since:.0f}s"
-
-
 class OrionTransport(Transport):
     def __init__(self, client: OrionClient, options: LiveOptions) -> None:
         self.client, self.options = client, options
         self.outbox = Outbox()
-        self.outbound = Health("outbound")
+        self.sender = Sender(client, self.outbox, options.entity_type, options.robots,
+                             Backoff(options.backoff_start, options.backoff_cap))
+        self.outbound = self.sender.health
         self.inbound = Health("inbound")
         self.latencies: list[float] = []  # wall seconds from arrival to entering the simulation
         self._robots = frozenset(options.robots)
-        self._counts = {"requests": 0, "updates": 0}
-        self._lock = threading.Lock()  # counters, last forwarded values, forward order
+        self._reads = 0
+        self._lock = threading.Lock()  # last forwarded values, forward order
         self._last: dict[tuple[str, str], Any] = {}
         #: How many times a value of (robot, attribute) was forwarded: lets a read skip what a
         #: notification delivered while the read was in flight.
         self._forwarded: dict[tuple[str, str], int] = {}
         self._stop = threading.Event()
-        self._flush = threading.Event()
         self._env: LiveEnvironment | None = None
         self._deliver: Deliver | None = None
         self._threads: list[threading.Thread] = []
@@ -119,16 +93,13 @@ class OrionTransport(Transport):
 
     @property
     def requests(self) -> int:
-        return self._counts["requests"]
+        """Requests Orion answered with success: reads and accepted updates."""
+        return self._reads + self.sender.counts.accepted
 
     @property
     def updates(self) -> int:
-        return self._counts["updates"]
-
-    def _count(self, *names: str) -> None:
-        with self._lock:
-            for name in names:
-                self._counts[name] += 1
+        """Batch updates Orion accepted."""
+        return self.sender.counts.accepted
 
     # --- Transport --------------------------------------------------------------------------------------
 
@@ -145,7 +116,7 @@ class OrionTransport(Transport):
         self._env, self._deliver = env, deliver
         self.open()
         inbound = self._subscription_loop if self.options.notify_url else self._poll_loop
-        for name, target in (("vcran-sender", self._send_loop), ("vcran-inbound", inbound)):
+        for name, target in (("vcran-sender", partial(self.sender.loop, self._stop)), ("vcran-inbound", inbound)):
             thread = threading.Thread(target=_resilient(name, target, self._stop), name=name, daemon=True)
             thread.start()
             self._threads.append(thread)
@@ -153,18 +124,18 @@ class OrionTransport(Transport):
     def send(self, out: Outbound) -> None:
         if isinstance(out, Frame):
             self.outbox.put_frame(out)
-            self._flush.set()  # one batch per telemetry tick
+            self.sender.tick()  # one batch per telemetry tick
         else:
             assert isinstance(out, Publish)
             self.outbox.put(out.robot, out.attribute, out.message)
 
     def close(self) -> None:
         self._stop.set()
-        self._flush.set()
+        self.sender.release()
         for thread in self._threads:
             thread.join(timeout=10)
         try:
-            self._deliver_pending()  # a last attempt with what the run produced at its end
+            self.sender.finish()  # a last attempt with what the run produced at its end
         except Exception:  # noqa: BLE001 - closing must finish
             log.exception("final delivery failed")
         if self._listener is not None:
@@ -179,8 +150,12 @@ class OrionTransport(Transport):
     def status(self) -> str:
         """One-line health for the live status display."""
         mode = "subscription" if self.options.notify_url else "polling"
+        c = self.sender.counts
+        errors = f", ran_errors {c.errors_delivered} delivered" if c.errors_delivered or c.errors_undeliverable else ""
+        if c.errors_undeliverable:
+            errors += f", {c.errors_undeliverable} undeliverable"
         return (f"Orion out {self.outbound.describe()}, in ({mode}) {self.inbound.describe()}, "
-                f"{self.updates} updates, {self.requests - self.updates} reads")
+                f"{c.accepted}/{c.attempts} updates accepted, {self._reads} reads{errors}")
 
     def latency_stats(self) -> dict[str, float]:
         if not self.latencies:
@@ -189,121 +164,62 @@ class OrionTransport(Transport):
         p99 = ordered[min(len(ordered) - 1, math.ceil(0.99 * len(ordered)) - 1)]
         return {"count": len(ordered), "median": statistics.median(ordered), "p99": p99}
 
-    # --- outbound ---------------------------------------------------------------------------------------
-
-    def _send_loop(self) -> None:
-        backoff = self.options.backoff_start
-        while not self._stop.is_set():
-            self._flush.wait()
-            self._flush.clear()
-            if self._stop.is_set():
-                return
-            was_down = self.outbound.fault is not None
-            if self._deliver_pending():
-                backoff = self.options.backoff_start
-                if was_down:  # Orion may have come back empty: restore everything, not only the changes
-                    self.outbox.resend_all()
-                    self._flush.set()
-            else:
-                self._stop.wait(backoff)
-                backoff = min(backoff * 2, self.options.backoff_cap)
-                self._flush.set()  # try again even without a new tick
-
-    def _deliver_pending(self) -> bool:
-        """Send what the outbox holds; False when Orion could not take it (it is given back)."""
-        from vcran.core.codec import split_batch
-
-        batch = self.outbox.take()
-        if not batch:
-            return True
-        bodies = [body for entities in self._rounds(batch) for body in split_batch(entities)]
-        try:
-            for body in bodies:
-                self.client.update(body)
-                self._count("requests", "updates")
-        except OrionRejected as exc:
-            # Orion refuses this content (a 4xx): sending it again will not help, and holding it back
-            # would block every other robot's updates. Drop it, say so once, carry on with new state.
-            self.outbound.failed(f"Orion refused a batch update, dropped: {exc}")
-            return True
-        except OrionError as exc:
-            # Giving everything back resends bodies that got through, which Orion treats as a
-            # same-value write: simpler than tracking which entities arrived.
-            self.outbox.give_back(batch)
-            self.outbound.failed(str(exc))
-            return False
-        self.outbound.ok("delivered the fleet's latest state")
-        return True
-
-    def _rounds(self, batch: Batch) -> Iterator[list[bytes]]:
-        """Encoded entities per request round: the state and each robot's oldest error, then one more
-        round per further error of a robot (an entity can carry one value of an attribute at a time)."""
-        errors: dict[str, list[Message]] = {}
-        for robot, message in batch.errors:
-            errors.setdefault(robot, []).append(message)
-        first = list(self._encoded(_entities(self.options.robots, batch.state, batch.frame, errors)))
-        if first:
-            yield first
-        while any(errors.values()):
-            extra = {robot: {"ran_error": queue.pop(0)} for robot, queue in errors.items() if queue}
-            yield list(self._encoded(extra.items()))
-
-    def _encoded(self, entities: Iterable[tuple[str, dict[str, Message]]]) -> Iterator[bytes]:
-        from vcran.core.codec import CodecError, encode_entity_json
-        from vcran.core.orion_rules import MAX_REQUEST_BYTES
-
-        for robot, attrs in entities:
-            while attrs:
-                try:
-                    data = encode_entity_json(robot, self.options.entity_type, attrs)
-                except CodecError as exc:  # a bug, not Orion's fault: drop the attribute, keep the rest
-                    log.error("cannot encode %s of %s, dropped: %s", exc.attribute or "an attribute", robot, exc)
-                    attrs = {k: v for k, v in attrs.items() if k != exc.attribute} if exc.attribute in attrs else {}
-                    continue
-                if len(data) > MAX_REQUEST_BYTES - 64:
-                    log.error("%s encodes to %d bytes, over Orion's request limit: not sent", robot, len(data))
-                else:
-                    yield data
-                break
-
     # --- inbound ----------------------------------------------------------------------------------------
 
     def _poll_loop(self) -> None:
         assert self._env is not None
         period = self.options.poll_interval / self._env.speed
+        backoff = Backoff(max(period, self.options.backoff_start), max(period, self.options.backoff_cap))
         next_poll = monotonic()
         while not self._stop.is_set():
             try:
                 self._read_all()
-                self.inbound.ok()
             except OrionError as exc:
-                self.inbound.failed(str(exc))
-            next_poll = max(next_poll + period, monotonic())
+                self.inbound.failed(f"{exc}; retrying with backoff")
+                next_poll = monotonic() + backoff.next(exc.retry_after)
+            else:
+                backoff.reset()
+                if self.inbound.ok():
+                    self.sender.wake()  # the sender may be deep in its backoff: Orion is back now
+                next_poll = max(next_poll + period, monotonic())
             self._stop.wait(max(0.0, next_poll - monotonic()))
 
     def _subscription_loop(self) -> None:
         unread = True  # the entities must be read after each (re)subscription
+        failures: tuple[Any, Any] = (None, None)  # the subscription's lastFailure and failsCounter
+        backoff = Backoff(self.options.backoff_start, self.options.backoff_cap)
         while not self._stop.is_set():
             try:
-                if self._subscription is not None and not self.client.subscription_exists(self._subscription):
-                    # Orion lost it (restart, or someone deleted it), and maybe our entities with it.
-                    log.warning("subscription %s is gone from Orion; re-creating it", self._subscription)
-                    self._subscriptions.discard(self._subscription)
-                    self._subscription = None
-                    self.outbox.resend_all()
-                    self._flush.set()
+                if self._subscription is not None:
+                    shown = self.client.subscription(self._subscription)
+                    if shown is None:
+                        # Orion lost it (restart, or someone deleted it), and maybe our entities with it.
+                        log.warning("subscription %s is gone from Orion; re-creating it", self._subscription)
+                        self._subscriptions.discard(self._subscription)
+                        self._subscription = None
+                        self.sender.wake()
+                    elif (seen := _failures(shown)) != failures:
+                        # Orion could not deliver some notification (a burst, a slow moment): what it
+                        # carried is only in Orion now, so read it (SPEC §7: no loss window).
+                        if seen[0] is not None:
+                            log.warning("Orion reports a failed notification (%s, %s failing): reading "
+                                        "the entities again", one_line(seen[0], 40), one_line(seen[1], 20))
+                            unread = True
+                        failures = seen
                 if self._subscription is None:
                     self._subscription = self.client.subscribe(self._subscription_body())
                     self._subscriptions.add(self._subscription)
                     log.info("subscribed to Orion: %s", self._subscription)
-                    unread = True
+                    unread, failures = True, (None, None)
                 if unread:
                     self._read_all()
                     unread = False
-                self.inbound.ok("subscription in place")
+                backoff.reset()
+                if self.inbound.ok("subscription in place"):
+                    self.sender.wake()  # the sender may be deep in its backoff: Orion is back now
             except OrionError as exc:  # keep the subscription id: only Orion saying 404 makes it stale
-                self.inbound.failed(str(exc))
-                self._stop.wait(self.options.backoff_start)
+                self.inbound.failed(f"{exc}; retrying with backoff")
+                self._stop.wait(backoff.next(exc.retry_after))
                 continue
             self._stop.wait(self.options.keepalive)
 
@@ -323,16 +239,15 @@ class OrionTransport(Transport):
         with self._lock:
             before = dict(self._forwarded)
         entities = self.client.entities(self.options.entity_type, list(self.options.robots), INBOUND)
-        self._count("requests")
+        self._reads += 1
         if len(entities) < len(self.options.robots) and monotonic() - self._resent > 1.0:
             self._resent = monotonic()  # some robot entity is gone (Orion restarted or someone deleted it)
-            self.outbox.resend_all()
-            self._flush.set()
+            self.sender.wake()
         self._forward(entities, monotonic(), unchanged_since=before)
 
     def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
         if subscription not in self._subscriptions:
-            log.info("notification for unknown subscription %s ignored", subscription)
+            log.info("notification for unknown subscription %s ignored", one_line(subscription, 60))
             return
         self._forward(data, monotonic())
 
@@ -345,7 +260,7 @@ class OrionTransport(Transport):
         with self._lock:  # one order for reads and notifications: the order of call_soon
             for entity in entities:
                 robot = entity.get("id")
-                if robot not in self._robots:
+                if not isinstance(robot, str) or robot not in self._robots:  # a list id is unhashable
                     continue
                 for attribute in INBOUND:
                     if attribute not in entity:
@@ -369,6 +284,14 @@ class OrionTransport(Transport):
         self._deliver(inbound)
 
 
+def _failures(subscription: dict[str, Any]) -> tuple[Any, Any]:
+    """What changes when Orion fails to deliver a notification: ``lastFailure`` and ``failsCounter``."""
+    notification = subscription.get("notification")
+    if not isinstance(notification, dict):
+        return None, None
+    return notification.get("lastFailure"), notification.get("failsCounter")
+
+
 def _resilient(name: str, loop: Callable[[], None], stop: threading.Event) -> Callable[[], None]:
     """Run a worker loop; an unexpected error is logged and the loop restarted, never silently lost."""
 
@@ -382,28 +305,3 @@ def _resilient(name: str, loop: Callable[[], None], stop: threading.Event) -> Ca
                 stop.wait(1.0)
 
     return run
-
-
-def _entities(
-    robots: tuple[str, ...], state: dict[str, dict[str, Message]], frame: Frame | None,
-    errors: dict[str, list[Message]],
-) -> Iterator[tuple[str, dict[str, Message]]]:
-    """``(robot, {attribute: message})`` in fleet order, attributes in a fixed order; takes each
-    robot's oldest waiting error."""
-    motions = {}
-    if frame is not None:
-        stamp = Time.from_seconds(frame.t)
-        for robot, (x, y, theta, v, w) in zip(frame.robots, frame.columns.tolist(), strict=True):
-            motions[robot] = motion_message(stamp, x, y, theta, v, w)
-    for robot in robots:
-        attrs: dict[str, Message] = {}
-        if robot in motions:
-            attrs["current_motion"] = motions[robot]
-        extra = state.get(robot, {})
-        for name in ATTRIBUTE_ORDER[1:-1]:
-            if name in extra:
-                attrs[name] = extra[name]
-        if errors.get(robot):
-            attrs["ran_error"] = errors[robot].pop(0)
-        if attrs:
-            yield robot, attrs

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from typing import Any
 
-from vcran.broker.model import Change, Entity
+from vcran.broker.model import BUILTIN_ATTRIBUTES, Change, Entity, iso_time
 from vcran.broker.protocol import (
     ENTITY_NOT_FOUND,
     NgsiError,
@@ -31,12 +30,6 @@ NOTIFICATION_USER_AGENT = "orion/4.7.0-next libcurl/7.88.1"
 NOTIFICATION_CONTENT_TYPE = "application/json; charset=utf-8"
 DEFAULT_LIMIT = 20
 MAX_LIMIT = 1000
-
-
-def iso_time(t: float) -> str:
-    """Orion's timestamp format for subscription fields: UTC, milliseconds, ``Z``."""
-    moment = datetime.fromtimestamp(t, UTC)
-    return moment.strftime("%Y-%m-%dT%H:%M:%S.") + f"{moment.microsecond // 1000:03d}Z"
 
 
 @dataclass(slots=True)
@@ -75,11 +68,20 @@ class Context:
         return self.tenants.get(self.scope.tenant) or Tenant()
 
     def attrs_param(self) -> list[str] | None:
+        """``attrs``, plus the builtins that ``options=dateCreated,dateModified`` (deprecated spellings
+        of ``attrs=*,dateCreated``) ask for."""
         attrs = self.params.get("attrs")
-        return attrs.split(",") if attrs is not None else None
+        names = attrs.split(",") if attrs is not None else None
+        for builtin in BUILTIN_ATTRIBUTES:
+            if builtin in self.options:
+                names = names or ["*"]
+                if builtin not in names:
+                    names.append(builtin)
+        return names
 
     def render_format(self) -> str:
-        for fmt in ("keyValues", "values"):
+        """Orion's precedence: keyValues, then values, then unique; normalized by default."""
+        for fmt in ("keyValues", "values", "unique"):
             if fmt in self.options:
                 return fmt
         return "normalized"
@@ -129,11 +131,14 @@ class Context:
 
     # --- notifications ---
 
-    def notify(self, entity: Entity, changes: Mapping[str, Change]) -> None:
-        """Queue one notification per subscription that this change of ``entity`` triggers, in
-        subscription creation order, numbered ``cbnotif=1, 2, ...`` within the request."""
+    def changed(self, entity: Entity, changes: Mapping[str, Change]) -> None:
+        """A write to ``entity`` is done: stamp ``dateModified`` if it changed anything, and queue one
+        notification per subscription it triggers, in subscription creation order, numbered
+        ``cbnotif=1, 2, ...`` within the request."""
         forced = "forcedUpdate" in self.options
         now = self.clock()
+        if any(change.value or change.metadata for change in changes.values()):
+            entity.modified = now
         for subscription in self.tenant().subscriptions.values():
             if not subscription.triggered_by(entity, changes, forced=forced, now=now):
                 continue

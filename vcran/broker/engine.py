@@ -21,7 +21,8 @@ from typing import Any
 from urllib.parse import parse_qsl, unquote, urlsplit
 
 from vcran.broker import batch, entities
-from vcran.broker.context import Context, Tenant, iso_time
+from vcran.broker.context import Context, Tenant
+from vcran.broker.model import iso_time
 from vcran.broker.protocol import (
     SUBSCRIPTION_NOT_FOUND,
     NgsiError,
@@ -44,18 +45,21 @@ from vcran.broker.subscriptions import Subscription, parse_subscription
 from vcran.core.orion_rules import FORBIDDEN_CHARS, MAX_REQUEST_BYTES, has_forbidden_chars
 
 #: The Orion release whose answers this broker reproduces (tests/data/orion-4.7-exchanges.jsonl).
-ORION_VERSION = "4.7.0-next"
+ORION_VERSION = "4.7.0"
 
-#: URI ``options`` values Orion knows. ``flowControl``, ``skipInitialNotification`` (this broker never
-#: sends initial notifications) and ``noAttrDetail`` change nothing here; the unsupported ones answer 501.
+#: URI ``options`` values Orion 4.7 accepts (``validOptions`` in its rest/ConnectionInfo.cpp). Those
+#: that select nothing here are accepted and change nothing: ``normalized`` (the default), ``flowControl``,
+#: ``skipInitialNotification`` (this broker sends no initial notifications, nor does Orion since 3.2),
+#: ``noAttrDetail``, ``skipForwarding`` (no context providers), ``fullCounters``, ``libVersions``.
 KNOWN_OPTIONS = frozenset(
     {
-        "count", "keyValues", "values", "unique", "append", "upsert", "forcedUpdate",
-        "overrideMetadata", "flowControl", "skipInitialNotification", "noAttrDetail",
-        "dateCreated", "dateModified",
+        "count", "normalized", "values", "keyValues", "append", "unique", "dateCreated", "dateModified",
+        "noAttrDetail", "upsert", "forcedUpdate", "overrideMetadata", "flowControl", "skipForwarding",
+        "fullCounters", "libVersions", "skipInitialNotification",
     }
 )  # fmt: skip
-UNSUPPORTED_OPTIONS = frozenset({"unique", "dateCreated", "dateModified"})
+#: Pairs of options Orion refuses together.
+EXCLUSIVE_OPTIONS = (("keyValues", "values"), ("keyValues", "unique"), ("unique", "values"))
 #: URI parameters whose values may hold forbidden characters (query languages and patterns).
 FREE_TEXT_PARAMS = frozenset({"q", "mq", "idPattern", "typePattern", "georel", "geometry", "coords"})
 #: Orion query features this broker does not implement: answered 501 rather than ignored.
@@ -322,10 +326,10 @@ def _params(query: str) -> dict[str, str]:
 
 
 def _options(params: dict[str, str]) -> frozenset[str]:
-    options = frozenset(params["options"].split(",")) if "options" in params else frozenset()
-    if not options <= KNOWN_OPTIONS:
+    """The ``options`` list as Orion splits it: leading commas skipped, any other empty item invalid."""
+    if "options" not in params:
+        return frozenset()
+    options = frozenset(params["options"].lstrip(",").split(","))
+    if not options <= KNOWN_OPTIONS or any(a in options and b in options for a, b in EXCLUSIVE_OPTIONS):
         raise bad_request("Invalid value for URI param /options/")
-    unsupported = sorted(options & UNSUPPORTED_OPTIONS)
-    if unsupported:
-        raise not_implemented(f"options={unsupported[0]}")
     return options

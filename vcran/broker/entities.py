@@ -9,12 +9,12 @@ A write that applies in part still applies the part and notifies for it, then an
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from vcran.broker.context import Context
+from vcran.broker.jsontext import render_json
 from vcran.broker.model import (
     DEFAULT_ENTITY_TYPE,
     AttributeInput,
@@ -100,16 +100,18 @@ def _override(ctx: Context) -> bool:
 
 def create(ctx: Context, given: EntityInput) -> Entity:
     """Create an entity in the write's service path (``/`` by default) and notify for it."""
-    entity = Entity(given.id, given.type or DEFAULT_ENTITY_TYPE, ctx.scope.write_path() or ROOT_PATH)
+    now = ctx.clock()
+    entity = Entity(given.id, given.type or DEFAULT_ENTITY_TYPE, ctx.scope.write_path() or ROOT_PATH,
+                    created=now, modified=now)
     changes = entity.write(given.attrs)
     ctx.tenant(create=True).add(entity)
-    ctx.notify(entity, changes)
+    ctx.changed(entity, changes)
     return entity
 
 
 def append(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput], report: WriteReport) -> None:
     """Update the attributes that exist, add the others (``append`` / ``POST .../attrs``)."""
-    ctx.notify(entity, entity.write(inputs, override_metadata=_override(ctx)))
+    ctx.changed(entity, entity.write(inputs, override_metadata=_override(ctx)))
     report.applied = True
 
 
@@ -121,7 +123,7 @@ def append_strict(
     new = {name: given for name, given in inputs.items() if name not in entity.attrs}
     report.existing_attrs(key, existing)
     if new:
-        ctx.notify(entity, entity.write(new, override_metadata=_override(ctx)))
+        ctx.changed(entity, entity.write(new, override_metadata=_override(ctx)))
         report.applied = True
 
 
@@ -130,7 +132,7 @@ def update(ctx: Context, entity: Entity, key: str, inputs: Mapping[str, Attribut
     report.missing_attrs(key, [name for name in inputs if name not in entity.attrs])
     present = {name: given for name, given in inputs.items() if name in entity.attrs}
     if present:
-        ctx.notify(entity, entity.write(present, override_metadata=_override(ctx)))
+        ctx.changed(entity, entity.write(present, override_metadata=_override(ctx)))
         report.applied = True
 
 
@@ -141,8 +143,10 @@ def replace(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput]) 
     attrs = {}
     for name, given in inputs.items():
         attrs[name], changes[name] = written(entity.attrs.get(name), given, override_metadata=_override(ctx))
+    if entity.attrs.keys() - attrs.keys():
+        entity.modified = ctx.clock()  # dropping an attribute changes the entity too
     entity.attrs = attrs
-    ctx.notify(entity, changes)
+    ctx.changed(entity, changes)
 
 
 def delete_attrs(ctx: Context, entity: Entity, key: str, names: list[str], report: WriteReport) -> None:
@@ -150,6 +154,7 @@ def delete_attrs(ctx: Context, entity: Entity, key: str, names: list[str], repor
     for name in names:
         if entity.attrs.pop(name, None) is not None:
             report.applied = True
+            entity.modified = ctx.clock()
 
 
 # --- /v2/entities --------------------------------------------------------------------------------------
@@ -272,7 +277,7 @@ def put_attr(ctx: Context, entity_id: str, name: str) -> Response:
     given = parse_attribute(name, ctx.body)
     entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
     _require_attribute(entity, name)
-    ctx.notify(entity, entity.write({name: given}, override_metadata=_override(ctx)))
+    ctx.changed(entity, entity.write({name: given}, override_metadata=_override(ctx)))
     return empty_response()
 
 
@@ -280,6 +285,7 @@ def delete_attr(ctx: Context, entity_id: str, name: str) -> Response:
     entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
     _require_attribute(entity, name)
     del entity.attrs[name]
+    entity.modified = ctx.clock()
     return empty_response()
 
 
@@ -293,7 +299,7 @@ def get_value(ctx: Context, entity_id: str, name: str) -> Response:
         return json_response(value)
     if not {"*/*", "text/*", "text/plain"}.intersection(accepted_media(ctx.request)):
         raise NgsiError(406, "NotAcceptable", "accepted MIME types: text/plain")
-    return Response(200, (("Content-Type", "text/plain"),), json.dumps(value, ensure_ascii=False).encode())
+    return Response(200, (("Content-Type", "text/plain"),), render_json(value))
 
 
 def _plain_text_value(text: str) -> object:
@@ -316,5 +322,5 @@ def put_value(ctx: Context, entity_id: str, name: str) -> Response:
     entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
     _require_attribute(entity, name)
     given = parse_attribute(name, {"value": value, "type": entity.attrs[name].type})
-    ctx.notify(entity, entity.write({name: given}))
+    ctx.changed(entity, entity.write({name: given}))
     return empty_response()

@@ -6,16 +6,22 @@ Orion's rules as the recordings (tests/data/orion-4.7-exchanges.jsonl) show them
   ...), even when it had another type before; written without ``metadata`` it keeps the metadata it had
   (given metadata is merged into the old, ``options=overrideMetadata`` replaces it: Orion's manual);
 - a value that is JSON-equal to the stored one (object key order ignored, ``80 == 80.0``) is not a
-  change, and the stored value keeps its key order;
-- attributes keep the order in which they were first written; reads always carry ``metadata`` (``{}``).
+  change, and the stored value keeps its key order; numbers are stored as doubles, as Orion stores
+  them, and print as Orion prints them (:mod:`vcran.broker.jsontext`);
+- attributes keep the order in which they were first written; reads always carry ``metadata`` (``{}``);
+- every entity has the builtin attributes ``dateCreated`` and ``dateModified`` (``DateTime``), shown only
+  when a read or a subscription names them (``attrs=dateModified``, ``options=dateModified``);
+  ``dateModified`` moves when a write actually changes the entity, not on a same-value write.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from typing import Any
 
+from vcran.broker.jsontext import as_double, render_json
 from vcran.broker.protocol import bad_request
 from vcran.core.orion_rules import default_attribute_type, has_forbidden_chars, identifier_error
 
@@ -23,6 +29,14 @@ from vcran.core.orion_rules import default_attribute_type, has_forbidden_chars, 
 TEXT_UNRESTRICTED = "TextUnrestricted"
 #: Entity type given to entities created without one.
 DEFAULT_ENTITY_TYPE = "Thing"
+#: Builtin attributes, shown only when named, after the entity's own attributes.
+BUILTIN_ATTRIBUTES = ("dateCreated", "dateModified")
+
+
+def iso_time(t: float) -> str:
+    """Orion's timestamp format: UTC, milliseconds, ``Z``."""
+    moment = datetime.fromtimestamp(t, UTC)
+    return moment.strftime("%Y-%m-%dT%H:%M:%S.") + f"{moment.microsecond // 1000:03d}Z"
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +76,8 @@ class Entity:
     type: str
     service_path: str
     attrs: dict[str, Attribute] = field(default_factory=dict)
+    created: float = 0.0
+    modified: float = 0.0
 
     def write(self, inputs: Mapping[str, AttributeInput], *, override_metadata: bool = False) -> dict[str, Change]:
         """Create or update each attribute; returns what changed, by attribute name."""
@@ -117,17 +133,6 @@ def written(
 # --- parsing request payloads ----------------------------------------------------------------------
 
 
-def _canonical_numbers(value: Any) -> Any:
-    """Integral doubles as integers, as Orion (which stores doubles) renders them: 80.0 reads back 80."""
-    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
-        return int(value)
-    if isinstance(value, dict):
-        return {k: _canonical_numbers(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_canonical_numbers(v) for v in value]
-    return value
-
-
 def _check_identifier(kind: str, name: Any) -> str:
     error = identifier_error(kind, name)
     if error is not None:
@@ -143,7 +148,7 @@ def _parse_metadata(raw: Any) -> dict[str, Metadata]:
         _check_identifier("metadata name", name)
         if not isinstance(item, dict):
             raise bad_request("metadata must be a JSON object")
-        value = _canonical_numbers(item.get("value"))
+        value = as_double(item.get("value"))
         md_type = item.get("type")
         if md_type is None:
             md_type = default_attribute_type(value)
@@ -158,7 +163,7 @@ def parse_attribute(name: Any, raw: Any, *, key_values: bool = False) -> Attribu
     """One attribute of a request payload, checked as Orion checks it (names, types, forbidden chars)."""
     _check_identifier("attribute name", name)
     if key_values:
-        given = AttributeInput(_canonical_numbers(raw))
+        given = AttributeInput(as_double(raw))
     else:
         if not isinstance(raw, dict):
             raise bad_request("attribute must be a JSON object, unless keyValues option is used")
@@ -166,7 +171,7 @@ def parse_attribute(name: Any, raw: Any, *, key_values: bool = False) -> Attribu
         if attr_type is not None:
             _check_identifier("attribute type", attr_type)
         metadata = _parse_metadata(raw["metadata"]) if "metadata" in raw else None
-        given = AttributeInput(_canonical_numbers(raw.get("value")), attr_type, metadata)
+        given = AttributeInput(as_double(raw.get("value")), attr_type, metadata)
     if given.type != TEXT_UNRESTRICTED and has_forbidden_chars(given.value):
         raise bad_request("Invalid characters in attribute value")
     return given
@@ -225,21 +230,39 @@ def render_attribute(attr: Attribute) -> dict[str, Any]:
     }
 
 
+def _builtin(entity: Entity, name: str) -> Attribute | None:
+    if name in entity.attrs or name not in BUILTIN_ATTRIBUTES:  # an attribute of the same name wins
+        return None
+    return Attribute("DateTime", iso_time(entity.created if name == "dateCreated" else entity.modified))
+
+
 def selected(entity: Entity, attrs: list[str] | None) -> list[tuple[str, Attribute]]:
     """The attributes a read or notification shows: all (``None`` or a list with ``*``) in entity
-    order, else those named that exist, in the order named."""
+    order, then the builtins named; else those named that exist, in the order named."""
     if attrs is None or "*" in attrs:
-        return list(entity.attrs.items())
-    return [(name, entity.attrs[name]) for name in dict.fromkeys(attrs) if name in entity.attrs]
+        builtins = [(name, _builtin(entity, name)) for name in BUILTIN_ATTRIBUTES if attrs and name in attrs]
+        return list(entity.attrs.items()) + [(name, attr) for name, attr in builtins if attr is not None]
+    chosen = []
+    for name in dict.fromkeys(attrs):
+        attr = entity.attrs.get(name) or _builtin(entity, name)
+        if attr is not None:
+            chosen.append((name, attr))
+    return chosen
 
 
 def render_entity(
     entity: Entity, attrs: list[str] | None = None, fmt: str = "normalized", *, with_id: bool = True
 ) -> Any:
-    """An entity in one of NGSI v2's representations: ``normalized``, ``keyValues`` or ``values``."""
+    """An entity in one of NGSI v2's representations: ``normalized``, ``keyValues``, ``values`` or
+    ``unique`` (values, each distinct value once, compared as printed: Orion's ``options=unique``)."""
     chosen = selected(entity, attrs)
     if fmt == "values":
         return [attr.value for _, attr in chosen]
+    if fmt == "unique":
+        distinct: dict[bytes, Any] = {}
+        for _, attr in chosen:
+            distinct.setdefault(render_json(attr.value), attr.value)
+        return list(distinct.values())
     out: dict[str, Any] = {"id": entity.id, "type": entity.type} if with_id else {}
     for name, attr in chosen:
         out[name] = attr.value if fmt == "keyValues" else render_attribute(attr)

@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterable
 import httpx
 
 from vcran.broker.protocol import Notification
+from vcran.io.http_server import one_line
 
 log = logging.getLogger("vcran.broker")
 
@@ -130,7 +131,7 @@ class Notifier:
         except Exception as exc:  # noqa: BLE001 - any failure is this delivery's, never the worker's
             status, reason = None, _failure_reason(exc)
             log.warning("notification of subscription %s to %s failed: %s", notification.subscription_id,
-                        notification.url, reason)  # fmt: skip
+                        one_line(notification.url), one_line(reason))  # fmt: skip
         try:
             self._on_result(notification, status, reason)
         except Exception:  # a bug in bookkeeping must not stop deliveries

@@ -8,10 +8,11 @@ The engine (:mod:`vcran.broker.engine`) never touches a socket, in the manner of
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
+
+from vcran.broker.jsontext import parse_json, render_json
 
 Headers = tuple[tuple[str, str], ...]
 
@@ -38,20 +39,6 @@ def accepted_media(request: Request) -> list[str]:
     if header is None or not header.strip():
         return ["*/*"]
     return [m for m in (media_type(item) for item in header.split(",")) if m]
-
-
-def render_json(value: Any) -> bytes:
-    """Compact JSON as Orion writes it: no spaces, non-ASCII characters kept as UTF-8."""
-    return json.dumps(value, ensure_ascii=False, separators=(",", ":"), allow_nan=False).encode()
-
-
-def _reject_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not JSON")
-
-
-def parse_json(body: bytes) -> Any:
-    """Strict JSON: UTF-8 only, and ``NaN``/``Infinity`` are errors as in Orion's parser."""
-    return json.loads(body.decode("utf-8"), parse_constant=_reject_constant)
 
 
 @dataclass(frozen=True, slots=True)

@@ -125,7 +125,7 @@ def check_pattern(raw: Any, what: str) -> str:
         raise bad_request(f"Invalid JSON type for entity {what}")
     try:
         re.compile(raw)
-    except re.error:
+    except (re.error, OverflowError, RecursionError):  # a{99999999999}: too large a repetition
         raise bad_request(f"Invalid regex for entity {what}") from None
     if not raw:
         raise bad_request(f"Invalid regex for entity {what}")

@@ -18,7 +18,6 @@ import socketserver
 import threading
 import time
 from collections.abc import Callable
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Self
 
 from vcran import __version__
@@ -26,26 +25,34 @@ from vcran.broker.engine import Broker
 from vcran.broker.notifier import DEFAULT_TIMEOUT, Notifier
 from vcran.broker.protocol import Notification, Request, Response, json_response
 from vcran.core.orion_rules import MAX_REQUEST_BYTES
+from vcran.io.http_server import Handler, Server, drain, one_line
 
 log = logging.getLogger("vcran.broker")
 
 #: An oversized body is read and thrown away up to this size; beyond it the connection is just closed.
 DISCARD_LIMIT = 64 * MAX_REQUEST_BYTES
-#: How long to wait for a client to finish sending a body we will not read, before closing.
-DRAIN_SECONDS = 2.0
 BODY_METHODS = ("POST", "PUT", "PATCH")
+#: Seconds a kept-alive connection may sit without a request before the broker closes it.
+IDLE_TIMEOUT = 30.0
+#: Seconds for a request to arrive in full and be answered (a 1 MiB body over a slow link fits).
+REQUEST_TIMEOUT = 30.0
 
 
-class _BrokerServer(ThreadingHTTPServer):
+class _BrokerServer(Server):
     daemon_threads = False  # server_close() joins handler threads: stop() leaves nothing running
     allow_reuse_address = True  # restart on the same port while old connections sit in TIME_WAIT
 
-    def __init__(self, address: tuple[str, int], broker: Broker, notifier_timeout: float) -> None:
+    def __init__(self, address: tuple[str, int], broker: Broker, notifier_timeout: float, *,
+                 idle_timeout: float, request_timeout: float) -> None:
         self.broker = broker
         self.lock = threading.Lock()
         self.connections: set[socket.socket] = set()
         self.notifier = Notifier(self.record_delivery, timeout=notifier_timeout)
-        super().__init__(address, _Handler)
+        try:
+            super().__init__(address, _Handler, idle_timeout=idle_timeout, request_timeout=request_timeout)
+        except BaseException:  # the port is taken: nothing may keep running
+            self.notifier.close()
+            raise
 
     def server_bind(self) -> None:
         # HTTPServer.server_bind looks up the host's FQDN, which can stall without DNS; skip it.
@@ -78,8 +85,7 @@ class _BrokerServer(ThreadingHTTPServer):
                 pass
 
 
-class _Handler(BaseHTTPRequestHandler):
-    protocol_version = "HTTP/1.1"
+class _Handler(Handler):
     server: _BrokerServer
 
     def version_string(self) -> str:
@@ -118,7 +124,7 @@ class _Handler(BaseHTTPRequestHandler):
         response = self.server.answer(Request(self.command, self.path, headers, body))
         self._send(response, close=unread or (length or 0) > MAX_REQUEST_BYTES)
         if unread:
-            self._drain()
+            drain(self.connection)
 
     def _send(self, response: Response, *, close: bool) -> None:
         self.send_response(response.status)
@@ -145,20 +151,8 @@ class _Handler(BaseHTTPRequestHandler):
             remaining -= len(chunk)
         return True
 
-    def _drain(self) -> None:
-        """Swallow what the client still sends (a body we did not read) until it closes, briefly."""
-        deadline = time.monotonic() + DRAIN_SECONDS
-        try:
-            self.connection.shutdown(socket.SHUT_WR)
-            while (left := deadline - time.monotonic()) > 0:
-                self.connection.settimeout(left)
-                if not self.connection.recv(65536):
-                    break
-        except OSError:
-            pass
-
-    def log_message(self, format: str, *args: object) -> None:
-        log.info("%s %s", self.address_string(), format % args)
+    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 - http.server's signature
+        log.info("%s %s", self.address_string(), one_line(format % args))
 
 
 class BrokerHandle:
@@ -204,13 +198,19 @@ def start_broker(
     clock: Callable[[], float] = time.time,
     rng: random.Random | None = None,
     notification_timeout: float = DEFAULT_TIMEOUT,
+    idle_timeout: float = IDLE_TIMEOUT,
+    request_timeout: float = REQUEST_TIMEOUT,
 ) -> BrokerHandle:
     """Start a fresh, empty broker listening on ``host:port`` (0: any free port) in background threads.
 
     Binding uses SO_REUSEADDR, so a broker stopped with :meth:`BrokerHandle.stop` can be replaced by a
-    new one on the same port at once (the way tests simulate an Orion restart).
+    new one on the same port at once (the way tests simulate an Orion restart). A kept-alive connection
+    idle for ``idle_timeout`` seconds is closed; a request must arrive and be answered within
+    ``request_timeout`` seconds. Raises OSError when the address cannot be bound, OverflowError for a
+    port outside 0..65535.
     """
-    server = _BrokerServer((host, port), Broker(clock=clock, rng=rng), notification_timeout)
+    server = _BrokerServer((host, port), Broker(clock=clock, rng=rng), notification_timeout,
+                           idle_timeout=idle_timeout, request_timeout=request_timeout)
     thread = threading.Thread(
         target=server.serve_forever, kwargs={"poll_interval": 0.05}, name="vcran-broker", daemon=True
     )

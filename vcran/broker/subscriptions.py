@@ -16,7 +16,7 @@ Accepted and shown but not acted upon: ``throttling``, ``notification.metadata``
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 from urllib.parse import urlsplit
@@ -56,7 +56,7 @@ class Subscription:
     last_success_code: int | None = None
     last_failure: str | None = None
     last_failure_reason: str | None = None
-    failing: bool = field(default=False)
+    fails_counter: int = 0  # consecutive failed deliveries; a success resets it (Orion's failsCounter)
 
     # --- triggering ---
 
@@ -102,11 +102,13 @@ class Subscription:
 
     def delivered(self, when: str, status_code: int | None, reason: str) -> None:
         """Record a delivery's outcome: any HTTP answer is a success (Orion keeps its code), no answer
-        is a failure and marks the subscription ``failed`` until the next success."""
+        is a failure, counted in ``failsCounter`` and showing the subscription ``failed``, until the next
+        success."""
         if status_code is None:
-            self.last_failure, self.last_failure_reason, self.failing = when, reason, True
+            self.last_failure, self.last_failure_reason = when, reason
+            self.fails_counter += 1
         else:
-            self.last_success, self.last_success_code, self.failing = when, status_code, False
+            self.last_success, self.last_success_code, self.fails_counter = when, status_code, 0
 
     # --- representation ---
 
@@ -119,7 +121,7 @@ class Subscription:
         status = self.status
         if self.expired(now):
             status = "expired"
-        elif self.failing and status == "active":
+        elif self.fails_counter and status == "active":
             status = "failed"
         out["status"] = status
         condition = {"attrs": list(self.condition_attrs), "notifyOnMetadataChange": self.notify_on_metadata_change}
@@ -142,6 +144,7 @@ class Subscription:
             ("lastFailureReason", self.last_failure_reason),
             ("lastSuccess", self.last_success),
             ("lastSuccessCode", self.last_success_code),
+            ("failsCounter", self.fails_counter or None),
         ):
             if value is not None:
                 notification[key] = value

@@ -7,6 +7,9 @@ import logging
 import os
 import sys
 from pathlib import Path
+from urllib.parse import SplitResult, urlsplit
+
+from vcran.commands import CommandError
 
 TOKEN_ENV = "VCRAN_ORION_TOKEN"
 
@@ -20,16 +23,36 @@ def add_connection_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
-    """An OrionClient; the token comes from a file or the environment, never from argv (it shows in ps)."""
+    """An OrionClient; the token comes from a file or the environment, never from argv (it shows in ps).
+
+    A URL that cannot work (``not-a-url``, ``ftp://...``, a port out of range) is a CommandError now,
+    not a fault retried forever; a well-formed URL where nothing answers is Orion being down (retried)."""
     from transports.orion.client import OrionClient, Tenant
 
+    check_url("--orion", args.orion, ("http", "https"))
     token = os.environ.get(TOKEN_ENV) or None
     if args.token_file is not None:
         try:
             token = args.token_file.read_text(encoding="utf-8").strip() or None
-        except OSError as exc:
-            raise SystemExit(f"vcran: cannot read --token-file: {exc.strerror}") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise CommandError(f"cannot read --token-file {args.token_file}: "
+                               f"{getattr(exc, 'strerror', None) or 'not UTF-8 text'}") from None
     return OrionClient(args.orion, Tenant(args.service, args.service_path, token))
+
+
+def check_url(option: str, url: str, schemes: tuple[str, ...]) -> SplitResult:
+    """``url`` split, or a CommandError saying what is wrong with it: scheme, host, port, extras."""
+    expected = " or ".join(f"{scheme}://HOST[:PORT][/PATH]" for scheme in schemes)
+    try:
+        parts = urlsplit(url)
+        parts.port  # noqa: B018 - raises ValueError for a port out of range or not a number
+    except ValueError as exc:
+        raise CommandError(f"{option} {url!r}: not a valid URL ({exc}); expected {expected}") from None
+    if parts.scheme.lower() not in schemes or not parts.hostname:
+        raise CommandError(f"{option} {url!r}: not a valid URL; expected {expected}")
+    if parts.query or parts.fragment or any(c.isspace() for c in url):
+        raise CommandError(f"{option} {url!r}: a query, fragment or white space has no place here; expected {expected}")
+    return parts
 
 
 def setup_logging(quiet: bool = False) -> None:

@@ -20,19 +20,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import logging
-    import signal
-    import threading
+    import time
 
     from vcran.broker import start_broker
+    from vcran.commands import CommandError
+    from vcran.commands._signals import StopSignals
 
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(asctime)s %(message)s")
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    handle = start_broker(args.host, args.port)
-    print(f"vcran broker listening on {handle.url} (in memory only: data is lost on exit)", flush=True)
-    try:
-        stop.wait()
-    finally:
-        handle.stop()
+    if not 0 <= args.port <= 65535:
+        raise CommandError(f"--port {args.port}: out of range (0..65535; 0 picks a free port)")
+    with StopSignals() as signals:  # SIGINT or SIGTERM: the normal end (exit 0)
+        try:
+            handle = start_broker(args.host, args.port)
+        except OSError as exc:  # in use, not an address of this machine, a privileged port
+            reason = exc.strerror or str(exc)
+            raise CommandError(f"cannot listen on {args.host}:{args.port}: {reason}") from None
+        print(f"vcran broker listening on {handle.url} (in memory only: data is lost on exit)", flush=True)
+        try:
+            while signals.requested is None:
+                time.sleep(0.2)  # not an Event: setting one from a signal handler can deadlock on its lock
+        finally:
+            handle.stop()
     return 0

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from pathlib import Path
 
 from vcran.commands import CommandError, load_scenario
-from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+from vcran.commands._orion import add_connection_arguments, check_url, client_from_args, setup_logging
+from vcran.commands._signals import StopSignals
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
 
@@ -41,6 +41,9 @@ def run(args: argparse.Namespace) -> int:
     if not args.factor > 0 or not args.poll_interval > 0:
         print("vcran live: --factor and --poll-interval must be positive", file=sys.stderr)
         return 2
+    if args.notify_url is not None:  # vcran's listener speaks plain HTTP; Orion must be able to POST there
+        if check_url("--notify-url", args.notify_url, ("http",)).port == 0:
+            raise CommandError(f"--notify-url {args.notify_url!r}: port 0 is no address Orion can send to")
     scenario = load_scenario(args.scenario)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
@@ -58,14 +61,16 @@ def run(args: argparse.Namespace) -> int:
     models = []
     line = None if args.quiet else StatusLine(sys.stderr)
 
+    def on_signal() -> None:
+        if models:
+            env.call_from_signal(models[0].stop)
+
+    signals = StopSignals(on_signal)  # SIGINT or SIGTERM: the normal end of a live run (exit 0)
+
     def on_start(model) -> None:  # type: ignore[no-untyped-def]
         models.append(model)
-
-        def stop(signum: int, _frame: object) -> None:
-            env.call_from_signal(model.stop)
-
-        signal.signal(signal.SIGINT, stop)
-        signal.signal(signal.SIGTERM, stop)
+        if signals.requested is not None:  # a signal while the model was built: stop at once
+            model.stop()
 
     def progress(now: float, tasks_done: int) -> None:
         if line is not None and models:
@@ -77,9 +82,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"live: {len(scenario.robots)} robot(s) on {args.orion}, x{args.factor:g}, {mode}; Ctrl-C stops",
               flush=True)
     try:
-        result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
-                        options={"transport": "live", "factor": args.factor,
-                                 "inbound": "subscription" if args.notify_url else "polling"})
+        with signals:
+            result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
+                            flush_every_tick=True, options={"transport": "live", "factor": args.factor,
+                                                            "inbound": "subscription" if args.notify_url else "polling"})
     finally:
         if line is not None:
             line.close()
@@ -89,8 +95,9 @@ def run(args: argparse.Namespace) -> int:
         usage = resource.getrusage(resource.RUSAGE_SELF)
         print(f"live run ended at {s['sim_time']:.3f} s simulated: {done} task(s) completed, {s['errors']} error(s)")
         print(f"  {transport.status()}")
-        print(f"  wall {result.wall_seconds:.1f} s, outbound {transport.updates / result.wall_seconds:.1f} requests/s, "
-              f"cpu {usage.ru_utime + usage.ru_stime:.1f} s")
+        sent = transport.sender.counts
+        print(f"  wall {result.wall_seconds:.1f} s, outbound {sent.attempts / result.wall_seconds:.1f} requests/s "
+              f"({sent.accepted} of {sent.attempts} accepted), cpu {usage.ru_utime + usage.ru_stime:.1f} s")
         lat = transport.latency_stats()
         if lat:
             print(f"  inbound to effect: median {lat['median'] * 1000:.1f} ms, p99 {lat['p99'] * 1000:.1f} ms ({lat['count']:.0f} messages)")

@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.replay import ReplayTransport, TraceError
-    from vcran.io.verify import scenario_from_trace, verify
+    from vcran.io.verify import recorded_end, scenario_from_trace, verify
     from vcran.runner import run_to
 
     trace: Path = args.trace
@@ -30,6 +30,10 @@ def run(args: argparse.Namespace) -> int:
         return 2
     try:
         scenario = scenario_from_trace(trace)
+        end, complete = recorded_end(trace)
+        if not complete and not args.quiet:
+            print(f"vcran replay: {trace} has no end record (the run was killed?): an incomplete recording, "
+                  f"replayed up to its last recorded instant, t={end:g}", file=sys.stderr)
         result = run_to(scenario, args.out, ReplayTransport(trace), options={"transport": "replay", "source": str(trace)})
     except (OSError, ValueError, TraceError) as exc:
         print(f"vcran replay: {exc}", file=sys.stderr)
@@ -47,5 +51,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"vcran replay --verify: {difference}", file=sys.stderr)
         return 1
     if not args.quiet:
-        print("verify: every outbound record, telemetry row and event matches the recording")
+        print("verify: every outbound record, telemetry row and event matches the recording"
+              + ("" if complete else " (as far as it goes)"))
     return 0

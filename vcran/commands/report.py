@@ -25,7 +25,7 @@ def write(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None
     output, or no matplotlib, is a CommandError: one line on stderr and exit status 2."""
     from vcran.commands import CommandError
     from vcran.report import ReportError, write_report
-    from vcran.report.tables import console
+    from vcran.report.tables import console, jobs_markdown
 
     try:
         report = write_report(run_dir, out, fmt, timeline_pages)
@@ -33,6 +33,8 @@ def write(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None
         raise CommandError(str(exc)) from None
     if not quiet:
         print(console(report.kpis), end="")
+        if report.jobs is not None:
+            print(jobs_markdown(report.jobs), end="")
         print(f"report in {out}/: {', '.join(f.name for f in report.files)}")
     return 0
 

@@ -1,37 +1,66 @@
-"""``vcran run SCENARIO --out DIR``: simulate with the scripted transport, as fast as possible."""
+"""``vcran run SCENARIO --out DIR [--manager module:Class]``: simulate as fast as possible.
+
+The scenario's message script plays the fleet manager, or, with ``--manager`` or a scenario that names
+its ``[manager]``, a fleet manager runs its jobs in a closed loop (SPEC §9). Both go through
+:func:`vcran.api.run`, the path of :func:`vcran.simulate`.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from vcran.commands import load_scenario
+from vcran.commands import CommandError, load_scenario
+from vcran.commands._signals import StopSignals
 
-HELP = "simulate a scenario with its message script, as fast as possible"
+if TYPE_CHECKING:
+    from vcran.api import Result
+
+HELP = "simulate a scenario with its message script, or its jobs with a fleet manager, as fast as possible"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenario", type=Path, help="scenario file (TOML)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument("--manager", metavar="MODULE:CLASS",
+                        help="run the scenario's jobs with this fleet manager (default: the scenario's [manager]), "
+                             "e.g. vcran.managers:Dispatcher")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress bar either)")
     parser.add_argument("--report", action="store_true",
                         help="then write the report (figures, KPI tables) into DIR/report; needs vcran[report]")
 
 
 def run(args: argparse.Namespace) -> int:
-    from transports.scripted import ScriptedTransport
+    from vcran.api import ManagerError
+    from vcran.api import run as simulate
     from vcran.io.progress import progress_bar
-    from vcran.runner import run_to
+    from vcran.io.scenario_file import ScenarioError
 
     scenario = load_scenario(args.scenario)
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
+    models = []
+
+    def progress(now: float, tasks_done: int) -> None:
+        # the telemetry tick is the safe point to act on a signal (never inside a write or an event)
+        if bar is not None:
+            bar(now, tasks_done)
+        if signals.requested is not None and models:
+            models.pop().stop()
+
     try:
-        result = run_to(scenario, args.out, ScriptedTransport(scenario.messages()),
-                        options={"transport": "scripted"}, progress=bar)
+        with StopSignals() as signals:
+            result = simulate(scenario, manager=args.manager, out=args.out, progress=progress, on_start=models.append)
+    except (ScenarioError, ManagerError) as exc:
+        raise CommandError(str(exc)) from None
     finally:
         if bar is not None:
             bar.close()
+    if signals.requested is not None:
+        print(f"vcran run: stopped by {signals.name} at t={result.summary['sim_time']:g} s; "
+              f"outputs up to then in {args.out}/", file=sys.stderr)
+        return signals.exit_code
     if not args.quiet:
         print_summary(result, args.out)
     if args.report:
@@ -41,13 +70,20 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def print_summary(result, out: Path) -> None:  # type: ignore[no-untyped-def]
+def print_summary(result: Result, out: Path) -> None:
     s = result.summary
     robots = s["robots"]
     done = sum(len(r["completed"]) for r in robots.values())
     cancelled = sum(len(r["cancelled"]) for r in robots.values())
     print(f"{s['scenario']}: {len(robots)} robot(s), {s['sim_time']:g} s simulated")
-    print(f"  tasks completed {done}, cancelled {cancelled}, errors {s['errors']}, events {result.events}")
+    print(f"  tasks completed {done}, cancelled {cancelled}, errors {s['errors']}, events {result.event_count}")
+    jobs = s.get("jobs")
+    if jobs is not None:
+        lead = jobs["lead_time"]
+        lead_text = f", lead time p50 {lead['p50']:.1f} s, p95 {lead['p95']:.1f} s" if lead else ""
+        print(f"  jobs arrived {jobs['arrived']}, completed {jobs['completed']}, failed {jobs['failed']}, "
+              f"open {jobs['open']}; {jobs['done_per_hour']:.1f} done per hour{lead_text}; "
+              f"utilisation {s['utilisation']['fleet']:.0%}")
     if len(robots) <= 5:
         for rid, r in robots.items():
             cancelled_text = ", ".join(f"{c['task']} ({c['reason']})" for c in r["cancelled"]) or "none"

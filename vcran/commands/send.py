@@ -15,6 +15,7 @@ from pathlib import Path
 
 from vcran.commands import load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+from vcran.commands._signals import StopSignals
 
 HELP = "play the scenario's message script into Orion in real time, as the fleet manager would"
 
@@ -27,45 +28,57 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from transports.orion.client import OrionError, OrionRejected
-    from vcran.core.codec import encode_attribute
-
     setup_logging(args.quiet)
     if not args.factor > 0:
         print("vcran send: --factor must be positive", file=sys.stderr)
         return 2
     scenario = load_scenario(args.scenario)
     client = client_from_args(args)
+    signals = StopSignals()  # stop between two messages, never in the middle of one
+    try:
+        with signals:
+            failures, sent = _play(args, scenario, client, signals)
+    finally:
+        client.close()
+    if signals.requested is not None:
+        print(f"vcran send: stopped by {signals.name}: sent {sent} message(s), {failures} failed", file=sys.stderr)
+        return signals.exit_code
+    if not args.quiet:
+        print(f"sent {sent} message(s), {failures} failed")
+    return 1 if failures else 0
+
+
+def _play(args: argparse.Namespace, scenario, client, signals: StopSignals) -> tuple[int, int]:  # type: ignore[no-untyped-def]
+    """Send the script; returns (failures, sent). Stops early when a signal asks."""
+    from transports.orion.client import OrionError, OrionRejected
+    from vcran.core.codec import encode_attribute
+
     entity_type = scenario.settings.entity_type
     start = time.monotonic()
     failures = 0
     sent = 0
     previous: tuple[float, float] | None = None  # (script time, wall time) of the last message sent
-    try:
-        for entry in scenario.messages():
-            due = start + entry.t / args.factor
-            if previous is not None:  # keep the script's spacing, like JMeter's constant timer (see below)
-                due = max(due, previous[1] + (entry.t - previous[0]) / args.factor)
-            delay = due - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            previous = (entry.t, time.monotonic())
-            value = entry.raw if entry.message is None else encode_attribute(entry.attribute, entry.message)
-            try:
-                client.append_attrs(entry.robot, entity_type, {entry.attribute: value})
-                sent += 1
-            except OrionRejected as exc:
-                failures += 1
-                hint = " (run vcran orion init first)" if exc.status == 404 else ""
-                print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}{hint}", file=sys.stderr)
-            except (OrionError, ValueError) as exc:  # ValueError: a raw value with NaN is no JSON to send
-                failures += 1
-                print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}", file=sys.stderr)
-            else:
-                if not args.quiet:
-                    print(f"t={entry.t:g} {entry.robot} {entry.attribute}", flush=True)
-    finally:
-        client.close()
-    if not args.quiet:
-        print(f"sent {sent} message(s), {failures} failed")
-    return 1 if failures else 0
+    for entry in scenario.messages():
+        due = start + entry.t / args.factor
+        if previous is not None:  # keep the script's spacing, like JMeter's constant timer (see below)
+            due = max(due, previous[1] + (entry.t - previous[0]) / args.factor)
+        while signals.requested is None and (delay := due - time.monotonic()) > 0:
+            time.sleep(min(delay, 0.1))  # in slices: a signal is acted on within 0.1 s
+        if signals.requested is not None:
+            break
+        previous = (entry.t, time.monotonic())
+        value = entry.raw if entry.message is None else encode_attribute(entry.attribute, entry.message)
+        try:
+            client.append_attrs(entry.robot, entity_type, {entry.attribute: value})
+            sent += 1
+        except OrionRejected as exc:
+            failures += 1
+            hint = " (run vcran orion init first)" if exc.status == 404 else ""
+            print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}{hint}", file=sys.stderr)
+        except (OrionError, ValueError) as exc:  # ValueError: a raw value with NaN is no JSON to send
+            failures += 1
+            print(f"vcran send: t={entry.t:g} {entry.robot} {entry.attribute}: {exc}", file=sys.stderr)
+        else:
+            if not args.quiet:
+                print(f"t={entry.t:g} {entry.robot} {entry.attribute}", flush=True)
+    return failures, sent

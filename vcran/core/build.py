@@ -7,6 +7,7 @@ task planner sends; a raw ``(category, action)`` pair can be given instead.
 
 from __future__ import annotations
 
+from collections.abc import Sequence as Seq
 from functools import lru_cache
 
 from vcran.core.ids import NIL, NOT_SUPPORTED, Id, id_for
@@ -130,6 +131,41 @@ def cancel(task: str | Id, *, motion: str | Id | None = None, action: str | Id |
         action_id=unused if action is None else _id(action),
         motion_id=unused if motion is None else _id(motion),
     )
+
+
+#: A point of a task's path: ``(x, y)``, or ``(x, y, theta)`` where theta None means "any heading".
+PathPoint = tuple[float, float] | tuple[float, float, float | None]
+
+
+def task(
+    name: str,
+    path: Seq[PathPoint],
+    actions: Seq[str | ActionKind] = (),
+    *,
+    max_velocity: float = 0.0,
+    stamp: float = 0.0,
+    every: float = 0.0,
+) -> list[MotionAssignment | ActionAssignment]:
+    """Every assignment of one OPIL task, in sequence order: motions ``{name}_m{i}``, then actions
+    ``{name}_a{j}``; ``length`` is the number of both, so the task is assembled once all arrive (R2-R5).
+
+    Only the last point's theta is used (with use_orientation; it is the path's goal, so not a waypoint);
+    earlier points are passed through. Motion ``i`` is stamped ``stamp + (i - 1) * every``, the time it
+    is meant to be sent.
+    """
+    if not path and not actions:
+        raise ValueError("a task needs at least one point or one action")
+    length = len(path) + len(actions)
+    out: list[MotionAssignment | ActionAssignment] = []
+    for i, point in enumerate(path, start=1):
+        x, y = point[0], point[1]
+        theta = point[2] if len(point) == 3 else None
+        last_with_theta = i == len(path) and theta is not None
+        out.append(motion(name, f"{name}_m{i}", i, length, x, y, theta or 0.0, use_orientation=last_with_theta,
+                          is_waypoint=i < len(path), max_velocity=max_velocity, stamp=stamp + (i - 1) * every))
+    for j, kind in enumerate(actions, start=1):
+        out.append(action(name, f"{name}_a{j}", len(path) + j, length, kind))
+    return out
 
 
 def _id(name: str | Id) -> Id:

@@ -1,5 +1,5 @@
-"""Scenario files (TOML): read the fleet, the stations, the settings and the message script into a
-:class:`~vcran.core.scenario.Scenario`.
+"""Scenario files (TOML): read the fleet, the stations, the settings and the message script, or the
+closed loop's jobs, link and fleet manager (SPEC §9), into a :class:`~vcran.core.scenario.Scenario`.
 
 The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
 an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,13 @@ from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
 from vcran.core.scenario import (
     ACTION_KINDS,
+    POLLING,
+    SUBSCRIPTION,
     Cycle,
+    Job,
+    JobStream,
+    LinkSettings,
+    ManagerSpec,
     RobotConfig,
     Scenario,
     ScriptEntry,
@@ -55,9 +62,19 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
         raise ScenarioError(f"{source}: at least one [[robots]] entry is needed")
     stations = tuple(_station(t) for t in top.tables("stations"))
     script_tables = top.tables("script")
+    job_tables, stream_table = top.tables("jobs"), top.raw("job_stream", None)
+    link = _link(top.table("link"))
+    manager = _manager(top.table("manager")) if "manager" in top.data else None
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
+    names = [s.id for s in stations]
+    listed = [_job(t, names) for t in job_tables]
+    _unique(source, "jobs", [j.id for j in listed])
+    jobs = sorted(listed, key=lambda j: j.t)  # stable: equal times keep file order
+    stream = None
+    if stream_table is not None:
+        stream = _job_stream(Table(stream_table, source, "job_stream"), names, settings, [j.id for j in jobs])
     known = {r.id for r in robots}
     script: list[ScriptEntry] = []
     cycles: list[Cycle] = []
@@ -72,7 +89,11 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
         raise ScenarioError(f"{source}: [simulation]: set duration, or until_idle = true")
     if cycles and settings.duration is None:
         raise ScenarioError(f"{source}: [simulation]: a scenario with cycles needs a duration")
-    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles))
+    if (script or cycles) and (jobs or stream is not None or manager is not None):
+        raise ScenarioError(f"{source}: [[script]] and a closed loop ([[jobs]], [job_stream], [manager]) exclude "
+                            "each other: a script plays the fleet manager's part, jobs go to a fleet manager")
+    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), tuple(jobs), stream, link,
+                    manager)
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -149,6 +170,7 @@ def _station(t: Table) -> StationConfig:
         produce_every=t.number("produce_every", 0.0, minimum=0.0),
         produce_start=t.number("produce_start", None, minimum=0.0),
         produce_limit=t.integer("produce_limit", 0, minimum=0),
+        dock=_point(t, "dock", t.raw("dock")) if "dock" in t.data else None,
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
@@ -261,6 +283,113 @@ def _point(t: Table, where: str, v: Any) -> tuple[float, float, float | None]:
     if not (isinstance(v, list) and len(v) in (2, 3) and all(is_number(c) for c in v)):
         t.fail(where, f"expected [x, y] or [x, y, theta], got {v!r}")
     return float(v[0]), float(v[1]), (float(v[2]) if len(v) == 3 else None)
+
+
+# --- the closed loop (SPEC §9) --------------------------------------------------------------------------
+
+
+def _station_ref(t: Table, key: str, stations: list[str]) -> str:
+    name = t.string(key)
+    if name not in stations:
+        t.fail(key, f"no station {name!r} in this scenario; stations: {', '.join(stations) or 'none'}")
+    return name
+
+
+def _job(t: Table, stations: list[str]) -> Job:
+    job = Job(
+        t=t.number("t", minimum=0.0),
+        id=t.name("id"),
+        pickup=_station_ref(t, "pickup", stations),
+        dropoff=_station_ref(t, "dropoff", stations),
+        priority=t.integer("priority", 0),
+        deadline=t.number("deadline", None, minimum=0.0),
+    )
+    if job.pickup == job.dropoff:
+        t.fail("dropoff", f"equals the pickup {job.pickup!r}: a job moves a part from one station to another")
+    if job.deadline is not None and job.deadline <= job.t:
+        t.fail("deadline", f"{job.deadline} is not after the job's time {job.t} (a deadline is an absolute time)")
+    t.done()
+    return job
+
+
+def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[str]) -> JobStream:
+    has_rate, has_interval = "rate" in t.data, "mean_interval" in t.data
+    if has_rate == has_interval:
+        t.fail("rate", "give exactly one of rate (jobs per hour) and mean_interval (seconds)")
+    mean = 3600.0 / t.number("rate", positive=True) if has_rate else t.number("mean_interval", positive=True)
+    start = t.number("start", 0.0, minimum=0.0)
+    until = t.number("until", settings.duration, minimum=0.0)
+    if until is None:
+        t.fail("until", "missing (and [simulation] has no duration to default to)")
+    if until <= start:
+        t.fail("until", f"{until} is not after start {start}")
+    pickups, dropoffs = _weights(t, "pickup", stations), _weights(t, "dropoff", stations)
+    for p, _ in pickups:
+        if not any(d != p for d, _ in dropoffs):
+            t.fail("dropoff", f"offers no station other than the pickup {p!r}")
+    prefix = t.name("prefix", "job")
+    clash = next((j for j in listed if re.fullmatch(rf"{re.escape(prefix)}_[0-9]+", j)), None)
+    if clash is not None:
+        t.fail("prefix", f"the stream names its jobs {prefix}_1, {prefix}_2, ...; [[jobs]] id {clash!r} would clash")
+    stream = JobStream(
+        mean_interval=mean, pickups=pickups, dropoffs=dropoffs, until=until,
+        seed=t.integer("seed", settings.seed), start=start, prefix=prefix,
+        priority=t.integer("priority", 0), deadline_after=t.number("deadline_after", None, positive=True),
+    )
+    t.done()
+    return stream
+
+
+def _weights(t: Table, key: str, stations: list[str]) -> tuple[tuple[str, float], ...]:
+    """A list of station ids (equal weights) or a table ``{station = weight}``."""
+    v = t.raw(key)
+    if isinstance(v, list) and all(isinstance(x, str) for x in v):
+        pairs = [(x, 1.0) for x in v]
+    elif isinstance(v, dict):
+        pairs = []
+        for name, w in v.items():
+            if not is_number(w) or w <= 0:
+                t.fail(key, f"weight of {name!r} must be a positive number, got {w!r}")
+            pairs.append((name, float(w)))
+    else:
+        t.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
+    if not pairs:
+        t.fail(key, "names no station")
+    seen: set[str] = set()
+    for name, _ in pairs:
+        if name not in stations:
+            t.fail(key, f"no station {name!r} in this scenario; stations: {', '.join(stations) or 'none'}")
+        if name in seen:
+            t.fail(key, f"names {name!r} twice")
+        seen.add(name)
+    return tuple(pairs)
+
+
+def _link(t: Table) -> LinkSettings:
+    link = LinkSettings(
+        latency=t.number("latency", 0.05, positive=True),
+        jitter=t.number("jitter", 0.0, minimum=0.0),
+        inbound=t.string("inbound", SUBSCRIPTION),
+        poll_interval=t.number("poll_interval", 0.25, positive=True),
+    )
+    if link.inbound not in (SUBSCRIPTION, POLLING):
+        t.fail("inbound", f"expected {SUBSCRIPTION!r} or {POLLING!r}, got {link.inbound!r}")
+    t.done()
+    return link
+
+
+_MANAGER_PATH = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_][\w.]*")
+
+
+def _manager(t: Table) -> ManagerSpec:
+    path = t.string("class")
+    if not _MANAGER_PATH.fullmatch(path):
+        t.fail("class", f"expected 'module:Class' (e.g. 'vcran.managers:Dispatcher'), got {path!r}")
+    options = t.table("options")
+    options.used.update(options.data)  # the manager's own keywords, checked when it is built
+    spec = ManagerSpec(path, tuple(options.data.items()))
+    t.done()
+    return spec
 
 
 _EXPANDERS: dict[str, Any] = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle}

@@ -28,6 +28,26 @@ def scenario_dict(scenario: Scenario, script: Iterable[ScriptEntry]) -> dict[str
     return data
 
 
+def loop_dict(scenario: Scenario) -> dict[str, Any]:
+    """A closed-loop scenario (SPEC §9) as parse() reads it: the fleet, its listed jobs, its job stream,
+    the link and the fleet manager. ``vcran fuzz --manager`` saves a shrunk failing scenario this way."""
+    data = scenario.fleet_dict()
+    if scenario.manager is not None:
+        data["manager"] = {"class": scenario.manager.path, "options": dict(scenario.manager.options)}
+    data["link"] = scenario.link.as_dict()
+    s = scenario.job_stream
+    if s is not None:
+        data["job_stream"] = {
+            "mean_interval": s.mean_interval, "until": s.until, "start": s.start, "seed": s.seed, "prefix": s.prefix,
+            "priority": s.priority, "pickup": dict(s.pickups), "dropoff": dict(s.dropoffs),
+            **({"deadline_after": s.deadline_after} if s.deadline_after is not None else {}),
+        }
+    if scenario.jobs:
+        data["jobs"] = [{"t": j.t, "id": j.id, "pickup": j.pickup, "dropoff": j.dropoff, "priority": j.priority,
+                         **({"deadline": j.deadline} if j.deadline is not None else {})} for j in scenario.jobs]
+    return data
+
+
 def entry_table(e: ScriptEntry) -> dict[str, Any]:
     """One script entry as a ``[[script]]`` table."""
     head: dict[str, Any] = {"t": e.t, "robot": e.robot}

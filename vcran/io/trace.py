@@ -67,8 +67,16 @@ def raw_json(value: Any) -> bytes:
     254 levels, integers beyond 64 bits; and it turns NaN into null, which would change the payload.
     The standard library writes all of these (NaN as the token Python reads back), and anything that
     came from ``json.loads`` or a scenario checked by the loader can be written.
+
+    Text stays readable (UTF-8) unless it holds a lone UTF-16 surrogate (``"\\udc00"`` is valid JSON,
+    but no UTF-8 file can hold it, R12): then the whole value is written with ``\\u`` escapes, which
+    ``json.loads`` reads back to the same string.
     """
-    return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode()
+    text = json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=True)
+    try:
+        return text.encode()
+    except UnicodeEncodeError:
+        return json.dumps(value, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
 
 
 class TraceWriter:
@@ -100,6 +108,12 @@ class TraceWriter:
         """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
         self._jsonl.write(dumps({"t": t, "dir": "end"}) + b"\n")
 
+    def flush(self) -> None:
+        """Hand what is buffered to the operating system (live mode, every tick): a killed run keeps its
+        recording up to here. The telemetry file then ends with a whole row."""
+        self._jsonl.flush()
+        self._bin.flush()
+
     def close(self) -> None:
         self._jsonl.close()
         self._bin.close()
@@ -126,22 +140,31 @@ def records(path: Path) -> Iterator[dict[str, Any]]:
 
 
 def lines(path: Path) -> Iterator[tuple[str, dict[str, Any]]]:
-    """The records after the header with their text as written (verification compares the text)."""
+    """The records after the header with their text as written (verification compares the text).
+
+    Every record ends with a newline; a last line without one was cut off (a killed live run keeps what
+    it flushed, docs/outputs.md) and is not a record."""
     with path.open(encoding="utf-8") as f:
         f.readline()
         for n, line in enumerate(f, start=2):
+            if not line.endswith("\n"):
+                return
             try:
                 yield line, json.loads(line)
             except json.JSONDecodeError as exc:
                 raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
 
 
-def telemetry(path: Path, robots: int) -> np.ndarray:
-    """A telemetry file (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array."""
+def telemetry(path: Path, robots: int, *, cut_off: bool = False) -> np.ndarray:
+    """A telemetry file (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array.
+
+    ``cut_off``: the recording was killed, so a last partial row is dropped instead of refused."""
     if path.is_dir():
         path = path / TELEMETRY_FILE
     data = np.fromfile(path, dtype="<f8")
     width = 1 + robots * len(Frame.FIELDS)
     if data.size % width:
-        raise ValueError(f"{path}: size is not a whole number of {width}-column rows")
+        if not cut_off:
+            raise ValueError(f"{path}: size is not a whole number of {width}-column rows")
+        data = data[: data.size - data.size % width]
     return data.reshape(-1, width)

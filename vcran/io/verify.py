@@ -6,6 +6,15 @@ at their recorded times, and stops at the recorded end. Verification then walks 
 replayed outputs side by side: every outbound record in ``trace.jsonl``, every telemetry row in
 ``telemetry.bin`` and, when the recording has one beside it, every state transition and event in
 ``events.jsonl``; it stops at the first difference and names it.
+
+A closed-loop run (SPEC §9) replays the same way: its inbound records are what the fleet manager wrote,
+as they reached the RAN. The replay does not run the manager again, so the manager's own events
+(``job_*``) are left out of the comparison; everything the simulation did is compared.
+
+A live run killed outright (SIGKILL, power loss) leaves a recording without its end record, cut off
+after its last flush (every tick), maybe in the middle of a line or a telemetry row. Such a recording is
+*incomplete*: the replay runs to its last recorded instant, and verification checks that everything
+recorded is a prefix of what the replay wrote (what the run did after its last flush is unknown).
 """
 
 from __future__ import annotations
@@ -51,9 +60,10 @@ class Difference:
 
 
 def scenario_from_trace(trace: Path) -> Scenario:
-    """The fleet of a recorded run, set to stop exactly when the recording stopped."""
+    """The fleet of a recorded run, set to stop exactly when the recording stopped (an incomplete
+    recording: at its last recorded instant)."""
     header = read_header(trace)
-    end = end_time(trace)
+    end, _ = recorded_end(trace, header)
     fleet = header.get("fleet")
     if not isinstance(fleet, dict) or not isinstance(fleet.get("simulation", {}), dict):
         raise ValueError(f"{trace}: the header does not describe a fleet")
@@ -65,19 +75,38 @@ def scenario_from_trace(trace: Path) -> Scenario:
         raise ValueError(f"{trace}: the header does not describe a fleet: {exc}") from None
 
 
-def end_time(trace: Path) -> float:
+def recorded_end(trace: Path, header: dict[str, Any] | None = None) -> tuple[float, bool]:
+    """When the recording stopped, and whether it is complete (ends with its end record). An incomplete
+    one ends at the latest time it holds: of its last whole record or of its last whole telemetry row."""
+    last: Any = None
     with trace.open("rb") as f:
         f.seek(0, 2)
         size = f.tell()
-        f.seek(max(0, size - 4096))
-        tail = f.read().splitlines()
-    try:
-        last = json.loads(tail[-1]) if tail else {}
-    except ValueError:  # a truncated last line: the recording was cut off
-        last = {}
-    if not isinstance(last, dict) or last.get("dir") != "end" or not isinstance(last.get("t"), (int, float)):
-        raise ValueError(f"{trace}: no end record; the recording did not finish (was it interrupted?)")
-    return float(last["t"])
+        f.seek(max(0, size - 65536))
+        tail = f.read()
+    whole = tail[: tail.rfind(b"\n") + 1].splitlines()  # a cut-off last line is no record
+    for line in reversed(whole):
+        try:
+            last = json.loads(line)
+            break
+        except ValueError:  # the first of the tail's lines is usually a fragment
+            continue
+    if isinstance(last, dict) and last.get("dir") == "end" and isinstance(last.get("t"), (int, float)):
+        return float(last["t"]), True
+    header = read_header(trace) if header is None else header
+    times = [float(last["t"])] if isinstance(last, dict) and isinstance(last.get("t"), (int, float)) else []
+    rows = _telemetry(header, trace, cut_off=True)
+    if rows is not None and len(rows):
+        times.append(float(rows[-1, 0]))
+    return max(times, default=0.0), False
+
+
+def _telemetry(header: dict[str, Any], trace: Path, *, cut_off: bool) -> np.ndarray | None:
+    info = header.get("telemetry")
+    if not isinstance(info, dict) or not isinstance(info.get("robots"), list):
+        return None
+    path = trace.parent / str(info.get("file", TELEMETRY_FILE))
+    return telemetry(path, len(info["robots"]), cut_off=cut_off) if path.exists() else None
 
 
 def verify(recorded: Path, replayed: Path) -> Difference | None:
@@ -87,10 +116,11 @@ def verify(recorded: Path, replayed: Path) -> Difference | None:
     telemetry_file = recorded.parent / str(header.get("telemetry", {}).get("file", "telemetry.bin"))
     if not telemetry_file.exists():
         raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (SPEC §6)")
+    _, complete = recorded_end(recorded, header)
     return (
-        _compare_records(recorded, replayed / "trace.jsonl")
-        or _compare_telemetry(header, telemetry_file, replayed)
-        or _compare_events(recorded.parent / "events.jsonl", replayed / "events.jsonl")
+        _compare_records(recorded, replayed / "trace.jsonl", complete)
+        or _compare_telemetry(header, telemetry_file, replayed, complete)
+        or _compare_events(recorded.parent / "events.jsonl", replayed / "events.jsonl", complete)
     )
 
 
@@ -98,9 +128,12 @@ def _outbound(trace: Path) -> Iterator[tuple[str, dict[str, Any]]]:
     return ((line, r) for line, r in lines(trace) if r.get("dir") in ("out", "end"))
 
 
-def _compare_records(expected: Path, got: Path) -> Difference | None:
-    """Record by record, as written: text, not Python values (where 1 == 1.0 == True)."""
+def _compare_records(expected: Path, got: Path, complete: bool = True) -> Difference | None:
+    """Record by record, as written: text, not Python values (where 1 == 1.0 == True). Of an incomplete
+    recording, every record must be the replay's; the replay's end record and what follows are not."""
     for (line_a, a), (line_b, b) in zip_longest(_outbound(expected), _outbound(got), fillvalue=("", None)):
+        if not complete and a is None:
+            return None
         if line_a == line_b:
             continue
         ref = a or b
@@ -110,9 +143,9 @@ def _compare_records(expected: Path, got: Path) -> Difference | None:
     return None
 
 
-def _compare_telemetry(header: dict[str, Any], expected: Path, got_dir: Path) -> Difference | None:
+def _compare_telemetry(header: dict[str, Any], expected: Path, got_dir: Path, complete: bool = True) -> Difference | None:
     robots = header["telemetry"]["robots"]
-    a, b = telemetry(expected, len(robots)), telemetry(got_dir / TELEMETRY_FILE, len(robots))
+    a, b = telemetry(expected, len(robots), cut_off=not complete), telemetry(got_dir / TELEMETRY_FILE, len(robots))
     rows = min(len(a), len(b))
     bad = np.flatnonzero(np.any(a[:rows].view(np.uint64) != b[:rows].view(np.uint64), axis=1))
     if bad.size:
@@ -123,16 +156,28 @@ def _compare_telemetry(header: dict[str, Any], expected: Path, got_dir: Path) ->
         robot, field = divmod(col - 1, len(Frame.FIELDS))
         return Difference("telemetry.bin", float(a[row, 0]), robots[robot], "current_motion",
                           Frame.FIELDS[field], float(a[row, col]), float(b[row, col]))
-    if len(a) != len(b):
+    if len(a) > len(b) or (complete and len(a) != len(b)):
         return Difference("telemetry.bin", None, None, "current_motion", "rows", len(a), len(b))
     return None
 
 
-def _compare_events(expected: Path, got: Path) -> Difference | None:
+#: How a fleet manager's event starts, as written (orjson; keys t, robot, event in this order; a quote
+#: inside a string value is escaped, so this cannot match within one).
+_JOB_EVENT = '"event":"job_'
+
+
+def _simulated(lines: Iterator[str]) -> Iterator[str]:
+    """The lines of events.jsonl that the simulation wrote: all but the fleet manager's ``job_*`` events."""
+    return (line for line in lines if _JOB_EVENT not in line)
+
+
+def _compare_events(expected: Path, got: Path, complete: bool = True) -> Difference | None:
     if not expected.exists():
         return None
     with expected.open(encoding="utf-8") as fa, got.open(encoding="utf-8") as fb:
-        for line_a, line_b in zip_longest(fa, fb):
+        for line_a, line_b in zip_longest(_simulated(fa), _simulated(fb)):
+            if not complete and (line_a is None or not line_a.endswith("\n")):
+                return None  # the recording's end (a cut-off last line is no event)
             if line_a == line_b:
                 continue
             a = json.loads(line_a) if line_a else None

@@ -12,10 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from vcran.report.folder import ReportError, Run, read_run
+from vcran.report.folder import JobFigures, ReportError, Run, read_run
 from vcran.report.kpi import Kpi, kpis
 from vcran.report.spans import histories
-from vcran.report.tables import csv_text, markdown
+from vcran.report.tables import csv_text, jobs_markdown, markdown
 
 __all__ = [
     "FORMATS", "MatplotlibMissing", "Report", "ReportError", "Run", "read_run", "require_matplotlib", "write_report",
@@ -34,6 +34,8 @@ class MatplotlibMissing(ReportError):
 class Report:
     files: list[Path]
     kpis: list[Kpi]
+    #: A closed-loop run's job KPIs, else None.
+    jobs: JobFigures | None
     #: Robots the timeline left out (beyond its page limit); they are in the KPI tables all the same.
     robots_not_drawn: int
 
@@ -50,7 +52,8 @@ def require_matplotlib() -> None:
 
 def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None) -> Report:
     """Write ``layout``, ``timeline`` (paged above 20 robots, at most ``timeline_pages`` pages, default
-    :data:`TIMELINE_PAGES`), ``kpi.md`` and ``kpi.csv`` into ``out``."""
+    :data:`TIMELINE_PAGES`), for a closed-loop run ``fleet`` (jobs waiting, done, robots busy over
+    time), ``kpi.md`` and ``kpi.csv`` into ``out``."""
     if fmt not in FORMATS:
         raise ValueError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
     require_matplotlib()
@@ -77,13 +80,22 @@ def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int
         files.append(out / name)
         draw_timeline(run, history, chunk, files[-1], note)
 
+    if run.jobs is not None:  # a closed loop: the fleet over time
+        from vcran.report.fleet import draw_fleet, fleet_series
+
+        files.append(out / f"fleet.{fmt}")
+        draw_fleet(run, fleet_series(run, history), files[-1])
+
     rows = kpis(run, history)
     for name, text in (("kpi.md", _kpi_markdown(run, rows)), ("kpi.csv", csv_text(rows))):
         (out / name).write_text(text, encoding="utf-8")
         files.append(out / name)
-    return Report(files, rows, len(run.robots) - drawn)
+    return Report(files, rows, run.jobs, len(run.robots) - drawn)
 
 
 def _kpi_markdown(run: Run, rows: list[Kpi]) -> str:
-    return (f"# KPIs: {run.scenario}\n\nSeed {run.seed}, {run.sim_time:g} s simulated, {len(run.robots)} robot(s). "
+    text = (f"# KPIs: {run.scenario}\n\nSeed {run.seed}, {run.sim_time:g} s simulated, {len(run.robots)} robot(s). "
             "Columns are defined in vcran's docs/report.md.\n\n" + markdown(rows))
+    if run.jobs is not None:
+        text += "\n## Jobs\n\nA fleet manager ran this scenario's jobs (docs/outputs.md).\n\n" + jobs_markdown(run.jobs)
+    return text

@@ -94,6 +94,8 @@ class Run:
     motion_areas: tuple[MotionArea, ...] = ()
     #: (robot, motion label) -> the targets received for it, as (receive time, x, y), in arrival order.
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = field(default_factory=dict)
+    #: A closed-loop run's job KPIs (summary.json's ``jobs``, and the fleet's utilisation); else None.
+    jobs: JobFigures | None = None
 
     @property
     def robot_ids(self) -> tuple[str, ...]:
@@ -118,12 +120,42 @@ def read_run(path: Path) -> Run:
         results = {rid: _result(summary["robots"][rid]) for rid in ids}
         sim_time = float(summary["sim_time"])
         errors = int(summary["errors"])
+        jobs = _jobs(summary) if "jobs" in summary else None
     with _reading(path / "telemetry.bin"):
         ticks = telemetry(path, len(ids))
     events = list(_events(path / "events.jsonl"))
     areas, targets = _assignments(path / "trace.jsonl")
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
-               sim_time, errors, robots, stations, results, events, ticks, areas, targets)
+               sim_time, errors, robots, stations, results, events, ticks, areas, targets, jobs)
+
+
+@dataclass(frozen=True, slots=True)
+class JobFigures:
+    """summary.json's ``jobs`` section (docs/outputs.md) and the fleet's utilisation; lead times None
+    when no job completed."""
+
+    arrived: int
+    completed: int
+    failed: int
+    open: int
+    late: int
+    done_per_hour: float
+    lead_mean: float | None
+    lead_p50: float | None
+    lead_p95: float | None
+    lead_max: float | None
+    utilisation: float
+
+
+def _jobs(summary: dict[str, Any]) -> JobFigures:
+    j, lead = summary["jobs"], summary["jobs"]["lead_time"]
+
+    def seconds(key: str) -> float | None:
+        return float(lead[key]) if lead is not None else None
+
+    return JobFigures(int(j["arrived"]), int(j["completed"]), int(j["failed"]), int(j["open"]), int(j["late"]),
+                      float(j["done_per_hour"]), seconds("mean"), seconds("p50"), seconds("p95"), seconds("max"),
+                      float(summary["utilisation"]["fleet"]))
 
 
 @contextmanager

@@ -12,6 +12,7 @@ import io
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from vcran.report.folder import JobFigures
 from vcran.report.kpi import Kpi
 
 #: Above this many robots, stdout shows the first ones and the fleet row; the files have every robot.
@@ -88,3 +89,23 @@ def csv_text(rows: list[Kpi]) -> str:
 def _plain(value: float | int | str) -> str:
     """Floats to four decimals (0.1 mm, 0.1 ms, 0.01 %), without trailing zeros: 18.8284, 57, 0.5."""
     return f"{value:.4f}".rstrip("0").rstrip(".") if isinstance(value, float) else str(value)
+
+
+def jobs_markdown(jobs: JobFigures) -> str:
+    """A closed-loop run's job KPIs (SPEC §9) as a two-column Markdown table."""
+    def seconds(v: float | None) -> str:
+        return "–" if v is None else f"{v:.1f}"
+
+    rows = [
+        ("jobs arrived", str(jobs.arrived)), ("completed", str(jobs.completed)), ("failed", str(jobs.failed)),
+        ("open at the end", str(jobs.open)), ("late", str(jobs.late)), ("done per hour", f"{jobs.done_per_hour:.1f}"),
+        ("lead time mean (s)", seconds(jobs.lead_mean)), ("lead time p50 (s)", seconds(jobs.lead_p50)),
+        ("lead time p95 (s)", seconds(jobs.lead_p95)), ("lead time max (s)", seconds(jobs.lead_max)),
+        ("fleet utilisation", f"{jobs.utilisation:.1%}"),
+    ]
+    width = max(len(k) for k, _ in rows)
+    value_width = max(len(v) for _, v in rows)
+    lines = [f"| {'job KPI'.ljust(width)} | {'value'.rjust(value_width)} |",
+             f"|{'-' * (width + 2)}|{'-' * (value_width + 1)}:|"]
+    lines += [f"| {k.ljust(width)} | {v.rjust(value_width)} |" for k, v in rows]
+    return "\n".join(lines) + "\n"

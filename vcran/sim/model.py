@@ -12,7 +12,7 @@ from typing import Any, Protocol
 
 import simpy
 
-from vcran.core.effects import ErrorReport, Event, TaskCancelled, TaskCompleted
+from vcran.core.effects import ErrorReport, Event, State, StateChanged, TaskCancelled, TaskCompleted
 from vcran.core.messages import Message
 from vcran.core.motion import FleetKinematics
 from vcran.core.ranlogic import RanLogic
@@ -64,6 +64,8 @@ class Model:
         self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
         self.fleet_errors = 0
         self.tasks_done = 0
+        self._busy = [0.0] * len(scenario.robots)            # seconds not WAITING, per robot ...
+        self._busy_since: list[float | None] = [None] * len(scenario.robots)  # ... and since when, if now
         self.robots: list[RobotNode] = []
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
@@ -92,7 +94,13 @@ class Model:
 
     def _log(self, robot: RobotNode, event: Event) -> None:
         self.events.write(self.env.now, robot.id, event.NAME, event.fields())
-        if isinstance(event, TaskCompleted):
+        if isinstance(event, StateChanged):
+            if event.from_ is State.WAITING:
+                self._busy_since[robot.index] = self.env.now
+            elif event.to is State.WAITING:
+                self._busy[robot.index] += self.env.now - (self._busy_since[robot.index] or 0.0)
+                self._busy_since[robot.index] = None
+        elif isinstance(event, TaskCompleted):
             self.completed[robot.id].append(event.task.label)
             self.tasks_done += 1
         elif isinstance(event, TaskCancelled):
@@ -144,6 +152,11 @@ class Model:
         return after_tick
 
     # --- results ----------------------------------------------------------------------------------------
+
+    def busy(self, index: int) -> float:
+        """Seconds robot ``index`` has spent not WAITING so far (a task was current; the report's busy time)."""
+        since = self._busy_since[index]
+        return self._busy[index] + (self.env.now - since if since is not None else 0.0)
 
     def summary(self) -> dict[str, Any]:
         """summary.json (SPEC §8): deterministic, no wall-clock figures."""

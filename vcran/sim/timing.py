@@ -8,8 +8,14 @@ that what happens at one instant does not depend on when the event happened to b
 2. station production;
 3. completions: an AGV reaching a point, AgvAction finishing an action;
 4. R7 deadlines (so a task assembled exactly at its deadline is on time);
-5. telemetry (it sees the state after everything else at that instant);
-6. the end of the run (so the last instant is complete, telemetry included).
+5. in a closed loop (SPEC §9), the fleet manager's callbacks: first the robots' updates reaching it
+   (so it decides on the freshest state), then jobs reaching it, then its own timers;
+6. telemetry (it sees the state after everything else at that instant);
+7. the end of the run (so the last instant is complete, telemetry included).
+
+The manager's writes reach the RAN as inbound messages (1) after the link's latency, which is never
+zero: a write is always delivered at a later instant than the callback that made it, so a recorded
+trace replays in the same order (docs/determinism.md).
 """
 
 from __future__ import annotations
@@ -23,8 +29,11 @@ INBOUND = 1
 PRODUCTION = 2
 COMPLETION = 3
 DEADLINE = 4
-TELEMETRY = 5
-END = 6
+UPDATE = 5
+JOB = 6
+TIMER = 7
+TELEMETRY = 8
+END = 9
 
 
 def after(env: simpy.Environment, delay: float, priority: int) -> Event:

@@ -5,5 +5,6 @@
 * :mod:`vcran.testing.plans` — task plans and the deviations a real fleet manager produces;
 * :mod:`vcran.testing.stateful` — a hypothesis state machine pairing RanLogic with the model;
 * :mod:`vcran.testing.scripts` — strategies for whole scenarios and perturbations of a message script;
-* :mod:`vcran.testing.checks` — the rules checked on a run's output folder.
+* :mod:`vcran.testing.checks` — the rules checked on a run's output folder;
+* :mod:`vcran.testing.loop` — fuzzing a fleet manager: workload, stock and link strategies, the loop properties.
 """

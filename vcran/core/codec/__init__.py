@@ -168,9 +168,17 @@ def split_batch(
     filled greedily, so there are as few as the sizes allow. An entity too large to fit a body on its
     own raises :class:`CodecError` naming it.
     """
+    return [body for body, _ in split_batch_counted(entities, limit, action_type=action_type)]
+
+
+def split_batch_counted(
+    entities: Iterable[dict[str, Any] | bytes], limit: int = MAX_REQUEST_BYTES, *, action_type: str = "append"
+) -> list[tuple[bytes, int]]:
+    """:func:`split_batch`, each body with how many of the entities (the next ones, in order) it holds:
+    a sender that stops at a failed body knows exactly which entities Orion has not taken."""
     head = b'{"actionType":' + json.dumps(action_type).encode() + b',"entities":['
     tail = b"]}"
-    bodies: list[bytes] = []
+    bodies: list[tuple[bytes, int]] = []
     chunk: list[bytes] = []
     size = len(head) + len(tail)
     for index, entity in enumerate(entities):
@@ -179,12 +187,12 @@ def split_batch(
             where = str(entity.get("id", "entity")) if isinstance(entity, dict) else f"entities[{index}]"
             raise CodecError("", where, f"entity encodes to {len(data)} bytes, too large for a {limit}-byte update")
         if chunk and size + 1 + len(data) > limit:
-            bodies.append(head + b",".join(chunk) + tail)
+            bodies.append((head + b",".join(chunk) + tail, len(chunk)))
             chunk, size = [], len(head) + len(tail)
         size += len(data) + (1 if chunk else 0)
         chunk.append(data)
     if chunk:
-        bodies.append(head + b",".join(chunk) + tail)
+        bodies.append((head + b",".join(chunk) + tail, len(chunk)))
     return bodies
 
 
@@ -198,6 +206,7 @@ __all__ = [
     "encode_entity_json",
     "escape_string",
     "split_batch",
+    "split_batch_counted",
     "unescape_string",
     "unknown_attributes",
 ]

@@ -1,0 +1,40 @@
+"""``vcran run SCENARIO --out DIR [--manager module:Class]`` (SPEC §8, §9): the closed loop from the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.conftest import ROOT
+from vcran.cli import main
+
+DEMO = str(ROOT / "scenarios" / "demo.toml")
+WAREHOUSE = str(ROOT / "scenarios" / "warehouse.toml")
+
+
+def test_warehouse_runs_with_its_own_manager_and_prints_the_kpis(tmp_path, capsys):
+    assert main(["run", WAREHOUSE, "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    jobs = summary["jobs"]
+    assert f"jobs arrived {jobs['arrived']}, completed {jobs['arrived']}, failed 0, open 0" in out
+    assert "lead time p50" in out and "utilisation" in out
+
+
+def test_manager_option_overrides_the_scenarios(tmp_path, capsys):
+    code = main(["run", WAREHOUSE, "--out", str(tmp_path), "--quiet", "--manager", "vcran.core.manager:FleetManager"])
+    assert code == 0  # the do-nothing base class: jobs arrive and stay open
+    jobs = json.loads((tmp_path / "summary.json").read_text())["jobs"]
+    assert jobs["completed"] == 0 and jobs["open"] == jobs["arrived"] > 0
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--manager", "no_such_module:X"], "vcran run: fleet manager 'no_such_module:X': cannot import no_such_module"),
+    (["--manager", "vcran.managers:Dispatcher"], "vcran run: "),
+])
+def test_bad_manager_or_scripted_scenario_with_a_manager_is_one_line_and_exit_2(tmp_path, capsys, args, message):
+    scenario = WAREHOUSE if "no_such" in args[1] else DEMO
+    assert main(["run", scenario, "--out", str(tmp_path), "--quiet", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(message) and err.count("\n") == 1 and "Traceback" not in err

@@ -1,0 +1,179 @@
+"""Closed-loop sections of a scenario file (SPEC §9): ``[[jobs]]``, ``[job_stream]``, ``[link]``, ``[manager]``.
+
+Loading is strict like every other section: each bad entry fails with a ScenarioError that names the file,
+the section and the field.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections import Counter
+
+import pytest
+
+from vcran.core.scenario import Job
+from vcran.io.scenario_file import ScenarioError, parse
+
+FLEET = """
+[simulation]
+duration = 3600.0
+seed = 5
+[[robots]]
+id = "robot_1"
+[[stations]]
+id = "a"
+position = [0.0, 0.0]
+[[stations]]
+id = "b"
+position = [10.0, 0.0]
+[[stations]]
+id = "c"
+position = [10.0, 10.0]
+"""
+
+
+def load(extra: str):
+    return parse(tomllib.loads(FLEET + extra), "<test>")
+
+
+def job(t, id, pickup="a", dropoff="b", more=""):
+    return f'\n[[jobs]]\nt = {t}\nid = "{id}"\npickup = "{pickup}"\ndropoff = "{dropoff}"\n{more}\n'
+
+
+def test_listed_jobs_load_in_time_order_equal_times_in_file_order():
+    sc = load(job(20, "late") + job(5, "first", more="priority = 2\ndeadline = 60.0") + job(20, "later", "c", "a"))
+    assert [j.id for j in sc.jobs] == ["first", "late", "later"]
+    assert sc.jobs[0] == Job(5.0, "first", "a", "b", priority=2, deadline=60.0)
+    assert sc.jobs[1].priority == 0 and sc.jobs[1].deadline is None
+    assert sc.has_workload and list(sc.workload()) == list(sc.jobs)
+
+
+def test_a_scenario_without_jobs_has_no_workload():
+    sc = load("")
+    assert not sc.has_workload and list(sc.workload()) == [] and sc.manager is None
+
+
+@pytest.mark.parametrize("entry, message", [
+    (job(1, "j", pickup="nowhere"), "jobs[0]: field 'pickup': no station 'nowhere' in this scenario; stations: a, b, c"),
+    (job(1, "j", dropoff="a"), "field 'dropoff': equals the pickup 'a'"),
+    (job(10, "j", more="deadline = 10.0"), "field 'deadline': 10.0 is not after the job's time 10"),
+    (job(-1, "j"), "field 't'"),
+    (job(1, "j", more="colour = 'red'"), "colour"),
+    (job(1, "j") + job(2, "j"), "'j'"),
+    ('\n[[jobs]]\nt = 1.0\nid = "j"\npickup = "a"\n', "field 'dropoff'"),
+])
+def test_bad_jobs_fail_to_load_naming_the_field(entry, message):
+    with pytest.raises(ScenarioError) as err:
+        load(entry)
+    assert str(err.value).startswith("<test>: ")
+    assert message in str(err.value)
+
+
+def test_jobs_and_a_script_exclude_each_other():
+    script = '\n[[script]]\nt = 1.0\nrobot = "robot_1"\nkind = "cancel"\ntask = "x"\n'
+    with pytest.raises(ScenarioError, match=r"\[\[script\]\] and a closed loop"):
+        load(job(1, "j") + script)
+
+
+STREAM = """
+[job_stream]
+mean_interval = 10.0
+pickup = ["a", "b"]
+dropoff = {{ b = 3.0, c = 1.0 }}
+{more}
+"""
+
+
+def stream(more: str = "") -> str:
+    return STREAM.format(more=more)
+
+
+def test_stream_is_a_seeded_poisson_process_honouring_stations_and_weights():
+    jobs = list(load(stream("until = 100000.0")).workload())
+    # ~10,000 exponential gaps of mean 10 s: the sample mean is within 3% (about 3 standard errors)
+    gaps = [b.t - a.t for a, b in zip(jobs, jobs[1:])]
+    assert abs(sum(gaps) / len(gaps) - 10.0) < 0.3
+    assert all(g > 0 for g in gaps)
+    assert jobs[-1].t < 100000.0
+    assert [j.id for j in jobs[:3]] == ["job_1", "job_2", "job_3"]
+    assert all(j.pickup != j.dropoff for j in jobs)
+    pickups = Counter(j.pickup for j in jobs)
+    assert set(pickups) == {"a", "b"} and abs(pickups["a"] / len(jobs) - 0.5) < 0.03
+    # from a: b and c by weight 3:1; from b: only c is left
+    from_a = Counter(j.dropoff for j in jobs if j.pickup == "a")
+    assert abs(from_a["b"] / (from_a["b"] + from_a["c"]) - 0.75) < 0.03
+    assert {j.dropoff for j in jobs if j.pickup == "b"} == {"c"}
+
+
+def test_stream_is_the_same_for_the_same_seed_and_differs_for_another():
+    once, again = list(load(stream()).workload()), list(load(stream()).workload())
+    other = list(load(stream("seed = 6")).workload())
+    assert once == again and len(once) > 100
+    assert once != other
+
+
+def test_stream_defaults_to_the_duration_and_rate_is_jobs_per_hour():
+    sc = load(stream().replace("mean_interval = 10.0", "rate = 360.0"))
+    assert sc.job_stream is not None
+    assert sc.job_stream.mean_interval == 10.0 and sc.job_stream.until == 3600.0 and sc.job_stream.seed == 5
+
+
+def test_listed_and_streamed_jobs_merge_by_time():
+    sc = load(stream("until = 60.0\nprefix = 'auto'") + job(0, "manual") + job(30, "mid"))
+    jobs = list(sc.workload())
+    assert [j.t for j in jobs] == sorted(j.t for j in jobs)
+    assert jobs[0].id == "manual" and "mid" in [j.id for j in jobs]
+    assert any(j.id.startswith("auto_") for j in jobs)
+
+
+@pytest.mark.parametrize("more, message", [
+    ("rate = 5.0", "give exactly one of rate"),
+    ("until = 0.0", "is not after start"),
+    ("prefix = 'j'\n[[jobs]]\nt = 1.0\nid = 'j_1'\npickup = 'a'\ndropoff = 'b'", "would clash"),
+])
+def test_bad_streams_fail_to_load(more, message):
+    with pytest.raises(ScenarioError, match=message):
+        load(stream(more))
+
+
+@pytest.mark.parametrize("table, message", [
+    ('\n[job_stream]\nmean_interval = 1.0\npickup = ["a"]\ndropoff = ["a"]\n', "offers no station other than"),
+    ('\n[job_stream]\nmean_interval = 1.0\npickup = ["zz"]\ndropoff = ["a"]\n', "no station 'zz'"),
+    ('\n[job_stream]\nmean_interval = 1.0\npickup = []\ndropoff = ["a"]\n', "names no station"),
+    ('\n[job_stream]\nmean_interval = 1.0\npickup = ["a", "a"]\ndropoff = ["b"]\n', "names 'a' twice"),
+    ('\n[job_stream]\nmean_interval = 1.0\npickup = {a = 0}\ndropoff = ["b"]\n', "positive number"),
+    ('\n[job_stream]\nmean_interval = -1.0\npickup = ["a"]\ndropoff = ["b"]\n', "mean_interval"),
+])
+def test_bad_station_choices_fail_to_load(table, message):
+    with pytest.raises(ScenarioError, match=message):
+        load(table)
+
+
+def test_link_defaults_are_subscription_and_50_ms():
+    link = load("").link
+    assert (link.latency, link.jitter, link.inbound) == (0.05, 0.0, "subscription")
+
+
+@pytest.mark.parametrize("table, message", [
+    ("\n[link]\nlatency = 0.0\n", "latency"),
+    ("\n[link]\ninbound = 'carrier pigeon'\n", "expected 'subscription' or 'polling'"),
+    ("\n[link]\njitter = -0.1\n", "jitter"),
+    ("\n[link]\nloss = 0.1\n", "loss"),
+    ("\n[manager]\nclass = 'no colon'\n", "expected 'module:Class'"),
+    ("\n[manager]\nklass = 'a:B'\n", "class"),
+])
+def test_bad_link_and_manager_tables_fail_to_load(table, message):
+    with pytest.raises(ScenarioError, match=message):
+        load(table)
+
+
+def test_manager_table_keeps_its_options_for_the_class():
+    sc = load("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { max_tries = 5 }\n")
+    assert sc.manager is not None
+    assert sc.manager.path == "vcran.managers:Dispatcher" and dict(sc.manager.options) == {"max_tries": 5}
+
+
+def test_station_dock_loads_with_or_without_heading():
+    sc = parse(tomllib.loads(FLEET.replace('position = [0.0, 0.0]', 'position = [0.0, 0.0]\ndock = [1.0, 0.0, 3.0]')
+                             .replace('position = [10.0, 0.0]', 'position = [10.0, 0.0]\ndock = [9.0, 0.0]')))
+    assert [s.dock for s in sc.stations] == [(1.0, 0.0, 3.0), (9.0, 0.0, None), None]

@@ -1,0 +1,158 @@
+"""``vcran.simulate`` and its ``Result`` (SPEC §9, "The API"): in memory or into a run folder, the same run;
+how a fleet manager is named; clear errors for scenarios and managers that cannot run."""
+
+from __future__ import annotations
+
+import json
+import os
+import tomllib
+
+import numpy as np
+import pytest
+
+import vcran
+from tests.conftest import ROOT
+from vcran.io.scenario_file import parse
+from vcran.managers import Dispatcher
+
+DEMO = ROOT / "scenarios" / "demo.toml"
+WAREHOUSE = ROOT / "scenarios" / "warehouse.toml"
+
+SMALL = """
+[simulation]
+duration = 200.0
+until_idle = true
+[[robots]]
+id = "robot_1"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+[[robots]]
+id = "robot_2"
+pose = [0.0, 3.0, 0.0]
+[[stations]]
+id = "a"
+position = [5.0, 0.0]
+parts = 2
+[[stations]]
+id = "b"
+position = [-5.0, 0.0]
+[[jobs]]
+t = 1.0
+id = "j1"
+pickup = "a"
+dropoff = "b"
+"""
+
+
+def small(extra: str = "") -> vcran.Scenario:
+    return parse(tomllib.loads(SMALL + extra), "<small>")
+
+
+def test_in_memory_and_folder_runs_give_the_same_result(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    memory = vcran.simulate(small(), manager=Dispatcher())
+    assert os.listdir(tmp_path) == []  # nothing written without out
+    folder = vcran.simulate(small(), manager=Dispatcher(), out=tmp_path / "run")
+    assert memory.out is None and folder.out == tmp_path / "run"
+    assert memory.summary == folder.summary == json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert memory.events == folder.events and len(memory.events) == memory.event_count > 0
+    assert np.array_equal(memory.telemetry, folder.telemetry)
+    assert memory.jobs == folder.jobs
+
+
+def test_telemetry_is_one_named_row_per_tick_and_robot():
+    result = vcran.simulate(small(), manager=Dispatcher())
+    tel = result.telemetry
+    assert tel.dtype.names == ("t", "robot", "x", "y", "theta", "v", "w")
+    ticks = int(result.summary["sim_time"]) + 1  # one frame a second from t = 0
+    assert len(tel) == 2 * ticks
+    assert list(tel["robot"][:4]) == ["robot_1", "robot_2", "robot_1", "robot_2"]
+    first = tel[tel["t"] == 0.0]
+    assert [(r["x"], r["y"]) for r in first] == [(0.0, 0.0), (0.0, 3.0)]
+    final = result.summary["robots"]["robot_1"]["final_pose"]
+    last = tel[(tel["robot"] == "robot_1")][-1]
+    assert (last["x"], last["y"]) == pytest.approx((final["x"], final["y"]))
+
+
+def test_job_records_and_kpis():
+    result = vcran.simulate(small(), manager=Dispatcher())
+    (record,) = result.jobs
+    assert record is result.job("j1") and record.outcome == "completed" and record.robot == "robot_1"
+    jobs = result.summary["jobs"]
+    assert (jobs["arrived"], jobs["completed"], jobs["failed"], jobs["open"]) == (1, 1, 0, 0)
+    assert jobs["lead_time"]["mean"] == jobs["lead_time"]["p95"] == record.lead_time
+    assert jobs["done_per_hour"] == pytest.approx(3600.0 / result.summary["sim_time"])
+    util = result.summary["utilisation"]
+    assert util["robots"]["robot_2"] == 0.0 and 0.0 < util["robots"]["robot_1"] < 1.0
+    assert util["fleet"] == pytest.approx(util["robots"]["robot_1"] / 2)
+    with pytest.raises(KeyError, match="no job 'nope'"):
+        result.job("nope")
+
+
+@pytest.mark.parametrize("manager", ["vcran.managers:Dispatcher", Dispatcher, Dispatcher()])
+def test_a_manager_is_an_instance_a_class_or_a_module_path(manager):
+    assert vcran.simulate(small(), manager=manager).summary["jobs"]["completed"] == 1
+
+
+def test_the_scenario_may_name_its_manager_and_options():
+    extra = "\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { max_tries = 1 }\n"
+    result = vcran.simulate(small(extra))
+    assert result.summary["jobs"]["completed"] == 1
+    empty = parse(tomllib.loads((SMALL + extra).replace("parts = 2", "parts = 0")), "<small>")
+    assert vcran.simulate(empty).job("j1").tasks == ("j1_pick1",)  # max_tries = 1: no second try
+
+
+def test_a_scripted_scenario_runs_its_script_unchanged(tmp_path):
+    result = vcran.simulate(DEMO, out=tmp_path)
+    assert "jobs" not in result.summary and result.jobs == ()
+    assert result.summary["robots"]["robot_1"]["completed"] == ["100", "200", "300"]
+
+
+@pytest.mark.parametrize("manager, message", [
+    ("nowhere_at_all:X", "cannot import nowhere_at_all"),
+    ("vcran.managers:Nope", "has no attribute 'Nope'"),
+    ("vcran.managers", "expected 'module:Class'"),
+    ("json:dumps", "is not a vcran.FleetManager subclass"),
+])
+def test_a_manager_that_cannot_be_found_is_a_manager_error(manager, message):
+    with pytest.raises(vcran.ManagerError, match=message):
+        vcran.simulate(small(), manager=manager)
+
+
+def test_manager_options_the_class_does_not_take_are_a_manager_error():
+    with pytest.raises(vcran.ManagerError, match=r"cannot build fleet manager vcran.managers.dispatcher:Dispatcher"):
+        vcran.simulate(small("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { colour = 1 }\n"))
+
+
+def test_scenarios_that_cannot_run_this_way_are_scenario_errors():
+    with pytest.raises(vcran.ScenarioError, match="has jobs but no fleet manager"):
+        vcran.simulate(small())
+    with pytest.raises(vcran.ScenarioError, match="has a \\[\\[script\\]\\]"):
+        vcran.simulate(DEMO, manager=Dispatcher())
+    no_duration = SMALL.replace("duration = 200.0\n", "")
+    with pytest.raises(vcran.ScenarioError, match="needs a duration"):
+        vcran.simulate(parse(tomllib.loads(no_duration), "<small>"), manager=Dispatcher())
+
+
+class Broken(vcran.FleetManager):
+    def on_job(self, job) -> None:
+        raise RuntimeError("boom")
+
+
+def test_an_exception_in_the_manager_propagates_saying_where_and_when():
+    with pytest.raises(RuntimeError, match="boom") as err:
+        vcran.simulate(small(), manager=Broken())
+    assert "in fleet manager Broken: on_job at t=1.0" in err.value.__notes__
+
+
+def test_warehouse_every_job_completes_and_the_run_replays_byte_for_byte(tmp_path):
+    from vcran.cli import main
+
+    result = vcran.simulate(WAREHOUSE, out=tmp_path / "run")
+    jobs = result.summary["jobs"]
+    assert len(result.summary["robots"]) == 10
+    assert jobs["arrived"] > 150 and jobs["completed"] == jobs["arrived"] and jobs["failed"] == jobs["open"] == 0
+    assert result.summary["errors"] == 0
+    assert all(r.lead_time is not None and r.lead_time > 0 for r in result.jobs)
+    assert main(["replay", str(tmp_path / "run" / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify",
+                 "--quiet"]) == 0

@@ -1,0 +1,33 @@
+"""Deliberately broken fleet managers (SPEC §9, issue 10): the loop properties must catch each one.
+
+Importable as ``tests.testing.loop_managers:Class`` so that ``vcran fuzz --manager`` can run them too.
+"""
+
+from __future__ import annotations
+
+from vcran.core import build
+from vcran.core.codec import encode_attribute
+from vcran.core.messages import ActionAssignment
+from vcran.managers import Dispatcher
+from vcran.managers.dispatcher import Trip
+
+
+class OutOfRange(Dispatcher):
+    """Numbers every assignment one past the task's length (sequence_number = length + 1)."""
+
+    def send(self, robot: str, trip: Trip) -> None:
+        station, action = (trip.job.pickup, "load") if trip.phase == "pick" else (trip.job.dropoff, "unload")
+        name = f"{trip.job.id}_{trip.phase}{trip.tries + 1}"
+        for message in build.task(name, [self.fleet.dock(station)], [action]):
+            attribute = "action_assignment" if isinstance(message, ActionAssignment) else "motion_assignment"
+            value = encode_attribute(attribute, message)
+            value["value"]["sequence"]["value"]["sequence_number"]["value"] = message.sequence.length + 1
+            self.handle.send_raw(robot, attribute, value)
+        trip.task = message.task_id
+
+
+class NeverReplans(Dispatcher):
+    """Forgets a job whose task was cancelled: no retry, no report; the robot is freed for other jobs."""
+
+    def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
+        self.release(robot)

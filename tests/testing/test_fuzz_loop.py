@@ -1,0 +1,104 @@
+"""Fuzzing the loop (SPEC §9, issue 10 item 7): the properties catch deliberately broken managers, pass
+the reference dispatcher, and the search shrinks a failure to a minimal scenario."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import replace
+
+from hypothesis import given, settings
+
+import vcran
+from tests.conftest import ROOT
+from tests.testing.loop_managers import NeverReplans, OutOfRange
+from vcran.core.scenario import Job
+from vcran.io.scenario_file import parse
+from vcran.io.scenario_toml import dumps, loop_dict
+from vcran.managers import Dispatcher
+from vcran.testing.loop import (
+    assert_loop_properties,
+    check_jobs_ended,
+    check_no_idle_while_waiting,
+    check_protocol,
+    fuzz_manager,
+    loop_variants,
+)
+
+WAREHOUSE = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+
+
+def few_jobs(*jobs: Job, empty: tuple[str, ...] = ()) -> vcran.Scenario:
+    """The warehouse with listed jobs only, lines in ``empty`` without parts or production, 900 s at most."""
+    stations = tuple(replace(s, parts=0, produce_every=0.0) if s.id in empty else s for s in WAREHOUSE.stations)
+    return replace(WAREHOUSE, jobs=jobs, job_stream=None, stations=stations,
+                   settings=replace(WAREHOUSE.settings, duration=900.0))
+
+
+TWO = (Job(0.0, "a", "line_1", "dock_1"), Job(5.0, "b", "line_2", "dock_2"))
+
+
+class _Result:
+    """A stand-in for vcran.Result with hand-written events (the idle property, by first principles)."""
+
+    def __init__(self, events: list[dict], sim_time: float, robots=("r1",)) -> None:
+        self.events, self.robots, self.summary, self.jobs = events, robots, {"sim_time": sim_time}, ()
+
+
+def test_out_of_range_sequence_numbers_are_caught_as_protocol_errors():
+    result = vcran.simulate(few_jobs(*TWO), manager=OutOfRange)
+    problems = check_protocol(result)
+    # two jobs, each a motion and an action numbered 3 of 2: four malformed inputs, none applied (R12)
+    assert len(problems) == 4, problems
+    assert all("ran_error malformed" in p and "sequence_number" in p for p in problems)
+    assert check_protocol(vcran.simulate(few_jobs(*TWO), manager=Dispatcher)) == []
+
+
+def test_a_job_never_replanned_after_a_cancel_is_caught():
+    scenario = few_jobs(Job(0.0, "a", "line_1", "dock_1"), empty=("line_1",))  # the load fails: action_failed
+    broken = vcran.simulate(scenario, manager=NeverReplans)
+    assert broken.job("a").outcome == "open"
+    [ended] = check_jobs_ended(broken)
+    assert "job a" in ended and "never ended" in ended
+    idle = check_no_idle_while_waiting(broken, bound=60.0)
+    assert idle and all("while job a waited" in p for p in idle)
+    with_retries = vcran.simulate(scenario, manager=Dispatcher)  # tries three times, then reports it failed
+    assert with_retries.job("a").outcome == "failed"
+    assert check_jobs_ended(with_retries) == []
+    assert_loop_properties(with_retries)
+
+
+def test_idle_while_waiting_counts_only_the_overlap_of_idle_robot_and_waiting_job():
+    # r1 idles 0..100 (then works); job j waits from its arrival at 10 until assigned at 100: overlap 90 s
+    events = [
+        {"t": 10.0, "robot": "", "event": "job_arrived", "job": "j"},
+        {"t": 100.0, "robot": "r1", "event": "job_assigned", "job": "j", "task": "t1"},
+        {"t": 100.0, "robot": "r1", "event": "state", "from": "WAITING", "to": "TASK"},
+        {"t": 150.0, "robot": "r1", "event": "state", "from": "TASK", "to": "WAITING"},
+        {"t": 150.0, "robot": "r1", "event": "task_cancelled", "task": "t1", "reason": "action_failed"},
+    ]
+    # the cancelled task puts j back to waiting at 150, with r1 idle from 150 to the end at 200: 50 s
+    assert len(check_no_idle_while_waiting(_Result(events, 200.0), bound=89.0)) == 1
+    assert check_no_idle_while_waiting(_Result(events, 200.0), bound=90.0) == []
+    late = check_no_idle_while_waiting(_Result(events, 220.0), bound=60.0)  # 150..220: 70 s
+    assert len(late) == 2 and "from t=150 to t=220" in late[1]
+
+
+@settings(max_examples=8)
+@given(loop_variants(WAREHOUSE, max_jobs=4, horizon=120.0, settle=400.0))
+def test_the_dispatcher_keeps_the_loop_properties(scenario):
+    assert_loop_properties(vcran.simulate(scenario))  # the warehouse's own [manager]: the Dispatcher
+
+
+def test_the_search_shrinks_a_never_replanning_manager_to_one_job_at_an_empty_line():
+    small = replace(WAREHOUSE, robots=WAREHOUSE.robots[:2])  # two robots: the shrinking runs stay cheap
+    finding = fuzz_manager(small, NeverReplans, examples=30, seed=1, max_jobs=3, horizon=30.0, settle=90.0)
+    assert finding is not None
+    [job] = finding.scenario.jobs
+    stock = {s.id: s.parts for s in finding.scenario.stations}
+    assert stock[job.pickup] == 0 and job.t == 0.0
+    assert any("never ended" in p for p in finding.problems)
+    # written back as a scenario file, it loads to the same scenario and fails the same way
+    text = dumps(loop_dict(finding.scenario))
+    again = parse(tomllib.loads(text), "<saved>")
+    assert again.jobs == finding.scenario.jobs and again.link == finding.scenario.link
+    assert check_jobs_ended(vcran.simulate(again, manager=NeverReplans))

@@ -1,0 +1,54 @@
+"""``vcran manage`` (SPEC §9, issue 10 item 6): the same fleet manager against a real Orion in real time,
+end to end over loopback: ``vcran broker`` + ``vcran live`` (the warehouse's robots) + ``vcran manage``
+(the Dispatcher), each its own process as a user would start them."""
+
+from __future__ import annotations
+
+import json
+
+import httpx
+
+from tests.conftest import ROOT
+from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401, F811
+from vcran.cli import main
+
+WAREHOUSE = ROOT / "scenarios" / "warehouse.toml"
+
+
+def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(broker_process, tmp_path):  # noqa: F811
+    url = broker_process
+    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
+    live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(tmp_path / "live"), "--factor", "20",
+                 "--notify-url", f"http://127.0.0.1:{free_port()}/notify")
+    try:
+        assert wait_until(lambda: live_time(url) >= 1.0, 15)  # the robots tick
+        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)  # and listen
+        manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--jobs", "3",
+                       "--notify-url", f"http://127.0.0.1:{free_port()}/notify", "--out", str(tmp_path / "manage"))
+        out, err = manage.communicate(timeout=90)  # until_idle: it ends once the three jobs have ended
+        assert manage.returncode == 0, err
+        assert "3 job(s) arrived, 3 completed, 0 failed, 0 open" in out
+        subscriptions = httpx.get(f"{url}/v2/subscriptions").json()
+        assert len(subscriptions) == 1  # the manager deleted its own on the way out; live's remains
+    finally:
+        stop(live)
+    summary = json.loads((tmp_path / "manage" / "summary.json").read_text())
+    assert summary["jobs"]["completed"] == 3 and summary["manager"] == "vcran.managers.dispatcher:Dispatcher"
+    events = [json.loads(line) for line in (tmp_path / "manage" / "events.jsonl").read_text().splitlines()]
+    assert sorted(e["job"] for e in events if e["event"] == "job_completed") == ["job_1", "job_2", "job_3"]
+    # each job: a pickup task and a drop-off task, on the robots the live run completed them on
+    robots = json.loads((tmp_path / "live" / "summary.json").read_text())["robots"]
+    completed = {task for r in robots.values() for task in r["completed"]}
+    assigned = {e["task"] for e in events if e["event"] == "job_assigned"}
+    assert assigned == {f"job_{n}_{phase}1" for n in (1, 2, 3) for phase in ("pick", "drop")}
+    assert assigned <= completed
+
+
+def test_manage_refuses_a_scenario_without_a_manager_and_an_unreachable_orion(tmp_path, capsys):
+    demo = ROOT / "scenarios" / "demo.toml"
+    notify = f"http://127.0.0.1:{free_port()}/notify"
+    assert main(["manage", str(demo), "--orion", "http://127.0.0.1:1", "--notify-url", notify]) == 2
+    assert "names no fleet manager" in capsys.readouterr().err
+    assert main(["manage", str(WAREHOUSE), "--orion", f"http://127.0.0.1:{free_port()}", "--notify-url", notify]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran manage: cannot subscribe to the fleet") and "unreachable" in err

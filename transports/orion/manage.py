@@ -1,0 +1,246 @@
+"""A fleet manager against a real Orion, in real time (SPEC §9, "The same fleet manager, live").
+
+``vcran manage`` runs the very :class:`~vcran.core.manager.FleetManager` object that
+:func:`vcran.simulate` runs, with the same handle API: :class:`OrionLoop` is
+:class:`vcran.sim.loop.ClosedLoop` on a :class:`~vcran.sim.live.LiveEnvironment` (so ``now``, jobs and
+``call_at`` timers follow the wall clock, scaled by the speed factor), with :class:`OrionLink` in place of
+the simulated link:
+
+* **writes** (the manager's assignments and cancels) go to Orion as batch updates
+  (``POST /v2/op/update``), from a sender thread, so a hook never waits on HTTP. Whatever the manager
+  wrote while the previous request was in flight goes out together, in write order. One entity carries
+  one value per attribute, and the RAN reads an entity's attributes in a fixed order (motion, action,
+  cancel), so a write that could not keep its order inside the current round starts the next one;
+* **updates** come from one Orion subscription to the robots' published attributes. Its condition is
+  the manager's :attr:`~vcran.core.manager.FleetManager.attributes`; every notification carries all of
+  them, so ``handle.latest`` and ``handle.pose`` are as fresh as the robot's last notified change. The
+  entities are read once after subscribing (what Orion already holds reaches the manager first).
+  Notifications arrive on the :class:`~transports.orion.listener.Listener` and enter the manager's thread
+  through :meth:`LiveEnvironment.call_soon`: every hook runs in one thread, as in simulated time.
+
+Orion being down is handled like live mode does: a failed write is kept and retried with capped backoff
+(logged once per fault); a refused one (4xx) is dropped and logged.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import urlsplit
+
+import simpy
+
+from transports.orion.client import OrionClient, OrionError, OrionRejected
+from transports.orion.listener import Listener
+from transports.orion.transport import Health
+from vcran.core.codec import CodecError, decode_attribute, encode_attribute, split_batch
+from vcran.core.jobs import Log
+from vcran.core.manager import FleetManager
+from vcran.core.messages import INBOUND, OUTBOUND, Message
+from vcran.core.scenario import Scenario
+from vcran.core.wire import Deliver, Outbound, Publish
+from vcran.sim.live import LiveEnvironment
+from vcran.sim.loop import ClosedLoop, ManagerLink
+
+log = logging.getLogger("vcran.orion")
+
+_ORDER = {name: k for k, name in enumerate(INBOUND)}  # the order in which the RAN reads an entity's attributes
+
+
+@dataclass(frozen=True)
+class ManageOptions:
+    entity_type: str
+    #: Where Orion POSTs the manager's notifications (vcran listens there).
+    notify_url: str
+    listen_host: str = "127.0.0.1"
+    max_notification: int = 1_048_576
+    backoff_start: float = 0.25
+    backoff_cap: float = 5.0
+
+
+class OrionLink(ManagerLink):
+    """The manager's side of Orion: batched writes out, subscription notifications in."""
+
+    def __init__(self, env: LiveEnvironment, client: OrionClient, robots: tuple[str, ...], options: ManageOptions,
+                 attributes: frozenset[str] | None, notify: Callable[[list[Outbound]], None]) -> None:
+        self.env, self.client, self.robots, self.options = env, client, robots, options
+        self._condition = [a for a in OUTBOUND if attributes is None or a in attributes]
+        self._notify = notify
+        self._robots = frozenset(robots)
+        self._lock = threading.Lock()
+        self._pending: list[tuple[str, str, Any]] = []  # (robot, attribute, NGSI value) in write order
+        self._sending = 0                                # writes taken by the sender, not yet delivered
+        self._wake = threading.Event()
+        self._stop = threading.Event()
+        self.outbound = Health("manager writes")
+        self.inbound = Health("manager subscription")
+        self.writes = self.requests = self.notifications = 0
+        self._subscription: str | None = None
+        self._listener: Listener | None = None
+        self._sender: threading.Thread | None = None
+
+    # --- lifecycle -------------------------------------------------------------------------------------
+
+    def open(self) -> None:
+        """Listen for notifications, subscribe, read what Orion holds; then start the sender. Raises
+        OSError (the listener's port) or OrionError (Orion unreachable or refusing) before any hook runs."""
+        parts = urlsplit(self.options.notify_url)
+        self._listener = Listener(self.options.listen_host, parts.port or 80, parts.path or "/",
+                                  self._on_notification, self.options.max_notification)
+        try:
+            self._subscription = self.client.subscribe(self._subscription_body())
+            entities = self.client.entities(self.options.entity_type, list(self.robots), OUTBOUND)
+        except BaseException:
+            self.close()
+            raise
+        self._forward(entities)
+        self._sender = threading.Thread(target=self._send_loop, name="vcran-manager-sender", daemon=True)
+        self._sender.start()
+
+    def close(self) -> None:
+        """Deliver what is still pending (one last try), stop listening, delete the subscription."""
+        self._stop.set()
+        self._wake.set()
+        if self._sender is not None:
+            self._sender.join(timeout=10)
+            self._sender = None
+        if self._pending:
+            self._deliver()
+        if self._listener is not None:
+            self._listener.stop()
+            self._listener = None
+        if self._subscription is not None:
+            try:
+                self.client.unsubscribe(self._subscription)
+            except OrionError as exc:
+                log.warning("could not delete subscription %s: %s", self._subscription, exc)
+            self._subscription = None
+
+    # --- ManagerLink --------------------------------------------------------------------------------------
+
+    def write(self, robot: str, attribute: str, message: Message | None, raw: Any = None) -> None:
+        value = encode_attribute(attribute, message) if message is not None else raw
+        with self._lock:
+            self._pending.append((robot, attribute, value))
+        self._wake.set()
+
+    @property
+    def inbound_idle(self) -> bool:
+        """Everything the manager wrote has reached Orion (or been refused by it)."""
+        with self._lock:
+            return not self._pending and self._sending == 0
+
+    @property
+    def outbound_idle(self) -> bool:
+        return True  # what the robots publish is theirs to send; nothing of it is held here
+
+    # --- writes -------------------------------------------------------------------------------------------
+
+    def _send_loop(self) -> None:
+        backoff = self.options.backoff_start
+        while not self._stop.is_set():
+            self._wake.wait()
+            self._wake.clear()
+            if self._stop.is_set():
+                return
+            if self._deliver():
+                backoff = self.options.backoff_start
+            else:
+                self._stop.wait(backoff)
+                backoff = min(backoff * 2, self.options.backoff_cap)
+                self._wake.set()
+
+    def _deliver(self) -> bool:
+        """Send every pending write, in rounds; False when Orion could not take them (they stay pending)."""
+        with self._lock:
+            writes, self._pending = self._pending, []
+            self._sending = len(writes)
+        try:
+            for body in self._bodies(writes):
+                self.client.update(body)
+                self.requests += 1
+        except OrionRejected as exc:  # sending it again will not help: drop, say so, carry on
+            self.outbound.failed(f"Orion refused the manager's writes, dropped: {exc}")
+        except OrionError as exc:
+            with self._lock:
+                self._pending[:0] = writes  # older than anything written meanwhile
+                self._sending = 0
+            self.outbound.failed(str(exc))
+            return False
+        else:
+            self.writes += len(writes)
+            self.outbound.ok()
+        with self._lock:
+            self._sending = 0
+        return True
+
+    def _bodies(self, writes: list[tuple[str, str, Any]]) -> list[bytes]:
+        """Batch-update bodies: rounds of entities in which every write keeps its order."""
+        rounds: list[dict[str, dict[str, Any]]] = [{}]
+        for robot, attribute, value in writes:
+            entity = rounds[-1].get(robot)
+            if entity is not None and (attribute in entity or
+                                       any(_ORDER[a] > _ORDER[attribute] for a in entity if a in _ORDER)):
+                rounds.append({})
+                entity = None
+            if entity is None:
+                entity = rounds[-1][robot] = {"id": robot, "type": self.options.entity_type}
+            entity[attribute] = value
+        return [body for entities in rounds if entities for body in split_batch(entities.values())]
+
+    # --- updates --------------------------------------------------------------------------------------------
+
+    def _subscription_body(self) -> dict[str, Any]:
+        return {
+            "description": "vcran manage: robot updates for the fleet manager",
+            "subject": {
+                "entities": [{"id": robot, "type": self.options.entity_type} for robot in self.robots],
+                "condition": {"attrs": self._condition},
+            },
+            "notification": {"http": {"url": self.options.notify_url}, "attrs": list(OUTBOUND),
+                             "attrsFormat": "normalized"},
+        }
+
+    def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
+        if subscription != self._subscription:
+            log.info("notification for unknown subscription %s ignored", subscription)
+            return
+        self.notifications += 1
+        self._forward(data)
+
+    def _forward(self, entities: list[dict[str, Any]]) -> None:
+        """Decode the robots' attributes and hand them to the manager's thread as one batch."""
+        batch: list[Outbound] = []
+        for entity in entities:
+            robot = entity.get("id")
+            if robot not in self._robots:
+                continue
+            for attribute in OUTBOUND:
+                if attribute not in entity:
+                    continue
+                try:
+                    message = decode_attribute(attribute, entity[attribute])
+                except CodecError as exc:
+                    log.warning("%s of %s does not decode, ignored: %s", attribute, robot, exc)
+                    continue
+                batch.append(Publish(0.0, robot, attribute, message))
+        if batch:
+            self.env.call_soon(lambda: self._notify(batch))
+
+
+class OrionLoop(ClosedLoop):
+    """:class:`ClosedLoop` whose link is a real Orion: the manager's side of ``vcran manage``."""
+
+    def __init__(self, scenario: Scenario, manager: FleetManager, log: Log, client: OrionClient,
+                 options: ManageOptions) -> None:
+        super().__init__(scenario, manager, log)
+        self.client, self.options = client, options
+
+    def make_link(self, env: simpy.Environment, deliver: Deliver) -> OrionLink:
+        assert isinstance(env, LiveEnvironment)
+        link = OrionLink(env, self.client, self.fleet.robot_ids, self.options, self.manager.attributes, self.notified)
+        link.open()
+        return link

@@ -1,0 +1,252 @@
+"""Run a scenario in process: :func:`simulate` and its :class:`Result` (SPEC §9, "The API"; docs/library.md).
+
+One path for every in-process run: a scenario with a message script plays it (as ``vcran run`` always
+did); a scenario with a fleet manager, named in the scenario or passed in, runs a closed loop
+(:class:`vcran.sim.loop.ClosedLoop`). With ``out`` the usual run folder is written and the result reads
+its events and telemetry back on demand; without, nothing touches the disk and everything stays in
+memory. ``vcran run`` is a thin shell on :func:`run`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from transports.scripted import ScriptedTransport
+from vcran.core.jobs import JobRecord
+from vcran.core.manager import FleetManager
+from vcran.core.scenario import Scenario
+from vcran.core.wire import Frame, Inbound, Publish, Transport
+from vcran.io.scenario_file import ScenarioError, load
+from vcran.io.trace import telemetry
+from vcran.runner import EventLog, run_model, trace_writer, write_summary
+from vcran.sim.loop import ClosedLoop
+from vcran.sim.model import Model
+
+#: What names a fleet manager: an instance, a FleetManager subclass, or ``"module:Class"``.
+ManagerLike = FleetManager | type[FleetManager] | str
+
+
+class ManagerError(ValueError):
+    """A fleet manager that cannot be found or built; the message names it and why."""
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """What a run produced. ``summary`` is summary.json as a dict; ``jobs`` one :class:`JobRecord` per
+    job that reached the manager, in arrival order; ``out`` the run folder, or None for an in-memory
+    run. ``events`` and ``telemetry`` are read from the folder on first use when there is one."""
+
+    summary: dict[str, Any]
+    jobs: tuple[JobRecord, ...]
+    out: Path | None
+    wall_seconds: float
+    robots: tuple[str, ...]
+    #: How many events the run wrote (``len(events)`` without reading them back).
+    event_count: int
+    _events: list[dict[str, Any]] | None = field(default=None, repr=False)
+    _frames: list[tuple[float, np.ndarray]] | None = field(default=None, repr=False)
+
+    @cached_property
+    def events(self) -> list[dict[str, Any]]:
+        """Every event (events.jsonl), one dict each: ``t``, ``robot``, ``event`` and its fields."""
+        if self._events is not None:
+            return self._events
+        assert self.out is not None
+        with (self.out / "events.jsonl").open(encoding="utf-8") as f:
+            return [json.loads(line) for line in f]
+
+    @cached_property
+    def telemetry(self) -> np.ndarray:
+        """Every robot's ``current_motion`` at every tick: a numpy structured array with the columns
+        ``t``, ``robot``, ``x``, ``y``, ``theta``, ``v``, ``w``, one row per tick and robot (robots in
+        fleet order). ``pandas.DataFrame(result.telemetry)`` makes it a table."""
+        n = len(self.robots)
+        if self._frames is not None:
+            rows = np.array([[t, *columns.ravel()] for t, columns in self._frames], dtype="<f8").reshape(
+                -1, 1 + n * len(Frame.FIELDS))
+        else:
+            assert self.out is not None
+            rows = telemetry(self.out, n)
+        return _long(rows, self.robots)
+
+    def job(self, job_id: str) -> JobRecord:
+        """The record of job ``job_id``."""
+        for record in self.jobs:
+            if record.id == job_id:
+                return record
+        raise KeyError(f"no job {job_id!r} reached the fleet manager")
+
+    @property
+    def speed(self) -> float:
+        """Simulated seconds per wall second."""
+        return self.summary["sim_time"] / self.wall_seconds if self.wall_seconds > 0 else float("inf")
+
+
+def simulate(scenario: str | Path | Scenario, *, manager: ManagerLike | None = None,
+             out: str | Path | None = None) -> Result:
+    """Run ``scenario`` (a path, or a loaded :class:`vcran.Scenario`) in process and return its result.
+
+    ``manager`` (an instance, a :class:`vcran.FleetManager` subclass built without arguments, or
+    ``"module:Class"``) runs the scenario's jobs in a closed loop; without it the scenario's own
+    ``[manager]`` does, or, if it names none, its message script plays. ``out`` writes the usual run
+    folder (trace, telemetry, events, summary); without it no file is touched.
+
+    Raises :class:`vcran.ScenarioError` for a scenario that cannot run this way (jobs but no manager, a
+    script and a manager, a closed loop without a duration) and :class:`ManagerError` for a manager
+    that cannot be built. An exception raised by the manager itself ends the run and propagates, with a
+    note saying which hook raised it and when.
+    """
+    return run(scenario, manager=manager, out=out)
+
+
+def run(
+    scenario: str | Path | Scenario,
+    *,
+    manager: ManagerLike | None = None,
+    out: str | Path | None = None,
+    progress: Callable[[float, int], None] | None = None,
+    on_start: Callable[[Model], None] | None = None,
+) -> Result:
+    """:func:`simulate`, with a progress observer (what ``vcran run`` shows) and ``on_start``, called with
+    the model before it runs (``vcran run`` stops it there on a signal)."""
+    sc = scenario if isinstance(scenario, Scenario) else load(scenario)
+    fleet_manager, name = build_manager(manager, sc)
+    folder = Path(out) if out is not None else None
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+    events = EventLog(folder / "events.jsonl") if folder is not None else EventList()
+    transport: Transport
+    loop: ClosedLoop | None = None
+    if fleet_manager is None:
+        if sc.has_workload:
+            raise ScenarioError(f"{sc.source}: the scenario has jobs but no fleet manager to give them to: name one "
+                                "in [manager] or pass one (--manager module:Class)")
+        transport = ScriptedTransport(sc.messages())
+        options: dict[str, Any] = {"transport": "scripted"}
+    else:
+        _check_closed_loop(sc)
+        transport = loop = ClosedLoop(sc, fleet_manager, events.write)
+        options = {"transport": "loop", "manager": name, "link": sc.link.as_dict()}
+    trace = trace_writer(sc, folder, options) if folder is not None else Frames()
+    model, wall = run_model(sc, transport, trace, events, progress=progress, on_start=on_start)
+    summary = model.summary()
+    if loop is not None:
+        t = model.env.now
+        summary["jobs"] = loop.jobs.summary(t)
+        shares = {r.id: model.busy(r.index) / t if t > 0 else 0.0 for r in model.robots}
+        summary["utilisation"] = {"fleet": sum(shares.values()) / len(shares), "robots": shares}
+    if folder is not None:
+        write_summary(folder, summary)
+    return Result(summary, loop.jobs.records() if loop is not None else (), folder, wall,
+                  tuple(r.id for r in sc.robots), events.count,
+                  events.events if isinstance(events, EventList) else None,
+                  trace.frames if isinstance(trace, Frames) else None)
+
+
+def _check_closed_loop(sc: Scenario) -> None:
+    if sc.script or sc.cycles:
+        raise ScenarioError(f"{sc.source}: a fleet manager plays the fleet manager's part; this scenario has a "
+                            "[[script]] that would play it too (remove one)")
+    if sc.settings.duration is None:
+        raise ScenarioError(f"{sc.source}: [simulation]: a closed-loop run needs a duration (a manager that never "
+                            "finishes would run forever; until_idle still ends it early)")
+
+
+def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[FleetManager | None, str]:
+    """The fleet manager to run and its name (``module:Class``), from the argument or the scenario.
+    The scenario's ``[manager.options]`` are keyword arguments of the class it names, and of no other."""
+    options: dict[str, Any] = {}
+    if manager is None and scenario.manager is not None:
+        manager, options = scenario.manager.path, dict(scenario.manager.options)
+    if manager is None:
+        return None, ""
+    if isinstance(manager, FleetManager):
+        return manager, _name(type(manager))
+    cls = _import(manager) if isinstance(manager, str) else manager
+    if not (isinstance(cls, type) and issubclass(cls, FleetManager)):
+        raise ManagerError(f"fleet manager {manager!r} is not a vcran.FleetManager subclass")
+    try:
+        return cls(**options), _name(cls)
+    except TypeError as exc:
+        raise ManagerError(f"cannot build fleet manager {_name(cls)} with options {options}: {exc}") from None
+
+
+def _import(path: str) -> Any:
+    module_name, _, attribute = path.partition(":")
+    if not module_name or not attribute:
+        raise ManagerError(f"fleet manager {path!r}: expected 'module:Class', e.g. 'vcran.managers:Dispatcher'")
+    try:
+        value: Any = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ManagerError(f"fleet manager {path!r}: cannot import {module_name}: {exc}") from None
+    for part in attribute.split("."):
+        if not hasattr(value, part):
+            raise ManagerError(f"fleet manager {path!r}: {value.__name__} has no attribute {part!r}")
+        value = getattr(value, part)
+    return value
+
+
+def _name(cls: type) -> str:
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+class EventList:
+    """The events of an in-memory run: the dicts events.jsonl would hold, one per line."""
+
+    def __init__(self) -> None:
+        self.events: list[dict[str, Any]] = []
+
+    @property
+    def count(self) -> int:
+        return len(self.events)
+
+    def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
+        self.events.append({"t": t, "robot": robot, "event": name, **fields})
+
+    def close(self) -> None:
+        pass
+
+
+class Frames:
+    """The trace of an in-memory run: only the telemetry frames are kept (a trace without a file cannot
+    be replayed, and the summary and events hold the rest)."""
+
+    def __init__(self) -> None:
+        self.frames: list[tuple[float, np.ndarray]] = []
+
+    def inbound(self, t: float, inbound: Inbound) -> None:
+        pass
+
+    def publish(self, out: Publish) -> None:
+        pass
+
+    def frame(self, frame: Frame) -> None:
+        self.frames.append((frame.t, frame.columns))
+
+    def end(self, t: float) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def _long(rows: np.ndarray, robots: tuple[str, ...]) -> np.ndarray:
+    """Telemetry rows ``[t, x0, y0, theta0, v0, w0, x1, ...]`` as one record per tick and robot."""
+    n, ticks = len(robots), rows.shape[0]
+    width = max((len(r) for r in robots), default=1)
+    table = np.empty(ticks * n, dtype=[("t", "<f8"), ("robot", f"<U{width}"),
+                                       *((name, "<f8") for name in Frame.FIELDS)])
+    table["t"] = np.repeat(rows[:, 0], n)
+    table["robot"] = np.tile(np.array(robots), ticks)
+    columns = rows[:, 1:].reshape(ticks, n, len(Frame.FIELDS))
+    for k, name in enumerate(Frame.FIELDS):
+        table[name] = columns[:, :, k].ravel()
+    return table

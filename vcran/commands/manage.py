@@ -1,0 +1,124 @@
+"""``vcran manage SCENARIO --orion URL --notify-url URL``: a fleet manager against a real Orion (SPEC §9).
+
+The scenario's fleet manager (its ``[manager]``, or ``--manager module:Class``) runs in real time, scaled
+by ``--factor``, against the robots Orion holds: ``vcran live`` on the same scenario, or a physical fleet.
+Jobs come from the scenario's workload at their times (``--jobs N``: only the first N). The run ends when
+the scenario's duration has passed, on Ctrl-C, or, with the scenario's ``until_idle``, once no job is to
+come or open, no timer is pending and every write has reached Orion. docs/live.md ("A fleet manager,
+live") describes the wiring; :mod:`transports.orion.manage` the link.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+from vcran.commands import CommandError, load_scenario
+from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
+
+HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
+
+#: How often (simulated seconds) the run checks whether everything has ended.
+CHECK_EVERY = 0.25
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", type=Path, help="scenario file (TOML) with the fleet and its jobs")
+    add_connection_arguments(parser)
+    parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])")
+    parser.add_argument("--notify-url", metavar="URL", required=True,
+                        help="where Orion notifies the manager of the robots' updates (vcran listens there)")
+    parser.add_argument("--listen", default="127.0.0.1", metavar="HOST",
+                        help="address the notification listener binds to (default 127.0.0.1)")
+    parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
+    parser.add_argument("--jobs", type=int, metavar="N", help="only the first N jobs of the workload")
+    parser.add_argument("--out", type=Path, metavar="DIR", help="write events.jsonl (job events) and summary.json")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def run(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+    from itertools import islice
+
+    from transports.orion.client import OrionError
+    from transports.orion.manage import ManageOptions, OrionLink, OrionLoop
+    from vcran.api import EventList, ManagerError, build_manager
+    from vcran.runner import EventLog, write_summary
+    from vcran.sim.live import LiveEnvironment
+
+    setup_logging(args.quiet)
+    if not args.factor > 0:
+        raise CommandError("--factor must be positive")
+    if args.jobs is not None and args.jobs < 0:
+        raise CommandError("--jobs must not be negative")
+    scenario = load_scenario(args.scenario)
+    if args.jobs is not None:
+        scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
+    try:
+        manager, name = build_manager(args.manager, scenario)
+    except ManagerError as exc:
+        raise CommandError(str(exc)) from None
+    if manager is None:
+        raise CommandError(f"{args.scenario}: names no fleet manager: give one with --manager module:Class")
+
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+    events: EventLog | EventList = EventLog(args.out / "events.jsonl") if args.out is not None else EventList()
+    env = LiveEnvironment(speed=args.factor)
+    options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=args.listen)
+    client = client_from_args(args)
+    loop = OrionLoop(scenario, manager, events.write, client, options)
+    try:
+        loop.attach(env, lambda _inbound: None)
+    except OSError as exc:
+        client.close()
+        raise CommandError(f"cannot listen for notifications on {args.listen}, {args.notify_url}: {exc.strerror}") from None
+    except OrionError as exc:
+        client.close()
+        raise CommandError(f"cannot subscribe to the fleet on {args.orion}: {exc}") from None
+
+    done = env.event()
+
+    def finish(_: Any = None) -> None:
+        if not done.triggered:
+            done.succeed()
+
+    def watch():  # type: ignore[no-untyped-def]
+        while True:
+            yield env.timeout(CHECK_EVERY)
+            if scenario.settings.until_idle and loop.exhausted:
+                finish()
+                return
+
+    env.process(watch())
+    if scenario.settings.duration is not None:
+        env.timeout(scenario.settings.duration).callbacks.append(finish)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: env.call_from_signal(finish))
+    if not args.quiet:
+        print(f"manage: {name} on {len(scenario.robots)} robot(s) at {args.orion}, x{args.factor:g}; Ctrl-C stops",
+              flush=True)
+    link = loop.link
+    assert isinstance(link, OrionLink)
+    try:
+        env.run(until=done)
+    except Exception as exc:  # noqa: BLE001 - the manager's own bug: say which hook and when, exit 1
+        notes = "; ".join(getattr(exc, "__notes__", []))
+        print(f"vcran manage: the fleet manager raised {type(exc).__name__}: {exc} ({notes})", file=sys.stderr)
+        return 1
+    finally:
+        link.close()
+        client.close()
+        events.close()
+    t = env.now
+    jobs = loop.jobs.summary(t)
+    if args.out is not None:
+        write_summary(args.out, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
+    if not args.quiet:
+        print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "
+              f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.requests} "
+              f"request(s), {link.notifications} notification(s)")
+    return 0

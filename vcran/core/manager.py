@@ -1,0 +1,234 @@
+"""The fleet-manager interface (SPEC §9): what users subclass, and the handle their manager acts through.
+
+Modelled on SimPy's process functions and pytest's hooks: a few methods with plain arguments, no
+framework to learn. vcran calls three hooks on a :class:`FleetManager`:
+
+* :meth:`~FleetManager.on_start` once, before anything else, with ``self.fleet`` and ``self.handle`` set;
+* :meth:`~FleetManager.on_job` when a job of the scenario's workload reaches the manager;
+* :meth:`~FleetManager.on_update` for every update of a robot's attribute that Orion would notify:
+  ``current_motion``, ``assignment_status``, ``ran_status``, ``ran_error``, ``robot_description``.
+
+The manager acts through its :class:`Handle`: it writes motion and action assignments and cancels (the
+messages of SPEC §2), schedules callbacks of its own, reads what Orion holds, draws from a seeded random
+generator and reports jobs done or failed. It never sees RanLogic's insides. The same manager object
+runs in simulated time (:func:`vcran.simulate`, the handle of :mod:`vcran.sim.loop`) and against a real
+Orion in wall-clock time: only the handle differs. Everything here is pure (no SimPy, no clock).
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from vcran.core import build
+from vcran.core.ids import Id
+from vcran.core.jobs import JobBook
+from vcran.core.messages import INBOUND, ActionKind, Message, Motion
+from vcran.core.scenario import Job, LinkSettings, RobotConfig, Scenario, Settings, StationConfig
+
+#: Inbound message type -> the attribute it is written to.
+ATTRIBUTE_OF: dict[type[Message], str] = {cls: name for name, cls in INBOUND.items()}
+
+
+@dataclass(frozen=True)
+class Fleet:
+    """What a fleet manager is told at the start: the robots, the stations, the settings and the link."""
+
+    robots: tuple[RobotConfig, ...]
+    stations: tuple[StationConfig, ...]
+    settings: Settings
+    link: LinkSettings
+    _robots: dict[str, RobotConfig] = field(init=False, repr=False, compare=False)
+    _stations: dict[str, StationConfig] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_robots", {r.id: r for r in self.robots})
+        object.__setattr__(self, "_stations", {s.id: s for s in self.stations})
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> Fleet:
+        return cls(scenario.robots, scenario.stations, scenario.settings, scenario.link)
+
+    @property
+    def robot_ids(self) -> tuple[str, ...]:
+        return tuple(self._robots)
+
+    def robot(self, robot_id: str) -> RobotConfig:
+        try:
+            return self._robots[robot_id]
+        except KeyError:
+            raise KeyError(f"no robot {robot_id!r} in this fleet") from None
+
+    def station(self, station_id: str) -> StationConfig:
+        try:
+            return self._stations[station_id]
+        except KeyError:
+            raise KeyError(f"no station {station_id!r} in this fleet") from None
+
+    def dock(self, station_id: str) -> tuple[float, float, float | None]:
+        """Where a robot stands to load or unload at a station: its ``dock``, else its position."""
+        s = self.station(station_id)
+        return s.dock if s.dock is not None else (s.position[0], s.position[1], None)
+
+
+class Timer:
+    """A callback scheduled with :meth:`Handle.call_at`; :meth:`cancel` stops it if it has not run."""
+
+    __slots__ = ("when", "cancelled")
+
+    def __init__(self, when: float) -> None:
+        self.when = when
+        self.cancelled = False
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
+class Handle:
+    """How a fleet manager acts on the fleet. Subclasses (simulated, live) provide the four primitives
+    :attr:`now`, :meth:`_write`, :meth:`call_at` and :meth:`latest`; everything else is built on them.
+
+    ``random`` is seeded from the scenario (``random.Random("manager:{seed}")``): draw from it, never
+    from the global generator, and a run stays byte-identical (SPEC §5).
+    """
+
+    def __init__(self, fleet: Fleet, jobs: JobBook, rng: random.Random, task_prefix: str = "task_") -> None:
+        self.fleet = fleet
+        self.random = rng
+        self._jobs = jobs
+        self._task_prefix = task_prefix
+        self._tasks_sent = 0
+
+    # --- primitives --------------------------------------------------------------------------------------
+
+    @property
+    def now(self) -> float:
+        """The current simulated time, in seconds."""
+        raise NotImplementedError
+
+    def _write(self, robot: str, attribute: str, message: Message | None, raw: Any = None) -> None:
+        """Write ``attribute`` of ``robot``'s entity (``message``, or ``raw`` NGSI JSON)."""
+        raise NotImplementedError
+
+    def call_at(self, when: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
+        """Call ``fn(*args, **kwargs)`` at simulated time ``when`` (not before :attr:`now`)."""
+        raise NotImplementedError
+
+    def latest(self, robot: str, attribute: str) -> Message | None:
+        """The latest value of ``robot``'s ``attribute`` that has reached the manager (what Orion holds,
+        as far as the manager can know), or None before the first one."""
+        raise NotImplementedError
+
+    # --- built on them -----------------------------------------------------------------------------------
+
+    def call_later(self, delay: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
+        """Call ``fn(*args, **kwargs)`` ``delay`` seconds from now."""
+        if delay < 0:
+            raise ValueError(f"negative delay {delay}")
+        return self.call_at(self.now + delay, fn, *args, **kwargs)
+
+    def send(self, robot: str, message: Message) -> None:
+        """Write a MotionAssignment, ActionAssignment or CancelTask to ``robot`` (SPEC §2)."""
+        attribute = ATTRIBUTE_OF.get(type(message))
+        if attribute is None:
+            known = ", ".join(c.__name__ for c in ATTRIBUTE_OF)
+            raise TypeError(f"a fleet manager sends {known}; got {type(message).__name__}")
+        self._write(self._robot(robot), attribute, message)
+
+    def send_raw(self, robot: str, attribute: str, value: Any) -> None:
+        """Write an NGSI attribute as JSON, decoded (and maybe rejected, R12) by the RAN like a live one."""
+        if attribute not in INBOUND:
+            raise ValueError(f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+        self._write(self._robot(robot), attribute, None, value)
+
+    def cancel(self, robot: str, task: Id | str) -> None:
+        """Cancel a whole task on ``robot`` (R8)."""
+        self.send(robot, build.cancel(task))
+
+    def send_task(
+        self,
+        robot: str,
+        path: Sequence[build.PathPoint],
+        actions: Sequence[str | ActionKind] = (),
+        *,
+        task: str | None = None,
+        job: Job | str | None = None,
+        max_velocity: float = 0.0,
+        every: float = 0.0,
+    ) -> Id:
+        """Send a whole OPIL task to ``robot`` and return its id.
+
+        ``path`` is a list of ``(x, y)`` or ``(x, y, theta)`` points (a theta on the last one: end facing
+        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``. The task is named ``task``, or
+        ``task_1``, ``task_2``, ... in the order sent; its motions ``{task}_m1``, ... and actions
+        ``{task}_a1``, ... carry sequence numbers ``1..length`` (:func:`vcran.core.build.task`). With
+        ``every`` > 0 the messages go out that many seconds apart (under polling, a write overwritten
+        before the RAN reads it is lost). ``job`` records the task as work for that job (a
+        ``job_assigned`` event; the job's robot becomes ``robot``).
+        """
+        self._robot(robot)
+        self._tasks_sent += 1
+        name = task if task is not None else f"{self._task_prefix}{self._tasks_sent}"
+        messages = build.task(name, path, actions, max_velocity=max_velocity, stamp=self.now, every=every)
+        if job is not None:
+            self._jobs.assigned(self.now, job, robot, name)
+        for k, message in enumerate(messages):
+            if k == 0 or every == 0:
+                self.send(robot, message)
+            else:
+                self.call_at(self.now + k * every, self.send, robot, message)
+        return messages[0].task_id
+
+    def pose(self, robot: str) -> tuple[float, float, float]:
+        """``robot``'s latest known pose ``(x, y, theta)``: from ``current_motion``, or its start pose."""
+        motion = self.latest(robot, "current_motion")
+        if isinstance(motion, Motion):
+            p = motion.current_position.pose
+            return p.position.x, p.position.y, p.orientation.yaw()
+        return self.fleet.robot(robot).pose
+
+    def job_done(self, job: Job | str) -> None:
+        """Report ``job`` completed (a ``job_completed`` event; its lead time ends now)."""
+        self._jobs.completed(self.now, job)
+
+    def job_failed(self, job: Job | str, reason: str) -> None:
+        """Report ``job`` failed for ``reason`` (a ``job_failed`` event); use one of
+        :data:`vcran.core.jobs.FAILURE_REASONS` where one fits (``"timeout"``, ``"action_failed"``, ...)."""
+        self._jobs.failed(self.now, job, reason)
+
+    def _robot(self, robot: str) -> str:
+        self.fleet.robot(robot)  # a write to an entity Orion does not hold fails (Orion answers 404)
+        return robot
+
+
+class FleetManager:
+    """Subclass this and override the hooks you need; the defaults do nothing.
+
+    vcran sets :attr:`fleet` and :attr:`handle` before it calls :meth:`on_start`. Hooks run at simulated
+    instants in a documented order (docs/determinism.md) and must not block: to wait, schedule a
+    callback with ``self.handle.call_later``. :attr:`attributes` says which attributes' updates reach
+    :meth:`on_update` (an Orion subscription's attribute list); every update still refreshes
+    ``self.handle.latest``. The default is every attribute except ``current_motion``, which each robot
+    publishes every second: read positions with ``self.handle.pose(robot)`` when you need them.
+    """
+
+    #: Attributes whose updates call :meth:`on_update`; None: all of them.
+    attributes: ClassVar[frozenset[str] | None] = frozenset(
+        {"assignment_status", "ran_status", "ran_error", "robot_description"})
+
+    fleet: Fleet
+    handle: Handle
+
+    def on_start(self) -> None:
+        """The run starts (simulated time 0): ``self.fleet`` and ``self.handle`` are set."""
+
+    def on_job(self, job: Job) -> None:
+        """``job`` has arrived: it is the manager's to assign (and to report done or failed)."""
+
+    def on_update(self, robot: str, attribute: str, message: Message, t: float) -> None:
+        """Orion notified a new value of ``robot``'s ``attribute``, decoded, at simulated time ``t``."""
+
+    def _bind(self, fleet: Fleet, handle: Handle) -> None:
+        self.fleet, self.handle = fleet, handle

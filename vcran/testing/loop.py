@@ -1,0 +1,244 @@
+"""Fuzzing a fleet manager in the loop (SPEC §9): workload and link strategies, and the properties a
+user applies to their own manager. docs/fuzzing.md ("Fuzzing your fleet manager") shows them in a test.
+
+Strategies draw what a fleet manager meets in a warehouse it does not control:
+
+* :func:`job_lists` — jobs at random times between random stations (shrinks to fewer, earlier jobs);
+* :func:`stocks` — how many parts each pickup station holds at the start (an empty line makes a load
+  fail, and its task is cancelled with ``action_failed``: the manager must re-plan or give up);
+* :func:`links` — the link's latency, seeded jitter, and loss: under ``polling`` a write overwritten
+  before the RAN reads it is lost, as with Orion (SPEC §7);
+* :func:`loop_variants` — all three applied to a base scenario, as a :class:`~vcran.core.scenario.Scenario`.
+
+The properties read a :class:`vcran.Result` and return human-readable violations (an empty list when
+the manager behaved); :func:`assert_loop_properties` raises one AssertionError listing them all:
+
+* :func:`check_jobs_ended` — every job ended: completed, or reported failed (none left open);
+* :func:`check_protocol` — the manager caused no ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`:
+  the R2/R8-R10/R12 rejections; action failures and cancel races are not the manager's protocol bugs);
+* :func:`check_no_idle_while_waiting` — no robot sat idle (WAITING) for more than ``bound`` seconds
+  while a job was waiting for a robot. A job waits from its arrival, and again from the cancellation of
+  its latest task, until the manager sends a task for it or reports it ended.
+
+:func:`fuzz_manager` is the search behind ``vcran fuzz SCENARIO --manager module:Class``: hypothesis's
+``find`` over :func:`loop_variants`, seeded, without an example database, shrinking to a minimal failing
+scenario that :func:`vcran.io.scenario_toml.loop_toml` writes back as a file ``vcran run`` re-runs.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+from hypothesis import strategies as st
+
+from vcran.core.jobs import waiting_spans
+from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
+
+#: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
+PROTOCOL_ERRORS = frozenset({
+    "length_mismatch", "position_taken", "kind_order", "task_completed", "task_cancelled", "already_dispatched",
+    "position_changed", "partial_cancel_unsupported", "malformed", "outside_motion_area", "unknown_robot",
+})
+
+#: Default for :func:`check_no_idle_while_waiting`: a robot may idle this long while a job waits.
+IDLE_BOUND = 60.0
+
+
+# --- strategies -------------------------------------------------------------------------------------------
+
+
+def workload_stations(scenario: Scenario) -> tuple[list[str], list[str]]:
+    """The pickup and drop-off stations a workload may use: those of the scenario's own workload (its
+    stream's choices and listed jobs), else every station for both."""
+    pickups: list[str] = []
+    dropoffs: list[str] = []
+    if scenario.job_stream is not None:
+        pickups += [p for p, _ in scenario.job_stream.pickups]
+        dropoffs += [d for d, _ in scenario.job_stream.dropoffs]
+    pickups += [j.pickup for j in scenario.jobs]
+    dropoffs += [j.dropoff for j in scenario.jobs]
+    if not pickups:
+        pickups = dropoffs = [s.id for s in scenario.stations]
+    return list(dict.fromkeys(pickups)), list(dict.fromkeys(dropoffs))
+
+
+@st.composite
+def job_lists(draw: st.DrawFn, pickups: Sequence[str], dropoffs: Sequence[str], *, max_jobs: int = 8,
+              horizon: float = 300.0) -> list[Job]:
+    """1..``max_jobs`` jobs arriving in ``[0, horizon]``, each from a pickup to a different drop-off,
+    named ``job_1``, ``job_2``, ... in arrival order."""
+    pairs = [(p, d) for p in pickups for d in dropoffs if p != d]
+    if not pairs:
+        raise ValueError("no pickup/drop-off pair of two different stations")
+    tenths = st.integers(0, int(horizon * 10)).map(lambda k: k / 10)  # integers shrink in few steps
+    drawn = draw(st.lists(st.tuples(tenths, st.sampled_from(pairs)), min_size=1, max_size=max_jobs))
+    drawn.sort(key=lambda item: item[0])
+    return [Job(t, f"job_{n}", p, d) for n, (t, (p, d)) in enumerate(drawn, start=1)]
+
+
+def stocks(pickups: Sequence[str], max_parts: int = 10) -> st.SearchStrategy[dict[str, int]]:
+    """Parts held at the start by each pickup station (shrinks towards empty stations)."""
+    return st.fixed_dictionaries({p: st.integers(0, max_parts) for p in pickups})
+
+
+#: Latencies and jitters drawn by :func:`links`, the default first: from a LAN to a slow, loaded Orion.
+LATENCIES = (0.05, 0.001, 0.01, 0.2, 0.5, 1.0, 2.0)
+JITTERS = (0.0, 0.01, 0.1, 0.5, 1.0)
+
+
+def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JITTERS) -> st.SearchStrategy[LinkSettings]:
+    """Link settings: latency, seeded jitter, and subscription or (lossy) polling semantics. Values come
+    from short lists, so a failure shrinks in a few steps towards the defaults (50 ms, no jitter,
+    subscription)."""
+    return st.builds(
+        LinkSettings,
+        latency=st.sampled_from(latencies),
+        jitter=st.sampled_from(jitters),
+        inbound=st.sampled_from([SUBSCRIPTION, POLLING]),
+        poll_interval=st.sampled_from([0.25, 0.1, 1.0]),
+    )
+
+
+@st.composite
+def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon: float = 300.0,
+                  settle: float = 600.0, vary_link: bool = True, vary_stock: bool = True) -> Scenario:
+    """``base`` with a drawn workload (listed jobs; its stream dropped), station stock and link. The run
+    lasts ``horizon + settle`` simulated seconds at most and ends early once idle."""
+    pickups, dropoffs = workload_stations(base)
+    jobs = draw(job_lists(pickups, dropoffs, max_jobs=max_jobs, horizon=horizon))
+    stations = base.stations
+    if vary_stock:
+        stock = draw(stocks(sorted({j.pickup for j in jobs})))
+        stations = tuple(replace(s, parts=stock[s.id]) if s.id in stock else s for s in stations)
+    link = draw(links()) if vary_link else base.link
+    duration = horizon + settle
+    if base.settings.duration is not None:
+        duration = min(duration, base.settings.duration)
+    settings = replace(base.settings, duration=duration, until_idle=True)
+    return replace(base, settings=settings, stations=stations, jobs=tuple(jobs), job_stream=None, link=link)
+
+
+# --- properties -------------------------------------------------------------------------------------------
+
+
+def check_jobs_ended(result: Any) -> list[str]:
+    """Every job that reached the manager ended: completed, or reported failed."""
+    return [f"job {r.id} (arrived t={r.job.t:g}, {r.job.pickup} -> {r.job.dropoff}) never ended: neither "
+            f"completed nor reported failed by t={result.summary['sim_time']:g} ({len(r.tasks)} task(s) sent)"
+            for r in result.jobs if r.outcome == "open"]
+
+
+def check_protocol(result: Any) -> list[str]:
+    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly."""
+    return [f"t={e['t']:g} {e['robot'] or 'fleet'}: ran_error {e['code']}: {e.get('message', '')}"
+            for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS]
+
+
+def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[str]:
+    """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited."""
+    end = float(result.summary["sim_time"])
+    waiting = waiting_spans(result.events, end)
+    problems = []
+    for robot, spans in _idle_spans(result.events, result.robots, end).items():
+        for a, b in spans:
+            for job, c, d in waiting:
+                lo, hi = max(a, c), min(b, d)
+                if hi - lo > bound:
+                    problems.append(f"{robot} idle from t={lo:g} to t={hi:g} ({hi - lo:g} s > {bound:g} s) "
+                                    f"while job {job} waited (since t={c:g})")
+                    break
+    return problems
+
+
+def loop_problems(result: Any, bound: float = IDLE_BOUND) -> list[str]:
+    """Every violation of the three properties."""
+    return check_jobs_ended(result) + check_protocol(result) + check_no_idle_while_waiting(result, bound)
+
+
+def assert_loop_properties(result: Any, bound: float = IDLE_BOUND) -> None:
+    """Raise AssertionError listing every violation of the three properties."""
+    problems = loop_problems(result, bound)
+    if problems:
+        raise AssertionError("the fleet manager broke the loop properties:\n  " + "\n  ".join(problems))
+
+
+def _idle_spans(events: list[dict[str, Any]], robots: Sequence[str], end: float) -> dict[str, list[tuple[float, float]]]:
+    """Per robot, the spans it was WAITING (robots start WAITING at t = 0)."""
+    since: dict[str, float | None] = dict.fromkeys(robots, 0.0)
+    spans: dict[str, list[tuple[float, float]]] = {r: [] for r in robots}
+    for e in events:
+        if e["event"] != "state":
+            continue
+        robot = e["robot"]
+        if e["to"] == "WAITING":
+            since[robot] = e["t"]
+        elif e["from"] == "WAITING":
+            start = since.get(robot)
+            if start is not None:
+                spans[robot].append((start, e["t"]))
+            since[robot] = None
+    for robot, start in since.items():
+        if start is not None:
+            spans[robot].append((start, end))
+    return spans
+
+
+# --- the search -------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A minimal failing scenario, the violations it shows, and how long the search took."""
+
+    scenario: Scenario
+    problems: list[str]
+    examples: int
+    shrinks: int
+
+
+def run_problems(scenario: Scenario, manager: Any, bound: float = IDLE_BOUND) -> list[str]:
+    """Run ``scenario`` in memory with a fresh ``manager`` (anything :func:`vcran.simulate` takes; an
+    instance is reused, so pass a class or ``"module:Class"``) and return the loop's violations. An
+    exception the manager raises is a violation too."""
+    from vcran.api import ManagerError, simulate
+
+    try:
+        result = simulate(scenario, manager=manager)
+    except ManagerError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the manager's crash is the finding
+        notes = "; ".join(getattr(exc, "__notes__", []))
+        return [f"crash: {type(exc).__name__}: {exc}" + (f" ({notes})" if notes else "")]
+    return loop_problems(result, bound)
+
+
+def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int = 0, bound: float = IDLE_BOUND,
+                 max_jobs: int = 8, horizon: float = 300.0, settle: float = 600.0,
+                 on_example: Callable[[], None] | None = None) -> Finding | None:
+    """Search for a workload, stock and link under which ``manager`` breaks a loop property; None when
+    ``examples`` variants ran clean. One ``seed``, one sequence of examples and one shrunk result."""
+    from hypothesis import HealthCheck, find, settings
+    from hypothesis.errors import NoSuchExample
+
+    counts = {"examples": 0, "shrinks": 0}
+    found = False
+
+    def violated(variant: Scenario) -> bool:
+        nonlocal found
+        counts["shrinks" if found else "examples"] += 1
+        if on_example is not None:
+            on_example()
+        bad = bool(run_problems(variant, manager, bound))
+        found = found or bad
+        return bad
+
+    strategy = loop_variants(base, max_jobs=max_jobs, horizon=horizon, settle=settle)
+    options = settings(max_examples=examples, database=None, deadline=None, suppress_health_check=list(HealthCheck))
+    try:
+        minimal = find(strategy, violated, settings=options, random=random.Random(seed))
+    except NoSuchExample:
+        return None
+    return Finding(minimal, run_problems(minimal, manager, bound), counts["examples"], counts["shrinks"])
