@@ -28,14 +28,10 @@ import numpy as np
 from vcran.core.effects import Reason, State
 from vcran.core.scenario import Scenario
 from vcran.io.trace import read_header, records, telemetry
+from vcran.testing.model import TOLERANCE, TRANSITIONS
 
-#: R6 as the SPEC words it: WAITING -> TASK -> MOTION -> ACTION -> WAITING, and a cancel from any state
-#: back to WAITING. Written out here rather than imported, so that a wrong table in RanLogic shows.
-_CYCLE = ("WAITING", "TASK", "MOTION", "ACTION")
-_TRANSITIONS = {(a, b) for a, b in zip(_CYCLE, _CYCLE[1:] + _CYCLE[:1])} | {(s, "WAITING") for s in _CYCLE[1:]}
+_TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}  # R6, restated in vcran.testing.model
 _REASONS = {r.value for r in Reason}
-#: R14: the tolerance of instants; a timeout fires this long after first seen + task_timeout.
-_TOLERANCE = 1e-6
 
 
 @dataclass
@@ -130,7 +126,7 @@ def _ended_after_request(where: str, life: _Life, request: float) -> list[str]:
     if len(after) > 1:
         return [f"{where}: {len(after)} legs/actions finished after the {life.reason} request at {request}; "
                 "only the running one may (R8)"]
-    if life.end > request + 2 * _TOLERANCE and not (after and after[0][0] == life.end):
+    if life.end > request + 2 * TOLERANCE and not (after and after[0][0] == life.end):
         return [f"{where} ended ({life.reason}) at {life.end}, not at the request ({request}) nor at the end "
                 "of its running leg or action (R7/R8)"]
     return []

@@ -61,6 +61,12 @@ Obs = tuple[Any, ...]
 #: R14: instants closer than this are the same instant; the R7 timer fires this long after the deadline.
 TOLERANCE = 1e-6
 
+#: R6 as the SPEC words it, for the checks of this package (not imported from RanLogic, so that a wrong
+#: table there shows): the cycle WAITING -> TASK -> MOTION -> ACTION -> WAITING, and a cancel from any
+#: state but WAITING back to WAITING.
+CYCLE = (State.WAITING, State.TASK, State.MOTION, State.ACTION)
+TRANSITIONS = frozenset(zip(CYCLE, CYCLE[1:] + CYCLE[:1])) | frozenset((s, State.WAITING) for s in CYCLE[1:])
+
 
 class DriverError(AssertionError):
     """The test drove the model in a way no real driver may (a completion nobody dispatched)."""

@@ -47,9 +47,9 @@ from vcran.core.effects import (
 )
 from vcran.core.ids import NIL, Id
 from vcran.core.messages import ActionAssignment, Assignment, MotionAssignment
-from vcran.core.ranlogic import TRANSITIONS, RanLogic
+from vcran.core.ranlogic import RanLogic
 from vcran.core.stations import motion_area_problem
-from vcran.testing.model import TOLERANCE, ReferenceRan, observe
+from vcran.testing.model import TOLERANCE, TRANSITIONS, ReferenceRan, observe
 from vcran.testing.plans import AREA, TaskPlan, task_plans, variants
 
 TIMEOUT = 10.0
