@@ -67,11 +67,14 @@ def run_toml(tmp_path: Path):
 
 # --- hypothesis profiles (docs/fuzzing.md) ------------------------------------------------------------------
 # ``ci`` (the default) keeps the whole fuzz set well under a minute on two cores; ``deep`` is for long
-# campaigns: ``pytest --hypothesis-profile=deep`` or ``VCRAN_HYPOTHESIS_PROFILE=deep pytest``. Both build on
-# the ``vcran`` profile above (no deadline). The example database (.hypothesis/) replays earlier failures
-# first; it stays out of git.
+# campaigns: ``pytest --hypothesis-profile=deep`` or ``VCRAN_HYPOTHESIS_PROFILE=deep pytest``; ``nightly``
+# is for a scheduled job (about an hour) whose failures must reproduce from the log alone, hence
+# print_blob. All build on the ``vcran`` profile above (no deadline). The example database (.hypothesis/)
+# replays earlier failures first; it stays out of git.
 
 settings.register_profile("ci", parent=settings.get_profile("vcran"), max_examples=100, stateful_step_count=50)
 settings.register_profile("deep", parent=settings.get_profile("vcran"), max_examples=5_000,
                           stateful_step_count=120)
+settings.register_profile("nightly", parent=settings.get_profile("vcran"), max_examples=20_000,
+                          stateful_step_count=200, print_blob=True)
 settings.load_profile(os.environ.get("VCRAN_HYPOTHESIS_PROFILE", "ci"))

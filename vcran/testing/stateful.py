@@ -152,6 +152,29 @@ class RanLogicMachine(RuleBasedStateMachine):
                          action=f"{task}_a{pos + (variant == 'both')}" if variant in ("action", "both") else None)
         self._input(self.logic.on_cancel(self.now, c), self.model.cancel(self.now, c))
 
+    @precondition(lambda self: self.model.current() is not None)
+    @rule(which=st.sampled_from(["running", "ahead", "done", "pending"]), pick=st.integers(0, 3))
+    def cancel_in_current(self, which: str, pick: int) -> None:
+        """R13 where its cases meet: a partial cancel naming one assignment the current task holds — the
+        running leg or action, a point of the path still ahead, one reached or performed, or one not
+        dispatched yet (any it holds when there is none of that kind). Picked from the model, so the
+        choice never depends on the code under test."""
+        task = self.model.current()
+        assert task is not None
+        path, done = task.path or [], task.legs_done
+        actions = task.actions[:-1] if task.action_running else task.actions
+        groups: dict[str, list[Assignment]] = {
+            "running": path[done:done + 1] if task.driving else task.actions[-1:] if task.action_running else [],
+            "ahead": path[done + 1:] if task.driving else [],
+            "done": [*path[:done], *actions],
+            "pending": [a for a in task.slots().values() if not task.dispatched(a)],
+        }
+        choice = groups[which] or [a for _, a in sorted(task.slots().items())]
+        a = choice[pick % len(choice)]
+        c = (build.cancel(task.id, motion=a.motion_id) if isinstance(a, MotionAssignment)
+             else build.cancel(task.id, action=a.action_id))
+        self._input(self.logic.on_cancel(self.now, c), self.model.cancel(self.now, c))
+
     @rule(attribute=st.sampled_from(["motion_assignment", "action_assignment", "cancel_order"]))
     def malformed(self, attribute: str) -> None:
         self._input(self.logic.on_malformed(self.now, attribute, "value: not an object"), self.model.malformed(self.now))
