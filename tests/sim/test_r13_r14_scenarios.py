@@ -11,6 +11,7 @@ import math
 import pytest
 
 from tests.sim.test_scenarios import action, motion, script
+from vcran.testing.checks import check_run
 
 
 def cancel(t, task, motion=None, action=None):
@@ -74,6 +75,21 @@ def test_r13_every_assignment_cancelled_one_by_one_cancels_the_task(run_toml):
     (c,) = out.of("task_cancelled")
     assert (c["t"], c["task"], c["reason"]) == (4.0, "B", "cancelled")
     assert out.robot()["completed"] == ["A"] and out.robot()["distance"] == 5.0
+
+
+def test_r13_a_cancel_remembered_for_the_only_assignment_cancels_its_task_on_arrival(run_toml):
+    """Found by the fuzzer (the rule checks wanted a cancel_order during the task's life): a partial cancel
+    for B_a1 before B exists is remembered; B_a1 arrives, is skipped, and with every position cancelled B
+    ends at that instant, reason cancelled; A behind it is untouched."""
+    out = run_toml(script(
+        cancel(1, "B", action="B_a1"),
+        action(2, "B", "B_a1", 1, 1), action(2, "A", "A_a1", 1, 1),
+    ))
+    assert [(e["t"], e["code"]) for e in out.of("rejected")] == [(1.0, "cancel_unknown_assignment")]
+    assert [(e["t"], e["task"]) for e in out.of("task_queued")] == [(2.0, "B"), (2.0, "A")]
+    assert [(e["t"], e["task"], e["reason"]) for e in out.of("task_cancelled")] == [(2.0, "B", "cancelled")]
+    assert finished(out, "action") == [(3.0, "A_a1")] and out.robot()["completed"] == ["A"]
+    assert check_run(out.dir, 30.0, finished=True) == []
 
 
 # --- R14 -------------------------------------------------------------------------------------------------

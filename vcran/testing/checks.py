@@ -42,6 +42,7 @@ class _Life:
     end: float | None = None
     reason: str | None = None
     finishes: list[tuple[float, str]] = field(default_factory=list)  # (t, "motion"/"action")
+    skips: list[float] = field(default_factory=list)  # when assignments were cancelled on their own (R13)
 
 
 def check_run(out: Path, task_timeout: float, finished: bool) -> list[str]:
@@ -93,6 +94,8 @@ def check_lives(events: list[dict[str, Any]], cancels: dict[tuple[str, str], lis
                 problems.append(f"t={t} {key[0]}: {kind} for task {key[1]}, which is not queued (R8)")
                 continue
             open_life.finishes.append((t, kind))
+        elif kind == "assignment_cancelled" and open_life is not None:
+            open_life.skips.append(t)
     for (robot, task), history in lives.items():
         for life in history:
             where = f"{robot}: task {task} (queued at {life.queued})"
@@ -105,14 +108,16 @@ def check_lives(events: list[dict[str, Any]], cancels: dict[tuple[str, str], lis
                     request = life.queued + task_timeout
                 else:
                     whole = [c for c in cancels.get((robot, task), []) if life.queued <= c <= life.end]
-                    partial = [c for c in cancels.get((robot, task + "#"), []) if life.queued <= c <= life.end]
+                    # a partial cancel may come before the task: remembered, it skips the assignment on arrival
+                    partial = [c for c in cancels.get((robot, task + "#"), []) if c <= life.end] if life.skips else []
                     if not whole + partial and any(life.queued <= c <= life.end for c in cancels.get((robot, ""), [])):
                         continue  # a raw payload may have carried the cancel: its task is not known here
                     if not whole + partial:
                         problems.append(f"{where} cancelled at {life.end} with no cancel_order for it (R8)")
                         continue
-                    # the first whole-task cancel; else the last partial one, which cancelled what was left (R13)
-                    request = whole[0] if whole else partial[-1]
+                    # the first whole-task cancel; else the instant the last of its assignments was cancelled
+                    # on its own, which cancelled the task (R13)
+                    request = whole[0] if whole else life.skips[-1]
                 problems += _ended_after_request(where, life, request)
     return problems
 
