@@ -1,7 +1,8 @@
 """Live mode against an Orion that refuses or drops what vcran sends: requests, bytes, log lines, CPU.
 
     python benchmarks/bench_refused.py                          # this tree
-    python benchmarks/bench_refused.py --tree /work/main        # also an older checkout, with ratios
+    git worktree add ../vcran-before HEAD~10                     # any older checkout to compare with
+    python benchmarks/bench_refused.py --tree ../vcran-before   # both trees per mode, with ratios
     python benchmarks/bench_refused.py --robots 20 --seconds 10 --modes 204 401 429 404-drop
 
 A fake Orion on loopback answers every request the same way (``--modes``): ``204`` (the baseline: an
