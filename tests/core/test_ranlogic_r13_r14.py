@@ -6,6 +6,7 @@ what the rule says must happen next.
 
 from __future__ import annotations
 
+from tests.core.test_ranlogic import of
 from vcran.core.build import action, cancel, motion
 from vcran.core.effects import (
     Abandon,
@@ -27,10 +28,6 @@ from vcran.core.ids import NIL, id_for
 from vcran.core.ranlogic import TOLERANCE, RanLogic
 
 T = id_for
-
-
-def of(effects, cls):
-    return [e for e in effects if isinstance(e, cls)]
 
 
 def warnings(effects):
