@@ -50,6 +50,9 @@ class RecordingTransport(Transport):
     def exhausted(self) -> bool:
         return self.inner.exhausted
 
+    def outage(self, robot: str, until: float) -> bool:
+        return self.inner.outage(robot, until)
+
     def close(self) -> None:
         self.writer.close()
         self.inner.close()

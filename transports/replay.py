@@ -16,7 +16,7 @@ from transports.base import Deliver, Transport
 from vcran.core.messages import INBOUND
 from vcran.core.plain import from_plain
 from vcran.core.wire import Inbound, Outbound
-from vcran.io.trace import records
+from vcran.io.trace import read_header, records
 from vcran.sim.timing import INBOUND as INBOUND_PRIORITY
 from vcran.sim.timing import at
 
@@ -29,6 +29,10 @@ class ReplayTransport(Transport):
     def __init__(self, trace: Path) -> None:
         self.trace = trace
         self._exhausted = False
+        options = read_header(trace).get("options", {})
+        #: A closed loop's link_down cut the link between manager and RAN, outside what the trace records
+        #: (the RAN's own inbound and outbound): the records already carry it, the replayed RAN holds nothing.
+        self._link_outside = isinstance(options, dict) and options.get("transport") == "loop"
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         env.process(self._play(env, deliver))
@@ -46,6 +50,9 @@ class ReplayTransport(Transport):
 
     def send(self, out: Outbound) -> None:
         pass
+
+    def outage(self, robot: str, until: float) -> bool:
+        return self._link_outside
 
 
 def inbound_records(trace: Path) -> Iterator[tuple[float, Inbound]]:

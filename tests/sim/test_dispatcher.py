@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import tomllib
 
+import pytest
+
 import vcran
 from vcran.io.scenario_file import parse
 from vcran.managers import Dispatcher
@@ -103,3 +105,138 @@ def test_a_failed_pickup_waits_before_its_retry_so_a_producing_station_can_catch
     # the manager learns of a cancel at the next status tick (<= 1 s) plus the link's 50 ms
     for cancelled, retried, wait in zip(cancels, retries, (10.0, 20.0), strict=True):
         assert cancelled + wait <= retried <= cancelled + wait + 1.05
+
+
+# --- SPEC §4 in the loop: link_down -------------------------------------------------------------------------
+
+LINK_DOWN = '\n[[faults]]\nt = 5.0\nrobot = "robot_1"\nkind = "link_down"\nduration = 20.0\n'
+
+
+def test_s4_link_down_in_the_loop_holds_the_robots_news_until_the_link_is_back(tmp_path):
+    from vcran.cli import main
+
+    # The pick task lands at 0.05, drives 10 m at 1 m/s and loads for 2 s: done at 12.05, published with
+    # the tick at 13, heard at 13.05 (latency 0.05), and the drop task follows at once.
+    plain = vcran.simulate(scenario(job(0, "j1")), manager=Dispatcher())
+    assert [e["t"] for e in of(plain, "job_assigned")] == [0.0, pytest.approx(13.05)]
+    # With robot_1's link down from 5 to 25 the status published at 13 waits in Orion's place: it goes out
+    # when the link is back (25) and reaches the manager at 25.05; the drop task then lands at 25.10,
+    # drives 20 m and unloads for 2 s (47.10), published at 48 and heard at 48.05.
+    result = vcran.simulate(scenario(job(0, "j1") + LINK_DOWN), manager=Dispatcher(), out=tmp_path / "run")
+    assert [e["t"] for e in of(result, "job_assigned")] == [0.0, pytest.approx(25.05)]
+    assert result.job("j1").lead_time == pytest.approx(48.05)
+    assert [(e["event"], e["t"], e["kind"]) for e in result.events if e["event"].startswith("fault")] == [
+        ("fault", 5.0, "link_down"), ("fault_end", 25.0, "link_down")]
+    # the RAN itself published on time (the link held it): the trace replays byte for byte
+    assert main(["replay", str(tmp_path / "run" / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify",
+                 "--quiet"]) == 0
+
+
+class Heard(Dispatcher):
+    """The Dispatcher, also noting when robot_1's pose reaches it."""
+
+    attributes = frozenset({"ran_status", "current_motion"})
+
+    def on_start(self) -> None:
+        super().on_start()
+        self.heard: list[float] = []
+
+    def on_update(self, robot, attribute, message, t) -> None:
+        if robot == "robot_1" and attribute == "current_motion":
+            self.heard.append(t)
+        super().on_update(robot, attribute, message, t)
+
+
+def test_s4_link_down_in_the_loop_hides_the_robots_pose_too():
+    manager = Heard()
+    vcran.simulate(scenario(job(0, "j1") + LINK_DOWN), manager=manager)
+    # a frame every second, heard 0.05 later; robot_1's rows of the frames of 5 to 24 never leave (the
+    # latest pose is no news once the link is back): Orion, and the manager, keep the pose of 4
+    assert manager.heard[:6] == [pytest.approx(k + 0.05) for k in range(5)] + [pytest.approx(25.05)]
+
+
+# --- SPEC §4 in the loop: charging when low, re-planning after a fault --------------------------------------
+
+def battery(initial: float, *, swap_after: float | None = None) -> str:
+    swap = f"swap_after = {swap_after}\n" if swap_after is not None else ""
+    return ("[robots.battery]\ncapacity = 1.0\n"
+            f"initial = {initial}\nper_metre = 0.01\ncharge_rate = 0.1\n{swap}")
+
+
+CHARGER = '\n[[stations]]\nid = "charger"\nposition = [10.0, 0.0]\ncharger = true\n'
+
+
+def with_battery(jobs: str, initial: float, *, swap_after: float | None = None, charger: bool = False) -> vcran.Scenario:
+    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\n" + battery(
+        initial, swap_after=swap_after), 1)
+    return parse(tomllib.loads(text + (CHARGER if charger else "") + jobs), "<test>")
+
+
+def test_s4_a_robot_low_after_its_job_charges_before_the_next_one():
+    # 50 % (0.5 Ah), 0.01 Ah/m. j1: 10 m to a, 20 m to b: 0.2 Ah left (20 %, below charge_below 30 %), heard
+    # with the battery update of the tick at 34. j1 is done at 36.05 (unload ends 35.10, status at 36):
+    # robot_1 goes to the charger at (10, 0), 14.142 m from b, landing at 36.10: there at 50.252 with
+    # 0.2 - 0.14142 = 0.05858 Ah, full after (1 - 0.05858) / 0.1 = 9.4142 s, at 59.666; heard at 60.05,
+    # when j2 (waiting since 40) gets the robot.
+    result = vcran.simulate(with_battery(job(0, "j1") + job(40, "j2"), 0.5, charger=True),
+                            manager=Dispatcher(charge_below=0.3))
+    assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][:3] == [
+        ("j1_pick1", 0.0), ("j1_drop1", pytest.approx(13.05)), ("j2_pick1", pytest.approx(60.05))]
+    done = {e["task"]: e["t"] for e in of(result, "task_completed")}
+    assert done["charge1_robot_1"] == pytest.approx(36.10 + 10 * 2 ** 0.5 + (1 - 0.2 + 0.1 * 2 ** 0.5) / 0.1)
+    assert result.summary["jobs"]["completed"] == 2
+
+
+def test_s4_without_a_charger_a_low_robot_keeps_working():
+    result = vcran.simulate(with_battery(job(0, "j1") + job(40, "j2"), 0.5), manager=Dispatcher())
+    assert [e["t"] for e in of(result, "job_assigned")][2] == pytest.approx(40.0)
+
+
+def test_s4_an_empty_robot_is_out_until_swapped_and_its_pickup_is_planned_again():
+    # 0.05 Ah at 0.01 Ah/m: empty 5 m into the pick leg (t = 5.05), heard at 5.10 (the ran_error): one try
+    # lost, the job back in the queue at 15.10 but no robot to take it; the battery swapped at 35.05 is
+    # published at 36 and heard at 36.05: robot_1 takes j1 again, 5 m from a.
+    result = vcran.simulate(with_battery(job(0, "j1"), 0.05, swap_after=30.0), manager=Dispatcher())
+    assert [(e["task"], e["t"]) for e in of(result, "job_assigned")] == [
+        ("j1_pick1", 0.0), ("j1_pick2", pytest.approx(36.05)), ("j1_drop2", pytest.approx(44.05))]
+    assert result.summary["robots"]["robot_1"]["cancelled"] == [{"task": "j1_pick1", "reason": "battery_empty"}]
+    assert result.job("j1").outcome == "completed" and result.job("j1").lead_time == pytest.approx(67.05)
+
+
+def test_s4_a_part_stranded_on_an_empty_robot_fails_its_job_at_once():
+    # 0.2 Ah: 0.1 left after the pick leg, empty 10 m into the drop leg (lands 13.10: 23.10), heard 23.15
+    result = vcran.simulate(with_battery(job(0, "j1"), 0.2), manager=Dispatcher())
+    (failed,) = of(result, "job_failed")
+    assert (failed["job"], failed["reason"], failed["tasks"], failed["t"]) == ("j1", "battery_empty", 2,
+                                                                           pytest.approx(23.15))
+
+
+def test_s4_the_drop_off_of_a_robot_swapped_in_time_waits_for_it():
+    # as above, swapped 20 s later (43.10), published at 44, heard at 44.05: the drop-off goes again from
+    # (0, 0), 10 m: lands 44.10, arrives 54.10, unloads until 56.10, heard done at 57.05
+    result = vcran.simulate(with_battery(job(0, "j1"), 0.2, swap_after=20.0), manager=Dispatcher())
+    assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][2] == ("j1_drop2", pytest.approx(44.05))
+    assert result.job("j1").lead_time == pytest.approx(57.05)
+
+
+def test_s4_a_motion_failure_costs_the_pickup_one_try_and_it_is_planned_again():
+    # the pick leg fails at 5 (robot at (0, 5)); cancelled motion_failed, published by the tick of the
+    # same instant (faults act before telemetry), heard 5.05; the retry waits 10 s: j1_pick2 at 15.05
+    fault = '\n[[faults]]\nt = 5.0\nrobot = "robot_1"\nkind = "motion_failure"\n'
+    result = vcran.simulate(scenario(job(0, "j1") + fault), manager=Dispatcher())
+    assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][:2] == [("j1_pick1", 0.0),
+                                                                           ("j1_pick2", pytest.approx(15.05))]
+    assert result.job("j1").outcome == "completed"
+
+
+def test_s4_a_task_refused_by_a_robot_already_out_of_service_is_planned_again():
+    # robot_1 rests with 0.05 Ah and draws 0.01 Ah/s: empty at 5, before any job. j1 (t = 10) goes to it
+    # anyway (no charger to send it to): refused on landing (10.05) with ran_error battery_empty, heard
+    # 10.10, which is the only word on that task. Swapped at 35, published with that instant's tick,
+    # heard 35.05: j1 goes out again.
+    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\n" + battery(
+        0.05, swap_after=30.0) + "per_idle_second = 0.01\n", 1)
+    result = vcran.simulate(parse(tomllib.loads(text + job(10, "j1")), "<test>"), manager=Dispatcher())
+    assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][:2] == [("j1_pick1", 10.0),
+                                                                           ("j1_pick2", pytest.approx(35.05))]
+    assert result.job("j1").outcome == "completed"

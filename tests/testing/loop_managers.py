@@ -31,3 +31,13 @@ class NeverReplans(Dispatcher):
 
     def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
         self.release(robot)
+
+
+class ForgetsMotionFailures(Dispatcher):
+    """Re-plans after every cancel but a ``motion_failed`` one (SPEC §4): that job is forgotten."""
+
+    def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
+        if reason == "motion_failed":
+            self.release(robot)
+        else:
+            super().task_cancelled(robot, trip, reason)

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 
 import vcran
 from tests.conftest import ROOT
-from tests.testing.loop_managers import NeverReplans, OutOfRange
+from tests.testing.loop_managers import ForgetsMotionFailures, NeverReplans, OutOfRange
 from vcran.core.scenario import Job
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps, loop_dict
@@ -102,3 +102,55 @@ def test_the_search_shrinks_a_never_replanning_manager_to_one_job_at_an_empty_li
     again = parse(tomllib.loads(text), "<saved>")
     assert again.jobs == finding.scenario.jobs and again.link == finding.scenario.link
     assert check_jobs_ended(vcran.simulate(again, manager=NeverReplans))
+
+
+# --- SPEC §4 faults in the loop -------------------------------------------------------------------------------
+
+LANE = parse(tomllib.loads("""
+[simulation]
+duration = 400.0
+[simulation.action_durations]
+load = 2.0
+unload = 2.0
+[[robots]]
+id = "robot_1"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+[[robots]]
+id = "robot_2"
+pose = [5.0, 0.0, 0.0]
+max_velocity = 1.0
+[[stations]]
+id = "a"
+position = [0.0, 10.0]
+produce_every = 1.0
+capacity = 100
+[[stations]]
+id = "b"
+position = [0.0, -10.0]
+capacity = 100
+[manager]
+class = "vcran.managers:Dispatcher"
+"""), "<lane>")
+
+
+@settings(max_examples=15)
+@given(loop_variants(LANE, max_jobs=3, horizon=60.0, settle=300.0, max_faults=4))
+def test_s4_drawn_faults_all_happen_and_the_dispatcher_keeps_the_loop_properties(scenario):
+    result = vcran.simulate(scenario)
+    assert_loop_properties(result)
+    due = [f for f in scenario.faults if f.t <= result.summary["sim_time"]]  # an idle run may end before some
+    assert len([e for e in result.events if e["event"] == "fault"]) == len(due)
+
+
+def test_s4_the_search_finds_a_manager_that_forgets_a_job_after_a_motion_failure():
+    # a part is produced every second, so no load fails for long: only a drawn motion failure (while a
+    # robot drives) can leave a job open with this manager
+    finding = fuzz_manager(LANE, ForgetsMotionFailures, examples=150, seed=1, max_jobs=2, horizon=30.0, settle=120.0)
+    assert finding is not None
+    [job] = finding.scenario.jobs
+    [fault] = finding.scenario.faults
+    assert fault.kind == "motion_failure" and any("never ended" in p for p in finding.problems)
+    again = parse(tomllib.loads(dumps(loop_dict(finding.scenario))), "<saved>")  # what vcran fuzz --save writes
+    assert again.faults == finding.scenario.faults and check_jobs_ended(vcran.simulate(again, manager=ForgetsMotionFailures))
+    assert fuzz_manager(LANE, Dispatcher, examples=150, seed=1, max_jobs=2, horizon=30.0, settle=120.0) is None

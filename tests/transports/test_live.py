@@ -159,8 +159,8 @@ class LiveRun:
     """``run_to`` with the Orion transport in a background thread; ``stop()`` ends it like SIGINT does."""
 
     def __init__(self, tmp_path: Path, url: str, *, speed: float = 10.0, timeout: float = 30.0,
-                 notify: bool = True, poll: float = 0.25, client: OrionClient | None = None) -> None:
-        self.scenario = parse(tomllib.loads(FLEET.format(timeout=timeout)), "<live test>")
+                 notify: bool = True, poll: float = 0.25, client: OrionClient | None = None, extra: str = "") -> None:
+        self.scenario = parse(tomllib.loads(FLEET.format(timeout=timeout) + extra), "<live test>")
         self.env = LiveEnvironment(speed)
         notify_url = f"http://127.0.0.1:{free_port()}/notify" if notify else None
         self.transport = OrionTransport(client or OrionClient(url), LiveOptions(
@@ -394,3 +394,26 @@ def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
     finally:
         run.stop()
         broker.stop()
+
+
+def test_s4_link_down_live_the_robot_neither_publishes_nor_receives_until_it_is_back(tmp_path):
+    """SPEC §4 link_down in live mode: from t = 0 to 50 (5 wall seconds at 10x) robot_1 publishes nothing
+    (Orion holds no ran_status of it) and a task written meanwhile waits in Orion; back up, the robot
+    reads it and runs it, and the recording replays."""
+    broker = start_broker(port=0)
+    init(broker.url)
+    run = LiveRun(tmp_path, broker.url, extra='[[faults]]\nt = 0.0\nrobot = "robot_1"\nkind = "link_down"\nduration = 50.0\n')
+    try:
+        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        for m in task("held"):
+            write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
+        assert run.env.now < 50.0 and ran_status(broker.url) is None  # down: nothing published yet
+        assert wait_until(lambda: run.model.completed["robot_1"] == ["held"], 20)
+        assert ran_status(broker.url) is not None
+    finally:
+        run.stop()
+        broker.stop()
+    (queued,) = run.events("task_queued")
+    assert queued["t"] == 50.0  # read when the link came back, not when Orion notified it
+    assert [e["kind"] for e in run.events("fault_end")] == ["link_down"]
+    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0

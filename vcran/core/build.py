@@ -2,7 +2,8 @@
 
 Ids come from names through the stable mapping of :func:`vcran.core.ids.id_for`. Actions are named by kind
 (``"load"``, ``"unload"``, ``"dummy"``), encoded with OPIL's categories (10, 20, 5), which is what OPIL's
-task planner sends; a raw ``(category, action)`` pair can be given instead.
+task planner sends, and ``"charge"``, vcran's extension (category 0, action 3; SPEC §4); a raw
+``(category, action)`` pair can be given instead.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from vcran.core.messages import (
 )
 
 #: The category each kind is sent with (OPIL ``RobotAction`` constants).
-CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20}
+CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20, ActionKind.CHARGE: 200}
 
 
 def motion(

@@ -32,7 +32,10 @@ class Reason(enum.Enum):
     TIMEOUT = "timeout"
     CANCELLED = "cancelled"
     ACTION_FAILED = "action_failed"
-
+    #: SPEC §4: the robot stopped on its own (battery, an injected motion failure, a collision).
+    BATTERY_EMPTY = "battery_empty"
+    MOTION_FAILED = "motion_failed"
+    COLLISION = "collision"
 
 
 # --- commands -------------------------------------------------------------------------------------------

@@ -161,7 +161,7 @@ class Handle:
         """Send a whole OPIL task to ``robot`` and return its id.
 
         ``path`` is a list of ``(x, y)`` or ``(x, y, theta)`` points (a theta on the last one: end facing
-        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``. The task is named ``task``, or
+        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``, ``"charge"`` (SPEC §4). The task is named ``task``, or
         ``task_1``, ``task_2``, ... in the order sent; its motions ``{task}_m1``, ... and actions
         ``{task}_a1``, ... carry sequence numbers ``1..length`` (:func:`vcran.core.build.task`). With
         ``every`` > 0 the messages go out that many seconds apart (under polling, a write overwritten
@@ -216,7 +216,7 @@ class FleetManager:
 
     #: Attributes whose updates call :meth:`on_update`; None: all of them.
     attributes: ClassVar[frozenset[str] | None] = frozenset(
-        {"assignment_status", "ran_status", "ran_error", "robot_description"})
+        {"assignment_status", "ran_status", "ran_error", "robot_description", "battery"})
 
     fleet: Fleet
     handle: Handle

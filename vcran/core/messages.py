@@ -11,6 +11,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from vcran.core.ids import NIL, Id
 from vcran.core.schema import (
@@ -191,12 +192,18 @@ class ActionKind(enum.Enum):
     DUMMY = "dummy"
     LOAD = "load"
     UNLOAD = "unload"
+    #: vcran extension (SPEC §4 Battery): refill the battery at a charger station.
+    CHARGE = "charge"
 
 
 #: OPIL ``RobotAction.category`` constants (category first, SPEC §2).
 CATEGORY_CODES: dict[int, ActionKind] = {5: ActionKind.DUMMY, 10: ActionKind.LOAD, 20: ActionKind.UNLOAD}
 #: The seed's action codes, used when ``category`` is 0 (undefined).
 ACTION_CODES: dict[int, ActionKind] = {0: ActionKind.DUMMY, 1: ActionKind.LOAD, 2: ActionKind.UNLOAD}
+#: vcran's extension codes, outside OPIL's categories and the seed's codes (docs/wire-format.md):
+#: ``charge`` is category 200, or action 3 with category 0.
+EXTENSION_CATEGORIES: dict[int, ActionKind] = {200: ActionKind.CHARGE}
+EXTENSION_ACTIONS: dict[int, ActionKind] = {3: ActionKind.CHARGE}
 CATEGORY_UNDEFINED = 0
 
 
@@ -213,14 +220,14 @@ class RobotAction(Message):
         """The action to perform; raises MessageError (naming the field) for an unknown code (R12)."""
         if self.category != CATEGORY_UNDEFINED:
             try:
-                return CATEGORY_CODES[self.category]
+                return CATEGORY_CODES.get(self.category) or EXTENSION_CATEGORIES[self.category]
             except KeyError:
-                known = ", ".join(str(c) for c in (CATEGORY_UNDEFINED, *CATEGORY_CODES))
+                known = ", ".join(str(c) for c in (CATEGORY_UNDEFINED, *CATEGORY_CODES, *EXTENSION_CATEGORIES))
                 raise MessageError("category", f"unknown action category {self.category} (known: {known})") from None
         try:
-            return ACTION_CODES[self.action]
+            return ACTION_CODES.get(self.action) or EXTENSION_ACTIONS[self.action]
         except KeyError:
-            known = ", ".join(str(c) for c in ACTION_CODES)
+            known = ", ".join(str(c) for c in (*ACTION_CODES, *EXTENSION_ACTIONS))
             raise MessageError("action", f"unknown action code {self.action} with category 0 (known: {known})") from None
 
 
@@ -376,6 +383,40 @@ class RanError(Message):
     count: UInt32 = 0
 
 
+# --- sensor_msgs ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class BatteryState(Message):
+    """The battery (produced: ``battery``, SPEC §4), ROS 1 ``sensor_msgs/BatteryState``.
+
+    ``charge`` and ``capacity`` in Ah, ``percentage`` 0..1; vcran fills the fields its battery model
+    knows and leaves the rest at ROS's "unknown" values (NaN is not JSON, so 0 stands for unmeasured).
+    """
+
+    ROS_TYPE = "sensor_msgs.BatteryState"
+    header: Header = field(default_factory=Header)
+    voltage: Float32 = 0.0
+    current: Float32 = 0.0
+    charge: Float32 = 0.0
+    capacity: Float32 = 0.0
+    design_capacity: Float32 = 0.0
+    percentage: Float32 = 0.0
+    power_supply_status: UInt8 = 0
+    power_supply_health: UInt8 = 0
+    power_supply_technology: UInt8 = 0
+    present: Bool = True
+    cell_voltage: tuple[Float32, ...] = ()
+    location: String = ""
+    serial_number: String = ""
+
+    STATUS_UNKNOWN: ClassVar[int] = 0
+    STATUS_CHARGING: ClassVar[int] = 1
+    STATUS_DISCHARGING: ClassVar[int] = 2
+    STATUS_NOT_CHARGING: ClassVar[int] = 3
+    STATUS_FULL: ClassVar[int] = 4
+
+
 #: Attribute name -> message type, for both directions (SPEC §2).
 INBOUND: dict[str, type[Message]] = {
     "motion_assignment": MotionAssignment,
@@ -388,6 +429,7 @@ OUTBOUND: dict[str, type[Message]] = {
     "assignment_status": AssignmentStatus,
     "ran_status": RanStatus,
     "ran_error": RanError,
+    "battery": BatteryState,
 }
 ATTRIBUTES: dict[str, type[Message]] = {**INBOUND, **OUTBOUND}
 

@@ -192,11 +192,16 @@ class FleetKinematics:
         self.rest[:, 2] = [wrap(theta) for _, _, theta in poses]
         self.odometer = np.zeros(n, dtype=np.float64)  # distance of finished legs
         self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
+        #: robot index -> distance driven on a leg that is held (paused, broken down; SPEC §4)
+        self.held: dict[int, float] = {}
+        self._changes = 0  # bumped whenever a leg starts or ends, so the sweeps' cache knows
+        self._moving_cache: tuple[int, np.ndarray, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return len(self.rest)
 
     def start(self, i: int, leg: Leg) -> None:
+        self._changes += 1
         row = self.legs[i]
         for name in _COLUMNS:
             row[C[name]] = getattr(leg, name)
@@ -205,20 +210,74 @@ class FleetKinematics:
     def finish(self, i: int) -> None:
         """The leg of robot ``i`` is over: bank its distance and rest at its end pose."""
         leg = self.current.pop(i)
+        self._changes += 1
         self.odometer[i] += leg.distance
         self.rest[i, :3] = (leg.x1, leg.y1, leg.end_theta)
         self.legs[i, C["t_end"]] = -np.inf
 
+    def stop(self, i: int, t: float) -> tuple[float, float, float]:
+        """Robot ``i`` stops where it is at ``t`` (SPEC §4): its leg ends there, the distance is banked."""
+        leg = self.current.pop(i)
+        pose = self._rest_at(i, leg, t)
+        self.odometer[i] += leg.distance_at(t)
+        return pose
+
+    def hold(self, i: int, t: float) -> tuple[float, float, float]:
+        """Robot ``i`` halts at ``t`` mid-leg, to :meth:`resume` the same leg later (pause, breakdown)."""
+        leg = self.current.pop(i)
+        self.held[i] = leg.distance_at(t)
+        return self._rest_at(i, leg, t)
+
+    def resume(self, i: int, leg: Leg) -> None:
+        """Continue a held leg: ``leg`` is the held one shifted in time by the halt's length."""
+        del self.held[i]
+        self.start(i, leg)
+
+    def drop_held(self, i: int) -> None:
+        """A held leg is abandoned where it was held (the robot stopped for good): bank its distance."""
+        self.odometer[i] += self.held.pop(i)
+
+    def _rest_at(self, i: int, leg: Leg, t: float) -> tuple[float, float, float]:
+        self._changes += 1
+        x, y, theta, _, _ = leg.pose_at(t)
+        self.rest[i, :3] = (x, y, theta)
+        self.legs[i, C["t_end"]] = -np.inf
+        return x, y, theta
+
     def abandon(self, i: int) -> None:
         """The leg of robot ``i`` did not happen (R14): it rests where the leg began, nothing driven."""
         leg = self.current.pop(i)
+        self._changes += 1
         self.rest[i, :3] = (leg.x0, leg.y0, wrap(leg.theta0))
         self.legs[i, C["t_end"]] = -np.inf
 
     def distance(self, i: int, t: float) -> float:
         """Odometer of robot ``i`` at ``t``, including the driven part of its current leg."""
         leg = self.current.get(i)
-        return float(self.odometer[i] + (leg.distance_at(t) if leg is not None else 0.0))
+        if leg is None:
+            return float(self.odometer[i] + self.held.get(i, 0.0))
+        return float(self.odometer[i] + leg.distance_at(t))
+
+    def distances(self, t: float) -> np.ndarray:
+        """Every robot's odometer at ``t`` (the battery's sweep), legs in progress included."""
+        out = self.odometer.copy()
+        for i, d in self.held.items():
+            out[i] += d
+        if len(self.current) < SCALAR_BELOW:
+            for i, leg in self.current.items():
+                out[i] += leg.distance_at(t)
+            return out
+        idx, L = self._moving()
+        out[idx] += _driven(L, np.maximum(t - L[:, C["t0"]], 0.0) - L[:, C["t_turn1"]])
+        return out
+
+    def _moving(self) -> tuple[np.ndarray, np.ndarray]:
+        """The moving robots' indices and leg rows, shared by the sweeps of one tick (the legs did not
+        change in between: nothing runs between a tick's telemetry and its battery sweep)."""
+        if self._moving_cache is None or self._moving_cache[0] != self._changes:
+            idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
+            self._moving_cache = (self._changes, idx, self.legs[idx])
+        return self._moving_cache[1], self._moving_cache[2]
 
     def sample(self, t: float) -> np.ndarray:
         """A (robots, 5) array of ``x, y, theta, v, w`` at ``t`` (legs not started count as at rest)."""
@@ -227,9 +286,15 @@ class FleetKinematics:
             for i, leg in self.current.items():
                 out[i] = leg.pose_at(t)
             return out
-        idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
-        out[idx] = _sample_moving(self.legs[idx], t)
+        idx, L = self._moving()
+        out[idx] = _sample_moving(L, t)
         return out
+
+
+def sample_leg(leg: Leg, times: np.ndarray) -> np.ndarray:
+    """A ``(len(times), 5)`` array of one leg's ``x, y, theta, v, w`` at each of ``times`` (collision checks)."""
+    row = np.array([getattr(leg, name) for name in _COLUMNS], dtype=np.float64)
+    return _sample_moving(np.broadcast_to(row, (len(times), len(_COLUMNS))), times)  # type: ignore[arg-type]
 
 
 def _wrap_array(a: np.ndarray) -> np.ndarray:
@@ -237,6 +302,20 @@ def _wrap_array(a: np.ndarray) -> np.ndarray:
     r = np.fmod(a + math.pi, TAU)
     r = np.where(r <= 0.0, r + TAU, r)
     return np.where((-math.pi < a) & (a <= math.pi), a, r - math.pi)
+
+
+def _driven(L: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Distance covered ``d`` seconds into each leg's drive (``d`` clamped to the drive), vectorised."""
+    col = lambda name: L[:, C[name]]  # noqa: E731
+    td, ta, tdec, peak, dist = col("t_drive"), col("t_acc"), col("t_dec"), col("peak"), col("distance")
+    d = np.minimum(np.maximum(d, 0.0), td)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rest = td - d
+        s = np.where(
+            d < ta, 0.5 * peak * d * d / ta,
+            np.where(d <= td - tdec, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / tdec),
+        )
+    return np.minimum(np.maximum(s, 0.0), dist)  # a NaN of a 0/0 ramp lies in a branch np.where did not pick
 
 
 def _sample_moving(L: np.ndarray, t: float) -> np.ndarray:

@@ -102,6 +102,8 @@ class RanLogic:
         self.doomed: OrderedDict[tuple[Id, str, Id], CancelTask] = OrderedDict()
         #: Bumped whenever anything ``ran_status`` or ``assignment_status`` shows changes.
         self.version = 0
+        #: Why the robot takes no tasks (SPEC §4: "battery_empty"), or "" when it does.
+        self.out_of_service = ""
         self._now = float("-inf")
         self._arrivals = 0
         self._out: list[Effect] = []
@@ -190,6 +192,37 @@ class RanLogic:
             self._advance(now)
         return self._end()
 
+    # --- the robot stops on its own (SPEC §4: battery, faults, collisions) -------------------------------
+
+    def on_halt(self, now: float, reason: Reason, code: str, message: str, out_of_service: bool = False) -> list[Effect]:
+        """The robot stopped where it is: its running leg or action is over and no completion follows.
+
+        The current task ends now with ``reason`` (or with the reason it was already ending for, R14), and
+        the stop is reported as ``code``. ``out_of_service``: every queued task ends too, and assignments of
+        new tasks are rejected (code ``reason``) until :meth:`on_service`.
+        """
+        self._begin(now)
+        task = self._current()
+        self._error(Failed, code, message, task.id if task else NIL, self.current_motion, self.current_action)
+        if out_of_service:
+            self.out_of_service = reason.value
+        for ending in list(self.queue.values()) if out_of_service else [task] if task else []:
+            self._cancel_now(now, ending, ending.ending or reason, ending.cancel)
+        if task is not None:
+            self._start_next(now)
+        return self._end()
+
+    def on_service(self, now: float) -> list[Effect]:
+        """The robot takes tasks again (battery swapped or charged)."""
+        self._begin(now)
+        self.out_of_service = ""
+        return self._end()
+
+    def count_error(self) -> int:
+        """Count one ``ran_error`` the model publishes itself (a §4 incident); returns the running count."""
+        self.error_count += 1
+        return self.error_count
+
     # --- status -----------------------------------------------------------------------------------------
 
     @property
@@ -231,7 +264,9 @@ class RanLogic:
         task = self.queue.get(a.task_id)
         if task is None:
             ended = self.history.get(a.task_id)
-            if ended is None:
+            if ended is None and self.out_of_service:
+                self._reject(self.out_of_service, f"robot is out of service ({self.out_of_service}): no new tasks [§4]", a)
+            elif ended is None:
                 self._new_task(now, a)
             elif not ended.has_identical(a):
                 code = "task_completed" if ended.reason is None else "task_cancelled"

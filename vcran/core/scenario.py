@@ -17,9 +17,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from vcran.core import build
+from vcran.core.battery import BatteryConfig
+from vcran.core.faults import FaultSpec, RandomFaults
 from vcran.core.messages import ActionKind, Message, MotionAssignment
 
-ACTION_KINDS = tuple(k.value for k in ActionKind)
+#: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
+#: is not among them: a robot can charge exactly when it has a battery.
+ACTION_KINDS = tuple(k.value for k in ActionKind if k is not ActionKind.CHARGE)
+#: ``collisions =`` (SPEC §4): "report" (default), "stop", or "off" (no detection at all).
+COLLISION_MODES = ("report", "stop", "off")
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,6 +40,9 @@ class Settings:
     description_period: float = 60.0
     entity_type: str = "ROBOT"
     durations: dict[str, float] = field(default_factory=lambda: {"dummy": 1.0, "load": 5.0, "unload": 5.0})
+    collisions: str = "report"
+    #: Footprints are compared at least every this many metres of any point's travel (docs/robots.md).
+    collision_resolution: float = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +58,7 @@ class RobotConfig:
     capacity: int = 1
     carrying: int = 0
     vendor: str = "vcran"
+    battery: BatteryConfig | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +72,8 @@ class StationConfig:
     produce_every: float = 0.0
     produce_start: float | None = None
     produce_limit: int = 0
+    #: A charging point: ``charge`` actions in its reach refill the battery (SPEC §4).
+    charger: bool = False
     #: Where a robot stands to load or unload here, ``(x, y, theta)``; theta None: any heading. A fleet
     #: manager reads it to plan paths (:meth:`vcran.core.manager.Fleet.dock`); None means the position.
     dock: tuple[float, float, float | None] | None = None
@@ -210,6 +222,9 @@ class Scenario:
     script: tuple[ScriptEntry, ...]
     source: str = "<scenario>"
     cycles: tuple[Cycle, ...] = ()
+    #: Injected faults at given times (``[[faults]]``) and the seeded random source (``[random_faults]``).
+    faults: tuple[FaultSpec, ...] = ()
+    random_faults: tuple[RandomFaults, ...] = ()
     jobs: tuple[Job, ...] = ()
     job_stream: JobStream | None = None
     link: LinkSettings = field(default_factory=LinkSettings)
@@ -236,12 +251,15 @@ class Scenario:
     def fleet_dict(self) -> dict[str, Any]:
         """Everything but the script, as JSON that :func:`vcran.io.scenario_file.parse` reads back: a trace header carries it."""
         s = self.settings
+        # Keys added with §4 appear only when set, so older scenarios keep their exact trace header.
         return _drop_none({
             "simulation": {
                 "name": s.name, "seed": s.seed, "duration": s.duration, "until_idle": s.until_idle,
                 "task_timeout": s.task_timeout, "history_limit": s.history_limit,
                 "telemetry_period": s.telemetry_period, "description_period": s.description_period,
                 "entity_type": s.entity_type, "action_durations": dict(s.durations),
+                "collisions": s.collisions if s.collisions != "report" else None,
+                "collision_resolution": s.collision_resolution if s.collision_resolution != 0.05 else None,
             },
             "robots": [
                 {
@@ -249,6 +267,7 @@ class Scenario:
                     "max_acceleration": r.max_acceleration, "max_deceleration": r.max_deceleration,
                     "max_angular_velocity": r.max_angular_velocity, "footprint": [list(p) for p in r.footprint],
                     "actions": list(r.actions), "capacity": r.capacity, "carrying": r.carrying, "vendor": r.vendor,
+                    "battery": _battery_dict(r.battery),
                 }
                 for r in self.robots
             ],
@@ -257,11 +276,20 @@ class Scenario:
                     "id": st.id, "position": list(st.position), "reach": st.reach,
                     "area": [list(p) for p in st.area], "parts": st.parts, "capacity": st.capacity,
                     "produce_every": st.produce_every, "produce_start": st.produce_start,
-                    "produce_limit": st.produce_limit, "dock": _point(st.dock),
+                    "produce_limit": st.produce_limit, "charger": True if st.charger else None,
+                    "dock": _point(st.dock),
                 }
                 for st in self.stations
             ],
+            "faults": [f.as_dict() for f in self.faults] or None,
+            "random_faults": [r.as_dict() for r in self.random_faults] or None,
         })
+
+
+def _battery_dict(b: BatteryConfig | None) -> dict[str, Any] | None:
+    if b is None:
+        return None
+    return {name: getattr(b, name) for name in BatteryConfig.__dataclass_fields__}
 
 
 def _point(p: tuple[float, float, float | None] | None) -> list[float] | None:

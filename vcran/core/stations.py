@@ -29,6 +29,8 @@ class Station:
     #: ... at most ``produce_limit`` parts in all (0 = unlimited). A full station skips a production.
     produce_limit: int = 0
     area: tuple[tuple[float, float], ...] = ()
+    #: A charging point (SPEC §4): ``charge`` actions in its reach refill the battery.
+    charger: bool = False
     produced: int = 0
     _shape: Any = field(default=None, repr=False)
 
@@ -91,11 +93,14 @@ class StationMap:
                 for gy in range(math.floor(y0 / self.cell), math.floor(y1 / self.cell) + 1):
                     self._grid.setdefault((gx, gy), []).append(i)
 
-    def nearest_in_reach(self, x: float, y: float) -> Station | None:
-        """The station in reach of ``(x, y)`` nearest to it; ties go to the first in scenario order."""
+    def nearest_in_reach(self, x: float, y: float, chargers: bool = False) -> Station | None:
+        """The station in reach of ``(x, y)`` nearest to it (among chargers only, if asked); ties go to the
+        first in scenario order."""
         best, best_d = None, math.inf
         for i in self._grid.get((math.floor(x / self.cell), math.floor(y / self.cell)), ()):
             s = self.stations[i]
+            if chargers and not s.charger:
+                continue
             d = math.hypot(s.x - x, s.y - y)
             if d < best_d and s.within_reach(x, y):
                 best, best_d = s, d
@@ -109,7 +114,7 @@ def perform(
     """Carry out one action at ``(x, y)``; return the outcome and the new number of parts carried."""
     if kind not in capable:
         return Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}"), carried
-    if kind is ActionKind.DUMMY:
+    if kind is ActionKind.DUMMY or kind is ActionKind.CHARGE:  # a charge's energy is the battery's part
         return Outcome(True), carried
     station = stations.nearest_in_reach(x, y)
     where = f"at {x:.3f}, {y:.3f}"

@@ -82,5 +82,13 @@ class Transport:
         """True once no further inbound message can come (lets a run stop when idle)."""
         return False
 
+    def outage(self, robot: str, until: float) -> bool:
+        """SPEC §4 ``link_down``: cut ``robot``'s link from now until ``until`` on the transport's side, if
+        the transport has a link of its own (a closed loop's :class:`vcran.sim.link.Link`), and say so.
+
+        False (the default): the RAN holds the robot's messages itself (:meth:`vcran.sim.ran.Ran.link_down`).
+        """
+        return False
+
     def close(self) -> None:
         """Release what the transport holds; called once, after the run."""

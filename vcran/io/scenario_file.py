@@ -16,11 +16,15 @@ from pathlib import Path
 from typing import Any
 
 from vcran.core import build
+from vcran.core.battery import BatteryConfig
+from vcran.core.faults import KINDS as FAULT_KINDS
+from vcran.core.faults import RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
 from vcran.core.scenario import (
     ACTION_KINDS,
+    COLLISION_MODES,
     POLLING,
     SUBSCRIPTION,
     Cycle,
@@ -40,6 +44,9 @@ from vcran.core.schema import MessageError
 from vcran.io.toml_table import ScenarioError, Table, is_number
 
 __all__ = ["ScenarioError", "load", "parse"]
+
+#: Actions a script may send: the configurable ones and ``charge`` (SPEC §4, a robot with a battery).
+SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
 def load(path: str | Path) -> Scenario:
@@ -65,6 +72,9 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     job_tables, stream_table = top.tables("jobs"), top.raw("job_stream", None)
     link = _link(top.table("link"))
     manager = _manager(top.table("manager")) if "manager" in top.data else None
+    known = {r.id for r in robots}
+    faults = tuple(sorted((_fault(t, known) for t in top.tables("faults")), key=lambda f: f.t))
+    random_faults = tuple(_random_faults(t, known) for t in top.tables("random_faults"))
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
@@ -75,7 +85,6 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     stream = None
     if stream_table is not None:
         stream = _job_stream(Table(stream_table, source, "job_stream"), names, settings, [j.id for j in jobs])
-    known = {r.id for r in robots}
     script: list[ScriptEntry] = []
     cycles: list[Cycle] = []
     for t in script_tables:
@@ -92,8 +101,8 @@ def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = 
     if (script or cycles) and (jobs or stream is not None or manager is not None):
         raise ScenarioError(f"{source}: [[script]] and a closed loop ([[jobs]], [job_stream], [manager]) exclude "
                             "each other: a script plays the fleet manager's part, jobs go to a fleet manager")
-    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), tuple(jobs), stream, link,
-                    manager)
+    return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), faults=faults,
+                    random_faults=random_faults, jobs=tuple(jobs), job_stream=stream, link=link, manager=manager)
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -114,7 +123,11 @@ def _settings(t: Table, default_name: str) -> Settings:
         description_period=t.number("description_period", 60.0, positive=True),
         entity_type=t.string("entity_type", "ROBOT"),
         durations=d,
+        collisions=t.string("collisions", "report"),
+        collision_resolution=t.number("collision_resolution", 0.05, positive=True),
     )
+    if s.collisions not in COLLISION_MODES:
+        t.fail("collisions", f"expected one of {', '.join(map(repr, COLLISION_MODES))}, got {s.collisions!r}")
     problem = identifier_error("entity type", s.entity_type)
     if problem:
         t.fail("entity_type", problem)
@@ -149,6 +162,7 @@ def _robot(t: Table) -> RobotConfig:
         capacity=t.integer("capacity", 1, minimum=0),
         carrying=t.integer("carrying", 0, minimum=0),
         vendor=t.text("vendor", "vcran"),
+        battery=_battery(t.table("battery")) if "battery" in t.data else None,
     )
     if r.carrying > r.capacity:
         t.fail("carrying", f"{r.carrying} exceeds capacity {r.capacity}")
@@ -170,12 +184,75 @@ def _station(t: Table) -> StationConfig:
         produce_every=t.number("produce_every", 0.0, minimum=0.0),
         produce_start=t.number("produce_start", None, minimum=0.0),
         produce_limit=t.integer("produce_limit", 0, minimum=0),
+        charger=t.boolean("charger", False),
         dock=_point(t, "dock", t.raw("dock")) if "dock" in t.data else None,
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
     t.done()
     return s
+
+
+def _battery(t: Table) -> BatteryConfig:
+    capacity = t.number("capacity", positive=True)
+    b = BatteryConfig(
+        capacity=capacity,
+        initial=t.number("initial", None, minimum=0.0),
+        per_metre=t.number("per_metre", 0.0, minimum=0.0),
+        per_action_second=t.number("per_action_second", 0.0, minimum=0.0),
+        per_idle_second=t.number("per_idle_second", 0.0, minimum=0.0),
+        charge_rate=t.number("charge_rate", 0.0, minimum=0.0),
+        low=t.number("low", 0.2, minimum=0.0),
+        swap_after=t.number("swap_after", None, minimum=0.0),
+        voltage=t.number("voltage", 24.0, positive=True),
+        resolution=t.number("resolution", 0.01, positive=True),
+    )
+    if b.initial is not None and b.initial > capacity:
+        t.fail("initial", f"{b.initial} exceeds capacity {capacity}")
+    if b.low >= 1.0:
+        t.fail("low", f"a fraction of capacity below 1 is needed, got {b.low}")
+    if b.resolution > 1.0:
+        t.fail("resolution", f"a fraction of capacity up to 1 is needed, got {b.resolution}")
+    t.done()
+    return b
+
+
+def _fault_robot(t: Table, robots: set[str]) -> str:
+    robot = t.string("robot")
+    if robot not in robots:
+        t.fail("robot", f"no robot {robot!r} in this scenario; robots: {', '.join(sorted(robots))}")
+    return robot
+
+
+def _fault(t: Table, robots: set[str]) -> FaultSpec:
+    time = t.number("t", minimum=0.0)
+    robot = _fault_robot(t, robots)
+    kind = t.string("kind")
+    if kind not in FAULT_KINDS:
+        t.fail("kind", f"unknown fault {kind!r}; known: {', '.join(FAULT_KINDS)}")
+    duration = t.number("duration", positive=True) if FAULT_KINDS[kind] else 0.0
+    t.done()
+    return FaultSpec(time, robot, kind, duration)
+
+
+def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
+    kind = t.string("kind")
+    if kind not in RANDOM_KINDS:
+        t.fail("kind", f"unknown random fault {kind!r}; known: {', '.join(RANDOM_KINDS)}")
+    chosen = t.strings("robots", [])
+    for r in chosen:
+        if r not in robots:
+            t.fail("robots", f"no robot {r!r} in this scenario")
+    source = RandomFaults(
+        kind=kind,
+        mtbf=t.number("mtbf", positive=True),
+        mttr=t.number("mttr", positive=True) if FAULT_KINDS[kind] else 0.0,
+        robots=tuple(chosen),
+        start=t.number("start", 0.0, minimum=0.0),
+        until=t.number("until", math.inf, minimum=0.0),
+    )
+    t.done()
+    return source
 
 
 def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
@@ -216,8 +293,8 @@ def _action(t: Table, time: float, robot: str) -> list[ScriptEntry]:
         a = build.action(t.name("task"), t.name("id"), seq, length, category=category or 0, code=code or 0)
     else:
         kind = t.string("action")
-        if kind not in ACTION_KINDS:
-            t.fail("action", f"unknown action {kind!r}; known: {', '.join(ACTION_KINDS)} (or give category/code)")
+        if kind not in SCRIPT_ACTIONS:
+            t.fail("action", f"unknown action {kind!r}; known: {', '.join(SCRIPT_ACTIONS)} (or give category/code)")
         a = build.action(t.name("task"), t.name("id"), seq, length, kind)
     return [ScriptEntry(time, robot, "action_assignment", a)]
 
@@ -272,8 +349,8 @@ def _task_spec(t: Table) -> TaskSpec:
     path = t.list_of("path", lambda i, v: _point(t, f"path[{i}]", v))
     actions = t.strings("actions", [])
     for a in actions:
-        if a not in ACTION_KINDS:
-            t.fail("actions", f"unknown action {a!r}; known: {', '.join(ACTION_KINDS)}")
+        if a not in SCRIPT_ACTIONS:
+            t.fail("actions", f"unknown action {a!r}; known: {', '.join(SCRIPT_ACTIONS)}")
     if not path and not actions:
         t.fail("path", "a task needs at least one point or one action")
     return TaskSpec(tuple(path), tuple(actions))

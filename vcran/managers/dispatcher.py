@@ -7,27 +7,38 @@
 * A job is two OPIL tasks on that robot: drive to the pickup's dock and ``load``; when that task has
   completed, drive to the drop-off's dock and ``unload``. When the second completes, the job is done.
 * How a task ended comes from the robot's ``ran_status``: the ids of recently completed tasks, and of
-  cancelled ones with the reason (``timeout``, ``action_failed``, ``cancelled``, ...).
+  cancelled ones with the reason (``timeout``, ``action_failed``, ``cancelled``; SPEC §4's
+  ``motion_failed``, ``collision``, ``battery_empty``).
 * A cancelled task costs the job one try. The retry waits ``retry_after`` seconds, doubled for each
   further try (10, 20, 40 s by default): a pickup at an empty station fails within seconds, and
   retrying at once would burn every try before the station produces a part. A failed pickup frees the
   robot at once (it may take other jobs meanwhile) and puts the job back in the queue at its old place
   when the wait is over; a failed drop-off is sent again to the same robot, which still carries the
   part. After ``max_tries`` cancelled tasks the job is reported failed.
+* Batteries (SPEC §4): a robot without a job whose published charge is below ``charge_below`` (a
+  fraction) drives to the nearest ``charger`` station and charges to full instead of taking jobs. A
+  robot on a job finishes it first. A robot that ran empty is out of service until its battery is
+  swapped (a ``battery`` update at or above ``charge_below`` again): its pickup goes back to the queue,
+  and its drop-off waits for the swap (the part is on board), or fails ``battery_empty`` at once when
+  the robot's battery is never swapped. A task refused because the robot was already out of service
+  (a ``ran_error`` ``battery_empty`` naming it) counts as cancelled ``battery_empty``.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from vcran.core.ids import Id
 from vcran.core.manager import FleetManager
-from vcran.core.messages import Message, RanStatus
+from vcran.core.messages import BatteryState, Message, RanError, RanStatus
 from vcran.core.scenario import Job
 
 PICKUP, DROPOFF = "pick", "drop"
+COMPLETED, BATTERY_EMPTY = "completed", "battery_empty"
+Point = tuple[float, float, float | None]  # x, y, theta (a pose, or a dock)
 
 
 @dataclass(slots=True)
@@ -47,16 +58,18 @@ class Trip:
 
 class Dispatcher(FleetManager):
     """FIFO jobs, nearest idle robot, re-planning after a cancelled task (with back-off), failure after
-    ``max_tries``."""
+    ``max_tries``, charging below ``charge_below``."""
 
-    attributes = frozenset({"ran_status"})
+    attributes = frozenset({"ran_status", "ran_error", "battery"})
 
-    def __init__(self, max_tries: int = 3, retry_after: float = 10.0) -> None:
+    def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3) -> None:
         if max_tries < 1:
             raise ValueError(f"max_tries must be at least 1, got {max_tries}")
         if retry_after < 0:
             raise ValueError(f"retry_after must not be negative, got {retry_after}")
-        self.max_tries, self.retry_after = max_tries, retry_after
+        if not 0.0 <= charge_below < 1.0:
+            raise ValueError(f"charge_below is a fraction of capacity in [0, 1), got {charge_below}")
+        self.max_tries, self.retry_after, self.charge_below = max_tries, retry_after, charge_below
 
     def on_start(self) -> None:
         self.queue: list[Trip] = []                      # jobs waiting for a robot, head first
@@ -64,6 +77,11 @@ class Dispatcher(FleetManager):
         self.trips: dict[str, Trip] = {}                 # robot -> the job it works on
         self._rank = {robot: i for i, robot in enumerate(self.fleet.robot_ids)}
         self._arrivals = 0
+        self.chargers = [s.id for s in self.fleet.stations if s.charger]
+        self.charging: dict[str, Id] = {}                # robot -> its charge task
+        self.out: set[str] = set()                       # robots whose battery ran empty, until swapped
+        self.level: dict[str, float] = {}                # robot -> its latest published percentage
+        self._charges = 0
 
     def on_job(self, job: Job) -> None:
         self._arrivals += 1
@@ -71,16 +89,20 @@ class Dispatcher(FleetManager):
         self.dispatch()
 
     def on_update(self, robot: str, attribute: str, message: Message, t: float) -> None:
+        if isinstance(message, BatteryState):
+            self.battery_changed(robot, message.percentage)
+            return
         trip = self.trips.get(robot)
-        if trip is None or trip.task is None or not isinstance(message, RanStatus):
+        task = trip.task if trip is not None else self.charging.get(robot)
+        outcome = _outcome(message, task) if task is not None else None
+        if outcome is None:
             return
-        if trip.task in message.completed:
+        if trip is None:
+            self.charge_ended(robot, outcome)
+        elif outcome == COMPLETED:
             self.task_completed(robot, trip)
-            return
-        for ended in message.cancelled:
-            if ended.task_id == trip.task:
-                self.task_cancelled(robot, trip, ended.reason)
-                return
+        else:
+            self.task_cancelled(robot, trip, outcome)
 
     # --- decisions ----------------------------------------------------------------------------------------
 
@@ -94,13 +116,8 @@ class Dispatcher(FleetManager):
             self.send(robot, trip)
 
     def nearest_idle(self, station: str) -> str:
-        x, y, _ = self.fleet.dock(station)
-
-        def distance(robot: str) -> float:
-            rx, ry, _ = self.handle.pose(robot)
-            return math.hypot(rx - x, ry - y)
-
-        return min(self.idle, key=distance)  # min keeps the first of equals: the robot listed first
+        """The idle robot nearest to ``station``'s dock; of equals, the robot listed first."""
+        return _nearest(self.idle, self.fleet.dock(station), self.handle.pose)
 
     def task_completed(self, robot: str, trip: Trip) -> None:
         if trip.phase == PICKUP:
@@ -113,16 +130,50 @@ class Dispatcher(FleetManager):
     def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
         trip.tries += 1
         trip.task = None
-        if trip.tries >= self.max_tries:
+        stranded = False
+        if reason == BATTERY_EMPTY:
+            self.out.add(robot)
+            battery = self.fleet.robot(robot).battery
+            stranded = trip.phase == DROPOFF and (battery is None or battery.swap_after is None)
+        if trip.tries >= self.max_tries or stranded:
             self.handle.job_failed(trip.job, reason)  # the last task's reason; the event counts the tasks
             self.release(robot)
             return
         wait = self.retry_after * 2 ** (trip.tries - 1)
         if trip.phase == DROPOFF:
-            self.handle.call_later(wait, self.send, robot, trip)  # the robot still carries the part
+            if robot not in self.out:  # else it goes when the battery is swapped (battery_changed)
+                self.handle.call_later(wait, self.send, robot, trip)  # the robot still carries the part
         else:
             self.release(robot)
             self.handle.call_later(wait, self.requeue, trip)
+
+    def battery_changed(self, robot: str, percentage: float) -> None:
+        """A ``battery`` update: an idle robot running low goes to charge; an empty one swapped is back."""
+        self.level[robot] = percentage
+        if robot in self.out:
+            if percentage >= self.charge_below:  # swapped for a charged battery
+                self.out.discard(robot)
+                trip = self.trips.get(robot)
+                if trip is not None:
+                    self.send(robot, trip)  # the drop-off that waited for the swap
+                else:
+                    self.available(robot)
+        elif robot in self.idle and self.low(robot) and self.chargers:
+            self.idle.remove(robot)
+            self.charge(robot)
+
+    def charge_ended(self, robot: str, outcome: str) -> None:
+        """Full (or the charge failed: then back to work, and to a charger again when next free and low)."""
+        del self.charging[robot]
+        if outcome == BATTERY_EMPTY:
+            self.out.add(robot)  # ran empty on the way: back when swapped
+        elif outcome == COMPLETED:
+            self.available(robot)
+        else:
+            self.idle_again(robot)
+
+    def low(self, robot: str) -> bool:
+        return self.level.get(robot, 1.0) < self.charge_below
 
     def requeue(self, trip: Trip) -> None:
         """``trip``'s wait after a failed pickup is over: back in the queue at its old place."""
@@ -137,8 +188,50 @@ class Dispatcher(FleetManager):
         name = f"{trip.job.id}_{trip.phase}{trip.tries + 1}"
         trip.task = self.handle.send_task(robot, [self.fleet.dock(station)], [action], task=name, job=trip.job)
 
+    def charge(self, robot: str) -> None:
+        """Send ``robot`` to the charger nearest to it, to charge to full."""
+        self._charges += 1
+        station = _nearest(self.chargers, self.handle.pose(robot), self.fleet.dock)
+        self.charging[robot] = self.handle.send_task(robot, [self.fleet.dock(station)], ["charge"],
+                                                     task=f"charge{self._charges}_{robot}")
+
     def release(self, robot: str) -> None:
-        """``robot`` has no job any more: back among the idle ones (in fleet order), and maybe the next job."""
+        """``robot`` has no job any more."""
         del self.trips[robot]
+        self.available(robot)
+
+    def available(self, robot: str) -> None:
+        """``robot`` is free: to a charger when its battery is low, else idle; nothing while it is empty."""
+        if robot in self.out:
+            return
+        if self.low(robot) and self.chargers:
+            self.charge(robot)
+        else:
+            self.idle_again(robot)
+
+    def idle_again(self, robot: str) -> None:
+        """Back among the idle ones (in fleet order), and maybe the next job."""
         bisect.insort(self.idle, robot, key=self._rank.__getitem__)
         self.dispatch()
+
+
+def _nearest(candidates: list[str], point: Point, where: Callable[[str], Point]) -> str:
+    """The candidate whose place is nearest to ``point`` in a straight line (min keeps the first of equals)."""
+    return min(candidates, key=lambda c: math.hypot(where(c)[0] - point[0], where(c)[1] - point[1]))
+
+
+def _outcome(message: Message, task: Id) -> str | None:
+    """How ``task`` ended according to ``message``: ``"completed"``, a cancel reason, or None (not yet).
+
+    A ``ran_error`` ``battery_empty`` naming the task ends it at once: published when the robot stops
+    (its ``ran_status`` follows at the next tick), and the only word on a task the robot refused
+    because it was already out of service (a refused task never appears in ``ran_status``)."""
+    if isinstance(message, RanStatus):
+        if task in message.completed:
+            return COMPLETED
+        for ended in message.cancelled:
+            if ended.task_id == task:
+                return ended.reason
+    elif isinstance(message, RanError) and message.code == BATTERY_EMPTY and message.task_id == task:
+        return BATTERY_EMPTY
+    return None

@@ -52,8 +52,8 @@ def require_matplotlib() -> None:
 
 def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None) -> Report:
     """Write ``layout``, ``timeline`` (paged above 20 robots, at most ``timeline_pages`` pages, default
-    :data:`TIMELINE_PAGES`), for a closed-loop run ``fleet`` (jobs waiting, done, robots busy over
-    time), ``kpi.md`` and ``kpi.csv`` into ``out``."""
+    :data:`TIMELINE_PAGES`), ``battery`` (a run with batteries), for a closed-loop run ``fleet`` (jobs
+    waiting, done, robots busy over time), ``kpi.md`` and ``kpi.csv`` into ``out``."""
     if fmt not in FORMATS:
         raise ValueError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
     require_matplotlib()
@@ -79,6 +79,12 @@ def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int
                 note += f"; the other {len(run.robots) - drawn} are in kpi.md only (raise --timeline-pages)"
         files.append(out / name)
         draw_timeline(run, history, chunk, files[-1], note)
+
+    if run.batteries:  # SPEC §4
+        from vcran.report.battery import draw_battery
+
+        files.append(out / f"battery.{fmt}")
+        draw_battery(run, files[-1])
 
     if run.jobs is not None:  # a closed loop: the fleet over time
         from vcran.report.fleet import draw_fleet, fleet_series

@@ -66,6 +66,9 @@ class RobotResult:
     parts_moved: int
     errors: int
     final_pose: tuple[float, float, float]
+    #: SPEC §4: charge drawn (Ah; None without a battery) and collisions, from the summary.
+    energy_used: float | None = None
+    collisions: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,6 +97,8 @@ class Run:
     motion_areas: tuple[MotionArea, ...] = ()
     #: (robot, motion label) -> the targets received for it, as (receive time, x, y), in arrival order.
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = field(default_factory=dict)
+    #: robot -> its published ``battery`` as (t, percentage) points (SPEC §4), for robots with a battery.
+    batteries: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: A closed-loop run's job KPIs (summary.json's ``jobs``, and the fleet's utilisation); else None.
     jobs: JobFigures | None = None
 
@@ -124,9 +129,9 @@ def read_run(path: Path) -> Run:
     with _reading(path / "telemetry.bin"):
         ticks = telemetry(path, len(ids))
     events = list(_events(path / "events.jsonl"))
-    areas, targets = _assignments(path / "trace.jsonl")
+    areas, targets, batteries = _assignments(path / "trace.jsonl")
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
-               sim_time, errors, robots, stations, results, events, ticks, areas, targets, jobs)
+               sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs)
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,8 +174,10 @@ def _reading(path: Path) -> Iterator[None]:
 
 def _result(robot: dict[str, Any]) -> RobotResult:
     pose = robot["final_pose"]
+    battery = robot.get("battery")
     return RobotResult(float(robot["distance"]), int(robot["parts_moved"]), int(robot["errors"]),
-                       (float(pose["x"]), float(pose["y"]), float(pose["theta"])))
+                       (float(pose["x"]), float(pose["y"]), float(pose["theta"])),
+                       float(battery["used"]) if battery is not None else None, int(robot.get("collisions", 0)))
 
 
 def _robot(config: dict[str, Any]) -> RobotSpec:
@@ -200,8 +207,10 @@ def _events(path: Path) -> Iterator[dict[str, Any]]:
             yield event
 
 
-def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]]]:
-    """Motion areas and targets from the inbound ``motion_assignment`` records of the trace.
+def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]],
+                                       dict[str, list[tuple[float, float]]]]:
+    """Motion areas and targets from the inbound ``motion_assignment`` records of the trace, and the
+    published ``battery`` percentages (SPEC §4), in one pass.
 
     The trace of a large run is mostly outbound status; a byte test skips those lines unparsed. A live
     run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
@@ -209,9 +218,17 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
     """
     areas: dict[tuple[str, tuple[Point, ...]], MotionArea] = {}
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
+    batteries: dict[str, list[tuple[float, float]]] = {}
     with path.open("rb") as f:
         f.readline()
         for n, line in enumerate(f, start=2):
+            if b'"attr":"battery"' in line:
+                try:
+                    record = orjson.loads(line)
+                    batteries.setdefault(record["robot"], []).append((float(record["t"]), float(record["value"]["percentage"])))
+                except (orjson.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+                    raise ReportError(f"{path}:{n}: not a battery record ({_describe(exc)})") from None
+                continue
             if b"motion_assignment" not in line:
                 continue
             try:
@@ -230,7 +247,7 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
                 raise ReportError(f"{path}:{n}: not a motion_assignment record ({_describe(exc)})") from None
             if polygon and (robot, polygon) not in areas:
                 areas[robot, polygon] = MotionArea(robot, polygon)
-    return tuple(areas.values()), targets
+    return tuple(areas.values()), targets, batteries
 
 
 def _decoded(raw: Any) -> dict[str, Any] | None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from vcran.report.folder import Run
+from vcran.report.incidents import downtime
 from vcran.report.spans import REASONS, History
 
 FLEET = "fleet"
@@ -27,6 +28,11 @@ class Kpi:
     latency: float | None
     parts_moved: int
     errors: int
+    #: SPEC §4: charge drawn per completed task (Ah; None without a battery or a completed task),
+    #: seconds held or out of service, collisions.
+    energy_per_job: float | None = None
+    downtime: float = 0.0
+    collisions: int = 0
 
     @property
     def idle_share(self) -> float:
@@ -44,6 +50,7 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
     rows = []
     all_latencies: list[float] = []
     busy_total = 0.0
+    down = downtime(run)
     for rid, history in histories.items():
         latencies = [s.end - s.queued for s in history.tasks if s.completed]
         all_latencies += latencies
@@ -58,7 +65,11 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
             latency=_mean(latencies),
             parts_moved=result.parts_moved,
             errors=result.errors,
+            energy_per_job=_per(result.energy_used, len(latencies)),
+            downtime=down[rid],
+            collisions=result.collisions,
         ))
+    used = [run.results[rid].energy_used for rid in histories]
     rows.append(Kpi(
         robot=FLEET,
         completed=sum(r.completed for r in rows),
@@ -68,8 +79,16 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
         latency=_mean(all_latencies),
         parts_moved=sum(r.parts_moved for r in rows),
         errors=run.errors,
+        energy_per_job=_per(sum(u for u in used if u is not None) if any(u is not None for u in used) else None,
+                            sum(r.completed for r in rows)),
+        downtime=sum(r.downtime for r in rows),
+        collisions=sum(r.collisions for r in rows) // 2,  # each collision involves two robots
     ))
     return rows
+
+
+def _per(total: float | None, jobs: int) -> float | None:
+    return total / jobs if total is not None and jobs else None
 
 
 def _share(part: float, whole: float) -> float:

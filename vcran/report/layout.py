@@ -17,8 +17,18 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from vcran.report.folder import RobotSpec, Run
+from vcran.report.incidents import incidents
 from vcran.report.spans import History, TaskSpan
-from vcran.report.style import NO_TASK, REASON_STYLE, TASK_PALETTE, robot_colour, save, task_colours, task_name
+from vcran.report.style import (
+    INCIDENT_STYLE,
+    NO_TASK,
+    REASON_STYLE,
+    TASK_PALETTE,
+    robot_colour,
+    save,
+    task_colours,
+    task_name,
+)
 
 if TYPE_CHECKING:  # matplotlib is an optional extra, imported when a figure is drawn
     from matplotlib.artist import Artist
@@ -114,6 +124,7 @@ def draw_layout(run: Run, histories: dict[str, History], path: Path) -> None:
     labels: list[Label] = []
     handles = _floor(ax, run, labels) + _paths(ax, run, histories, arrows=not many_robots)
     handles += _poses(ax, run, labels, small=many_robots)
+    handles += _incident_places(ax, run)
     ax.set_aspect("equal", adjustable="datalim")
     ax.autoscale_view()
     ax.margins(0.08)
@@ -199,6 +210,18 @@ def _direction_arrow(ax: Axes, points: np.ndarray, colour: str) -> None:
     mid = np.array([np.interp(half, along, points[:, 0]), np.interp(half, along, points[:, 1])])
     ax.annotate("", xy=tuple(mid + 1e-3 * steps[k]), xytext=tuple(mid),
                 arrowprops={"arrowstyle": "-|>", "color": colour, "mutation_scale": 14, "linewidth": 0}, zorder=3)
+
+
+def _incident_places(ax: Axes, run: Run) -> list[Artist]:
+    """SPEC §4 events that have a place: collisions and where batteries ran out."""
+    handles: list[Artist] = []
+    placed = [i for i in incidents(run) if i.place is not None]
+    for kind, (marker, colour, label) in INCIDENT_STYLE.items():
+        points = [i.place for i in placed if i.kind == kind and i.place is not None]
+        if points:
+            handles.append(ax.scatter([p[0] for p in points], [p[1] for p in points], marker=marker, s=140,
+                                      color=colour, edgecolors="white", linewidths=0.6, zorder=6, label=label))
+    return handles
 
 
 def _poses(ax: Axes, run: Run, labels: list[Label], small: bool) -> list[Artist]:

@@ -48,17 +48,34 @@ COLUMNS = (
     Column("parts moved", "parts_moved", lambda k: k.parts_moved),
     Column("errors", "errors", lambda k: k.errors),
 )
+#: SPEC §4 columns, shown when a run has any battery, downtime, collision or §4 cancel (docs/report.md).
+S4_COLUMNS = (
+    Column("battery empty", "cancelled_battery_empty", lambda k: k.cancelled["battery_empty"]),
+    Column("motion failed", "cancelled_motion_failed", lambda k: k.cancelled["motion_failed"]),
+    Column("collision", "cancelled_collision", lambda k: k.cancelled["collision"]),
+    Column("energy per job (Ah)", "energy_per_job_ah", lambda k: k.energy_per_job, _fixed(4)),
+    Column("downtime (s)", "downtime_s", lambda k: k.downtime, _fixed(1)),
+    Column("collisions", "collisions", lambda k: k.collisions),
+)
+
+
+def columns(rows: list[Kpi]) -> tuple[Column, ...]:
+    """The table's columns: the §4 ones only when the run has something to show in them."""
+    s4 = any(k.energy_per_job is not None or k.downtime or k.collisions or any(c.value(k) for c in S4_COLUMNS[:3])
+             for k in rows)
+    return COLUMNS + S4_COLUMNS if s4 else COLUMNS
 
 
 def markdown(rows: list[Kpi]) -> str:
     """A Markdown table with padded columns, so it reads as well in a terminal as rendered."""
-    cells = [[c.title for c in COLUMNS]]
+    cols = columns(rows)
+    cells = [[c.title for c in cols]]
     for row in rows:
-        values = [c.value(row) for c in COLUMNS]
-        cells.append(["–" if v is None else c.text(v) for c, v in zip(COLUMNS, values)])
+        values = [c.value(row) for c in cols]
+        cells.append(["–" if v is None else c.text(v) for c, v in zip(cols, values)])
     if len(rows) > 1:  # the fleet row, in bold
         cells[-1] = [f"**{text}**" for text in cells[-1]]
-    widths = [max(len(line[i]) for line in cells) for i in range(len(COLUMNS))]
+    widths = [max(len(line[i]) for line in cells) for i in range(len(cols))]
 
     def line(texts: list[str]) -> str:
         padded = [t.ljust(w) if i == 0 else t.rjust(w) for i, (t, w) in enumerate(zip(texts, widths))]
@@ -80,9 +97,10 @@ def console(rows: list[Kpi]) -> str:
 def csv_text(rows: list[Kpi]) -> str:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow([c.name for c in COLUMNS])
+    cols = columns(rows)
+    writer.writerow([c.name for c in cols])
     for row in rows:
-        writer.writerow(["" if (v := c.value(row)) is None else _plain(v) for c in COLUMNS])
+        writer.writerow(["" if (v := c.value(row)) is None else _plain(v) for c in cols])
     return out.getvalue()
 
 

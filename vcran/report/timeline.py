@@ -16,8 +16,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from vcran.report.folder import Run
+from vcran.report.incidents import incidents
 from vcran.report.spans import OPEN, STATES, History, TaskSpan
-from vcran.report.style import DPI, REASON_STYLE, STATE_COLOURS, TASK_NEUTRAL, save, task_colours
+from vcran.report.style import (
+    CORE_REASONS,
+    DPI,
+    INCIDENT_STYLE,
+    REASON_STYLE,
+    STATE_COLOURS,
+    TASK_NEUTRAL,
+    save,
+    task_colours,
+)
 
 if TYPE_CHECKING:  # matplotlib is an optional extra, imported when a figure is drawn
     from matplotlib.axes import Axes
@@ -81,6 +91,11 @@ def draw_timeline(run: Run, histories: dict[str, History], robots: tuple[str, ..
         for span, ty in tasks:
             _task(ax, marks, span, ty, colours[rid, span.task] if colours else TASK_NEUTRAL, px_per_s)
         ax.axhline(y0 - PITCH / 2 - GAP / 2, color="#bbbbbb", linewidth=0.6)
+    state_lane = {rid: y0 for rid, y0, _ in blocks}
+    marked = [i for i in incidents(run) if i.robot in state_lane]
+    for incident in marked:  # SPEC §4: on the robot's state lane, where it happened in time
+        marker, colour, _ = INCIDENT_STYLE[incident.kind]
+        marks.point(incident.t, state_lane[incident.robot], marker, colour)
     marks.draw(ax)
 
     ax.set_yticks([y0 for _, y0, _ in blocks], [rid for rid, _, _ in blocks], fontsize=8)
@@ -98,7 +113,10 @@ def draw_timeline(run: Run, histories: dict[str, History], robots: tuple[str, ..
         Patch(facecolor=TASK_NEUTRAL, label="task current"),
         Patch(facecolor="white", edgecolor="#555555", hatch="////", label="task cancelled"),
         *(Line2D([], [], marker=m, color=c, linestyle="none", label=f"cancel: {reason}")
-          for reason, (m, c) in REASON_STYLE.items()),
+          for reason, (m, c) in REASON_STYLE.items()
+          if reason in CORE_REASONS or any(s.outcome == reason for rid in robots for s in histories[rid].tasks)),
+        *(Line2D([], [], marker=m, color=c, linestyle="none", label=label)
+          for kind, (m, c, label) in INCIDENT_STYLE.items() if any(i.kind == kind for i in marked)),
         Line2D([], [], marker=">", color="#333333", linestyle="none", label="task open at end of run"),
     ]
     lanes_text = "top lane of each robot: its RanLogic state; lanes below: its tasks, from first seen to the end"

@@ -80,6 +80,14 @@ class ClosedLoop(Transport):
         assert isinstance(self.link, Link)
         self.link.publish(out)
 
+    def outage(self, robot: str, until: float) -> bool:
+        """``link_down`` (SPEC §4) is the link's: Orion between manager and RAN holds what was written, and
+        what the robot publishes (its rows of the fleet's frames too) waits (:meth:`Link.outage`)."""
+        if not isinstance(self.link, Link):
+            return False
+        self.link.outage(robot, until)
+        return True
+
     @property
     def exhausted(self) -> bool:
         link = self.link

@@ -7,11 +7,14 @@ and on ``simpy.rt.RealtimeEnvironment`` (live).
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
 import simpy
 
+from vcran.core.battery import FleetBattery
 from vcran.core.effects import ErrorReport, Event, State, StateChanged, TaskCancelled, TaskCompleted
 from vcran.core.messages import Message
 from vcran.core.motion import FleetKinematics
@@ -19,6 +22,9 @@ from vcran.core.ranlogic import RanLogic
 from vcran.core.scenario import Scenario
 from vcran.core.stations import Station, StationMap, motion_area_problem
 from vcran.core.wire import Inbound, Transport
+from vcran.sim.contacts import Contacts
+from vcran.sim.faults import Faults
+from vcran.sim.power import Power
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
 from vcran.sim.timing import END, PRODUCTION, at
@@ -55,7 +61,7 @@ class Model:
         self.stations = [
             Station(c.id, c.position[0], c.position[1], c.reach, c.parts, c.capacity, c.produce_every,
                     c.produce_start if c.produce_start is not None else c.produce_every, c.produce_limit,
-                    c.area)
+                    c.area, c.charger)
             for c in scenario.stations
         ]
         station_map = StationMap(self.stations)
@@ -67,12 +73,21 @@ class Model:
         self._busy = [0.0] * len(scenario.robots)            # seconds not WAITING, per robot ...
         self._busy_since: list[float | None] = [None] * len(scenario.robots)  # ... and since when, if now
         self.robots: list[RobotNode] = []
+        configs = [r.battery for r in scenario.robots]
+        self.battery = FleetBattery(configs) if any(c is not None for c in configs) else None
         for i, config in enumerate(scenario.robots):
             logic = RanLogic(config.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
                              area_check=motion_area_problem)
-            self.robots.append(RobotNode(self.env, i, config, logic, self.fleet, station_map, s.durations,
-                                         self._log, self._changed))
+            robot = RobotNode(self.env, i, config, logic, self.fleet, station_map, s.durations,
+                              self._log, self._changed, self.battery)
+            robot.idle_horizon = 2.0 * s.telemetry_period
+            self.robots.append(robot)
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
+        if self.battery is not None:
+            self.ran.after_statuses = Power(self.robots, self.battery, s.telemetry_period, self.ran.publish).tick
+        self._start_faults()
+        self.contacts = (Contacts(self.env, self.robots, s.collisions, s.collision_resolution)
+                         if s.collisions != "off" and len(self.robots) > 1 else None)
         self.finished = self.env.event()
         after_tick = self._idle_stop if progress is None else self._reporting(progress)
         self.env.process(self.ran.telemetry(s.telemetry_period, after_tick))
@@ -92,8 +107,23 @@ class Model:
 
     # --- wiring -----------------------------------------------------------------------------------------
 
+    def _start_faults(self) -> None:
+        sc = self.scenario
+        if not sc.faults and not sc.random_faults:
+            return
+        faults = Faults(self.env, {r.id: r for r in self.robots}, self.ran.link_down)
+        if sc.faults:
+            self.env.process(faults.play(sc.faults))
+        for source in sc.random_faults:
+            until = min(source.until, sc.settings.duration if sc.settings.duration is not None else math.inf)
+            limited = dataclasses.replace(source, until=until)
+            for r in self.robots:
+                if not source.robots or r.id in source.robots:
+                    self.env.process(faults.play(limited.stream(sc.settings.seed, r.id)))
+
     def _log(self, robot: RobotNode, event: Event) -> None:
-        self.events.write(self.env.now, robot.id, event.NAME, event.fields())
+        if event.NAME:  # else a ran_error whose incident was logged on its own
+            self.events.write(self.env.now, robot.id, event.NAME, event.fields())
         if isinstance(event, StateChanged):
             if event.from_ is State.WAITING:
                 self._busy_since[robot.index] = self.env.now
@@ -153,6 +183,14 @@ class Model:
 
     # --- results ----------------------------------------------------------------------------------------
 
+    def _battery_summary(self, r: RobotNode, t: float) -> dict[str, float]:
+        b = self.battery
+        assert b is not None
+        i = r.index
+        b.begin(i, t, self.fleet.distance(i, t), b.kind[i])  # close the running segment's books
+        return {"charge": b.level0[i], "percentage": b.level0[i] / b.capacity[i], "used": b.used[i],
+                "charged": b.added[i]}
+
     def busy(self, index: int) -> float:
         """Seconds robot ``index`` has spent not WAITING so far (a task was current; the report's busy time)."""
         since = self._busy_since[index]
@@ -173,6 +211,10 @@ class Model:
                 "parts_moved": r.parts_moved,
                 "errors": r.logic.error_count,
             }
+            if self.battery is not None and r.battery is not None:
+                robots[r.id]["battery"] = self._battery_summary(r, t)
+            if self.contacts is not None and self.contacts.count[r.index]:
+                robots[r.id]["collisions"] = self.contacts.count[r.index]
         return {
             "scenario": self.scenario.settings.name,
             "seed": self.scenario.settings.seed,

@@ -32,7 +32,7 @@ from vcran.core.messages import (
 from vcran.core.scenario import RobotConfig
 from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.sim.robot import Decoded, Malformed, RobotNode
-from vcran.sim.timing import TELEMETRY, at
+from vcran.sim.timing import FAULT, TELEMETRY, at
 
 Decode = Callable[[str, Any], Message]
 
@@ -54,6 +54,11 @@ class Ran:
         self._dirty: list[RobotNode] = []
         self._dirty_set: set[int] = set()
         self._published: dict[tuple[int, str], Message] = {}
+        #: SPEC §4 link_down: robots whose link is down -> what they missed (latest value per inbound
+        #: attribute, as Orion holds it) and what they could not publish (latest per attribute, every ran_error).
+        self._down: dict[str, tuple[dict[str, Inbound], dict[str, Publish], list[Publish]]] = {}
+        #: Called after each telemetry tick's statuses (the battery's publications), if set.
+        self.after_statuses: Callable[[float], None] | None = None
 
     # --- inbound ----------------------------------------------------------------------------------------
 
@@ -62,6 +67,11 @@ class Ran:
         robot = self._by_entity.get(inbound.entity)
         if robot is None:
             self._reject_unknown(inbound)
+            return
+        down = self._down.get(robot.id) if self._down else None
+        if down is not None:
+            down[0].pop(inbound.attribute, None)
+            down[0][inbound.attribute] = inbound  # Orion keeps the latest value; the robot reads it later
             return
         if inbound.message is not None:
             robot.inbox.put(Decoded(inbound.message))
@@ -86,7 +96,41 @@ class Ran:
             motion_id=error.motion, action_id=error.action, stamp=Time.from_seconds(self.env.now),
             count=error.count,
         )
-        self.transport.send(Publish(self.env.now, robot.id, "ran_error", message))
+        self.send(Publish(self.env.now, robot.id, "ran_error", message))
+
+    def send(self, out: Publish) -> None:
+        """Publish one attribute of one robot, unless its link is down (then it waits for the link)."""
+        down = self._down.get(out.robot) if self._down else None
+        if down is None:
+            self.transport.send(out)
+        elif out.attribute == "ran_error":
+            down[2].append(out)
+        else:
+            down[1].pop(out.attribute, None)
+            down[1][out.attribute] = out
+
+    def link_down(self, robot: RobotNode, duration: float) -> None:
+        """SPEC §4 link_down: for ``duration`` the robot neither receives nor publishes.
+
+        Back up, it reads what Orion holds (the latest value of each attribute written meanwhile, in the order
+        they were last written), and publishes what it could not: the latest of each attribute, then every
+        ``ran_error`` in order. Its rows in the fleet's ``current_motion`` frames keep flowing (a frame is
+        one record for the whole fleet; docs/robots.md). A transport with a link of its own (a closed loop)
+        cuts that link instead (:meth:`Transport.outage`), so the manager misses the robot's rows as well."""
+        if self.transport.outage(robot.id, self.env.now + duration):
+            return
+        if robot.id in self._down:
+            return
+        self._down[robot.id] = ({}, {}, [])
+        at(self.env, self.env.now + duration, FAULT).callbacks.append(lambda _: self._link_up(robot))
+
+    def _link_up(self, robot: RobotNode) -> None:
+        missed, held, errors = self._down.pop(robot.id)
+        now = self.env.now
+        for out in [*held.values(), *errors]:
+            self.transport.send(Publish(now, out.robot, out.attribute, out.message))
+        for inbound in missed.values():
+            self.deliver(inbound)
 
     def telemetry(self, period: float, stop_when_idle: Callable[[], bool]) -> Generator[simpy.events.Event, Any, None]:
         """Every ``period``: the fleet's current_motion, then the changed statuses, in fleet order."""
@@ -104,6 +148,8 @@ class Ran:
             for robot in dirty:
                 self._publish_if_new(t, robot, "assignment_status", self.assignment_status(robot))
                 self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status())
+            if self.after_statuses is not None:
+                self.after_statuses(t)
             if stop_when_idle():
                 return
             k += 1
@@ -116,14 +162,17 @@ class Ran:
             t = j * period
             yield at(self.env, t, TELEMETRY)
             for robot_id, message in messages:
-                self.transport.send(Publish(t, robot_id, "robot_description", message))
+                self.send(Publish(t, robot_id, "robot_description", message))
             j += 1
 
     def _publish_if_new(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
         key = (robot.index, attribute)
         if self._published.get(key) != message:
             self._published[key] = message
-            self.transport.send(Publish(t, robot.id, attribute, message))
+            self.send(Publish(t, robot.id, attribute, message))
+
+    def publish(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
+        self.send(Publish(t, robot.id, attribute, message))
 
     @staticmethod
     def assignment_status(robot: RobotNode) -> AssignmentStatus:
@@ -154,5 +203,7 @@ def description(config: RobotConfig, footprint: PolygonStamped) -> RobotAgentPro
         vendor=c.vendor,
         action_capability=tuple(
             RobotAction(CATEGORY_OF[ActionKind(a)], 0, (), a) for a in c.actions
-        ),
+        ) + ((RobotAction(CATEGORY_OF[ActionKind.CHARGE], 0, (), "charge"),) if c.battery is not None else ()),
+        batt_capacity=c.battery.capacity if c.battery is not None else 0.0,
+        batt_max_voltage=c.battery.voltage if c.battery is not None else 0.0,
     )

@@ -6,12 +6,15 @@ that what happens at one instant does not depend on when the event happened to b
 1. inbound messages, in arrival order, with everything they cause (hand-offs between processes through
    stores use SimPy's NORMAL priority, 1, so a cause's consequences finish before the next kind starts);
 2. station production;
-3. completions: an AGV reaching a point, AgvAction finishing an action;
-4. R7 deadlines (so a task assembled exactly at its deadline is on time);
-5. in a closed loop (SPEC §9), the fleet manager's callbacks: first the robots' updates reaching it
+3. completions: an AGV reaching a point, AgvAction finishing an action, and the instants computed like
+   them (a battery running out, two footprints starting to overlap; SPEC §4);
+4. injected faults, and the ends of their durations (a breakdown at the instant a leg ends finds the
+   robot at the point; SPEC §4), battery swaps;
+5. R7 deadlines (so a task assembled exactly at its deadline is on time);
+6. in a closed loop (SPEC §9), the fleet manager's callbacks: first the robots' updates reaching it
    (so it decides on the freshest state), then jobs reaching it, then its own timers;
-6. telemetry (it sees the state after everything else at that instant);
-7. the end of the run (so the last instant is complete, telemetry included).
+7. telemetry (it sees the state after everything else at that instant);
+8. the end of the run (so the last instant is complete, telemetry included).
 
 The manager's writes reach the RAN as inbound messages (1) after the link's latency, which is never
 zero: a write is always delivered at a later instant than the callback that made it, so a recorded
@@ -28,12 +31,13 @@ from simpy.events import Event
 INBOUND = 1
 PRODUCTION = 2
 COMPLETION = 3
-DEADLINE = 4
-UPDATE = 5
-JOB = 6
-TIMER = 7
-TELEMETRY = 8
-END = 9
+FAULT = 4
+DEADLINE = 5
+UPDATE = 6
+JOB = 7
+TIMER = 8
+TELEMETRY = 9
+END = 10
 
 
 def after(env: simpy.Environment, delay: float, priority: int) -> Event:

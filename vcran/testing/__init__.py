@@ -6,5 +6,6 @@
 * :mod:`vcran.testing.stateful` — a hypothesis state machine pairing RanLogic with the model;
 * :mod:`vcran.testing.scripts` — strategies for whole scenarios and perturbations of a message script;
 * :mod:`vcran.testing.checks` — the rules checked on a run's output folder;
-* :mod:`vcran.testing.loop` — fuzzing a fleet manager: workload, stock and link strategies, the loop properties.
+* :mod:`vcran.testing.loop` — fuzzing a fleet manager: workload, stock, link and fault strategies, the loop
+  properties.
 """

@@ -8,7 +8,9 @@ Strategies draw what a fleet manager meets in a warehouse it does not control:
   fail, and its task is cancelled with ``action_failed``: the manager must re-plan or give up);
 * :func:`links` — the link's latency, seeded jitter, and loss: under ``polling`` a write overwritten
   before the RAN reads it is lost, as with Orion (SPEC §7);
-* :func:`loop_variants` — all three applied to a base scenario, as a :class:`~vcran.core.scenario.Scenario`.
+* :func:`fault_lists` — SPEC §4 faults at random times: breakdowns, motion and action failures,
+  ``link_down`` (shrinks to none);
+* :func:`loop_variants` — all four applied to a base scenario, as a :class:`~vcran.core.scenario.Scenario`.
 
 The properties read a :class:`vcran.Result` and return human-readable violations (an empty list when
 the manager behaved); :func:`assert_loop_properties` raises one AssertionError listing them all:
@@ -34,6 +36,7 @@ from typing import Any
 
 from hypothesis import strategies as st
 
+from vcran.core.faults import KINDS, RANDOM_KINDS, FaultSpec
 from vcran.core.jobs import waiting_spans
 from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
 
@@ -102,11 +105,32 @@ def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JIT
     )
 
 
+#: Durations of breakdowns and link outages drawn by :func:`fault_lists`: all shorter than
+#: :data:`IDLE_BOUND`, so a robot cut off by its link never idles long enough to fail
+#: :func:`check_no_idle_while_waiting` by the fault's doing alone.
+FAULT_DURATIONS = (5.0, 20.0, 45.0)
+
+
+@st.composite
+def fault_lists(draw: st.DrawFn, robots: Sequence[str], *, max_faults: int = 4, horizon: float = 300.0,
+                kinds: Sequence[str] = RANDOM_KINDS, durations: Sequence[float] = FAULT_DURATIONS) -> list[FaultSpec]:
+    """0..``max_faults`` faults (SPEC §4) in ``[0, horizon]``, in time order. ``kinds`` defaults to what
+    breaks without an operator (breakdown, motion_failure, action_failure, link_down; a pause without its
+    resume would hold a robot for good, which no manager can mend). Shrinks towards no fault."""
+    tenths = st.integers(0, int(horizon * 10)).map(lambda k: k / 10)
+    drawn = draw(st.lists(st.tuples(tenths, st.sampled_from(list(robots)), st.sampled_from(list(kinds)),
+                                    st.sampled_from(list(durations))), max_size=max_faults))
+    drawn.sort(key=lambda item: item[0])
+    return [FaultSpec(t, robot, kind, duration if KINDS[kind] else 0.0) for t, robot, kind, duration in drawn]
+
+
 @st.composite
 def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon: float = 300.0,
-                  settle: float = 600.0, vary_link: bool = True, vary_stock: bool = True) -> Scenario:
-    """``base`` with a drawn workload (listed jobs; its stream dropped), station stock and link. The run
-    lasts ``horizon + settle`` simulated seconds at most and ends early once idle."""
+                  settle: float = 600.0, vary_link: bool = True, vary_stock: bool = True,
+                  max_faults: int = 4) -> Scenario:
+    """``base`` with a drawn workload (listed jobs; its stream dropped), station stock, link and up to
+    ``max_faults`` faults (added to ``base``'s own; 0: none drawn). The run lasts ``horizon + settle``
+    simulated seconds at most and ends early once idle."""
     pickups, dropoffs = workload_stations(base)
     jobs = draw(job_lists(pickups, dropoffs, max_jobs=max_jobs, horizon=horizon))
     stations = base.stations
@@ -114,11 +138,16 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
         stock = draw(stocks(sorted({j.pickup for j in jobs})))
         stations = tuple(replace(s, parts=stock[s.id]) if s.id in stock else s for s in stations)
     link = draw(links()) if vary_link else base.link
+    faults = base.faults
+    if max_faults > 0:
+        drawn = draw(fault_lists([r.id for r in base.robots], max_faults=max_faults, horizon=horizon))
+        faults = tuple(sorted(base.faults + tuple(drawn), key=lambda f: f.t))  # stable: base's first at ties
     duration = horizon + settle
     if base.settings.duration is not None:
         duration = min(duration, base.settings.duration)
     settings = replace(base.settings, duration=duration, until_idle=True)
-    return replace(base, settings=settings, stations=stations, jobs=tuple(jobs), job_stream=None, link=link)
+    return replace(base, settings=settings, stations=stations, jobs=tuple(jobs), job_stream=None, link=link,
+                   faults=faults)
 
 
 # --- properties -------------------------------------------------------------------------------------------
@@ -216,10 +245,11 @@ def run_problems(scenario: Scenario, manager: Any, bound: float = IDLE_BOUND) ->
 
 
 def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int = 0, bound: float = IDLE_BOUND,
-                 max_jobs: int = 8, horizon: float = 300.0, settle: float = 600.0,
+                 max_jobs: int = 8, horizon: float = 300.0, settle: float = 600.0, max_faults: int = 4,
                  on_example: Callable[[], None] | None = None) -> Finding | None:
-    """Search for a workload, stock and link under which ``manager`` breaks a loop property; None when
-    ``examples`` variants ran clean. One ``seed``, one sequence of examples and one shrunk result."""
+    """Search for a workload, stock, link and faults (up to ``max_faults``; 0: none) under which ``manager``
+    breaks a loop property; None when ``examples`` variants ran clean. One ``seed``, one sequence of
+    examples and one shrunk result."""
     from hypothesis import HealthCheck, find, settings
     from hypothesis.errors import NoSuchExample
 
@@ -235,7 +265,7 @@ def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int 
         found = found or bad
         return bad
 
-    strategy = loop_variants(base, max_jobs=max_jobs, horizon=horizon, settle=settle)
+    strategy = loop_variants(base, max_jobs=max_jobs, horizon=horizon, settle=settle, max_faults=max_faults)
     options = settings(max_examples=examples, database=None, deadline=None, suppress_health_check=list(HealthCheck))
     try:
         minimal = find(strategy, violated, settings=options, random=random.Random(seed))

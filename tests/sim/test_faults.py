@@ -1,0 +1,114 @@
+"""SPEC §4 Faults, end to end: scenarios/faults.toml's outcome as derived by hand in docs/robots.md, and the
+scenario keys' errors."""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+
+import pytest
+
+from tests.conftest import ROOT, run_scenario
+from tests.sim.test_scenarios import FLEET, motion
+from vcran.io.scenario_file import ScenarioError, load, parse
+from vcran.io.trace import telemetry
+
+SCENARIO = ROOT / "scenarios" / "faults.toml"
+
+
+@pytest.fixture(scope="module")
+def faults_run(tmp_path_factory):
+    return run_scenario(load(SCENARIO), tmp_path_factory.mktemp("faults"))
+
+
+def ended(out, robot):
+    return [(e["t"], e["event"], e.get("reason")) for e in out.events
+            if e["robot"] == robot and e["event"] in ("task_completed", "task_cancelled")]
+
+
+def test_s4_breakdown_delays_completion_by_exactly_its_duration(faults_run, tmp_path):
+    scenario = load(SCENARIO)
+    calm = run_scenario(dataclasses.replace(scenario, faults=()), tmp_path / "calm")
+    # without it: 22 s of driving from t = 1, then a 1 s action
+    assert ended(calm, "robot_1") == [(24.0, "task_completed", None)]
+    assert ended(faults_run, "robot_1") == [(31.5, "task_completed", None)]  # 24 + 7.5, exactly
+
+
+def test_s4_breakdown_stops_the_robot_where_it_is(faults_run):
+    rows = telemetry(faults_run.dir, 4)
+    x1, v1 = rows[:, 1], rows[:, 4]  # robot_1's x and v, one row per second
+    # t = 8: 1 m of ramp + 5 m at 1 m/s = 6 m; standing still until 15.5, then on at cruise speed
+    assert list(x1[8:16]) == [6.0] * 8 and list(v1[8:16]) == [0.0] * 8
+    assert (x1[16], v1[16]) == (6.5, 1.0)
+    (fault,) = faults_run.of("fault", "robot_1")
+    assert fault == {"t": 8.0, "robot": "robot_1", "event": "fault", "kind": "breakdown", "duration": 7.5}
+    assert faults_run.of("fault_end", "robot_1")[0]["t"] == 15.5
+    warnings = [r["value"] for r in faults_run.trace() if r["attr"] == "ran_error" and r["robot"] == "robot_1"]
+    assert [(w["code"], w["severity"]) for w in warnings] == [("breakdown", "warning")]
+
+
+def test_s4_motion_failure_ends_the_leg_where_the_robot_is(faults_run):
+    assert ended(faults_run, "robot_2") == [(10.0, "task_cancelled", "motion_failed")]
+    r = faults_run.robot("robot_2")
+    assert r["final_pose"] == {"x": 8.0, "y": 20.0, "theta": 0.0}  # 1 m ramp + 7 m by t = 10
+    assert r["distance"] == 8.0
+    (failed,) = faults_run.of("failed", "robot_2")
+    assert failed["code"] == "motion_failed" and failed["motion"] == "B_m1"
+
+
+def test_s4_action_failure_then_pause_and_resume(faults_run):
+    assert ended(faults_run, "robot_3") == [(2.0, "task_cancelled", "action_failed"), (18.0, "task_completed", None)]
+    # paused 3..6: task D (queued at 4) starts driving at 6; 10 m take 2 + 8 + 2 s
+    rows = telemetry(faults_run.dir, 4)
+    assert list(rows[4:7, 11]) == [0.0, 0.0, 0.0]  # robot_3's x at 4, 5, 6 s
+
+
+def test_s4_link_down_holds_inbound_and_outbound_until_the_link_is_back(faults_run):
+    assert [e["t"] for e in faults_run.of("task_queued", "robot_4")] == [0.0, 5.5]
+    assert ended(faults_run, "robot_4") == [(1.0, "task_completed", None), (6.5, "task_completed", None)]
+    out = [(r["t"], r["attr"], r["value"]) for r in faults_run.trace() if r["robot"] == "robot_4" and r["dir"] == "out"
+           and r["attr"] in ("ran_status", "assignment_status")]
+    assert not [t for t, _, _ in out if 0.5 <= t < 5.5]
+    # E0 completed at 1.0 unseen; the statuses it could not publish go out when the link is back
+    back = {attr: value for t, attr, value in out if t == 5.5}
+    assert back["ran_status"]["state"] == "WAITING"
+    assert [i["description"] for i in back["ran_status"]["completed"]] == ["E0"]
+
+
+def test_s4_random_faults_are_seeded_and_reproducible(tmp_path):
+    text = FLEET + """
+[[random_faults]]
+kind = "breakdown"
+mtbf = 20.0
+mttr = 5.0
+""" + "\n[[script]]\nrobot = \"robot_1\"\n" + motion(1, "A", "A_m1", 1, 1, 80, 0)
+    first = run_scenario(parse(tomllib.loads(text)), tmp_path / "a")
+    again = run_scenario(parse(tomllib.loads(text)), tmp_path / "b")
+    assert (first.dir / "events.jsonl").read_bytes() == (again.dir / "events.jsonl").read_bytes()
+    breakdowns = first.of("fault")
+    assert breakdowns and all(e["kind"] == "breakdown" for e in breakdowns)
+    # 80 m at 1 m/s from t = 1: arrival when 80 s of un-held time have passed since t = 1
+    t, left = 1.0, 80.0
+    for e in breakdowns:
+        start, end = max(e["t"], t), e["t"] + e["duration"]
+        if start - t >= left:
+            break
+        if end > t:
+            left -= start - t
+            t = end
+    assert first.of("task_completed")[0]["t"] == pytest.approx(t + left)
+    other = run_scenario(parse(tomllib.loads(text.replace("seed = 0", "seed = 2") if "seed = 0" in text
+                                             else text.replace("[simulation]", "[simulation]\nseed = 2"))), tmp_path / "c")
+    assert other.of("fault") != breakdowns
+
+
+@pytest.mark.parametrize(("extra", "problem"), [
+    ('[[faults]]\nt = 1.0\nrobot = "robot_1"\nkind = "meteor"', "unknown fault 'meteor'"),
+    ('[[faults]]\nt = 1.0\nrobot = "robot_9"\nkind = "pause"', "no robot 'robot_9'"),
+    ('[[faults]]\nt = 1.0\nrobot = "robot_1"\nkind = "breakdown"', "field 'duration': missing"),
+    ('[[random_faults]]\nkind = "pause"\nmtbf = 5.0', "unknown random fault 'pause'"),
+    ('[[random_faults]]\nkind = "breakdown"\nmtbf = 0.0\nmttr = 1.0', "must be positive"),
+])
+def test_s4_bad_fault_entries_fail_to_load(extra, problem):
+    with pytest.raises(ScenarioError, match=problem):
+        parse(tomllib.loads(FLEET + "\n" + extra + "\n"), "<test>")

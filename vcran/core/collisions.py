@@ -1,0 +1,173 @@
+"""Footprint collisions (SPEC §4): when do two robots' footprints start (or stop) overlapping, and where.
+
+A robot's *track* is what it does until its next change: a leg (:class:`vcran.core.motion.Leg`, poses
+closed-form in time) or a rest pose. For two tracks, :func:`first_change` samples both at a step chosen so
+that no point of either footprint moves more than ``resolution`` metres between samples (the documented
+spatial resolution; the temporal one follows from the robots' speeds), discards the samples whose bounding
+circles are apart (numpy), tests the rest with exact polygons (shapely, vectorised), and refines the first
+sample that changed by bisection to ``TIME_TOL``. Contacts that begin and end between two samples are
+missed; at 0.05 m that is a graze thinner than 5 cm.
+
+Finding *which* pairs to test is :class:`Grid`'s job: a uniform grid over the floor, each robot filed
+under the cells its track's bounding box touches, so a robot meets only its neighbours and the cost grows
+with the fleet, not with its square.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from vcran.core.motion import Leg, sample_leg
+
+#: Contact instants are refined to this many seconds.
+TIME_TOL = 1e-9
+#: At most this many samples per pair test (the step grows for very long overlaps of slow pairs).
+MAX_SAMPLES = 100_000
+
+
+@dataclass(frozen=True, slots=True)
+class Track:
+    """Robot ``index``'s footprint (``shape``: points in the robot frame) on ``leg``, or at rest at ``pose``."""
+
+    index: int
+    shape: np.ndarray
+    radius: float
+    leg: Leg | None
+    pose: tuple[float, float, float]
+    until: float  # the track holds until this instant (a leg's end; inf at rest)
+
+    @property
+    def speed(self) -> float:
+        """Fastest any footprint point moves on this track (m/s)."""
+        leg = self.leg
+        if leg is None:
+            return 0.0
+        return leg.peak + self.radius * max(abs(leg.rate1), abs(leg.rate2))
+
+    def poses(self, times: np.ndarray) -> np.ndarray:
+        """``(len(times), 3)`` poses x, y, theta."""
+        if self.leg is None:
+            return np.broadcast_to(np.asarray(self.pose, dtype=np.float64), (len(times), 3))
+        return sample_leg(self.leg, times)[:, :3]
+
+    def box(self) -> tuple[float, float, float, float]:
+        """A bounding box of everything this track covers (min x, min y, max x, max y)."""
+        r = self.radius
+        if self.leg is None:
+            x, y, _ = self.pose
+            return x - r, y - r, x + r, y + r
+        leg = self.leg
+        return (min(leg.x0, leg.x1) - r, min(leg.y0, leg.y1) - r, max(leg.x0, leg.x1) + r, max(leg.y0, leg.y1) + r)
+
+
+def shape_of(points: Iterable[tuple[float, float]]) -> tuple[np.ndarray, float]:
+    """A footprint as an ``(n, 2)`` array and its bounding radius around the robot's origin."""
+    shape = np.asarray(list(points), dtype=np.float64).reshape(-1, 2)
+    return shape, float(np.max(np.hypot(shape[:, 0], shape[:, 1]))) if len(shape) else 0.0
+
+
+def footprints(track: Track, poses: np.ndarray) -> np.ndarray:
+    """The footprint polygons at ``poses`` (a shapely array)."""
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    px, py = track.shape[:, 0], track.shape[:, 1]
+    xs = poses[:, :1] + c[:, None] * px - s[:, None] * py
+    ys = poses[:, 1:2] + s[:, None] * px + c[:, None] * py
+    return shapely.polygons(np.stack((xs, ys), axis=-1))
+
+
+def touching(a: Track, b: Track, times: np.ndarray) -> np.ndarray:
+    """Whether the footprints of ``a`` and ``b`` intersect (touching counts) at each of ``times``."""
+    pa, pb = a.poses(times), b.poses(times)
+    near = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1]) <= a.radius + b.radius
+    out = np.zeros(len(times), dtype=bool)
+    if near.any():
+        out[near] = shapely.intersects(footprints(a, pa[near]), footprints(b, pb[near]))
+    return out
+
+
+def first_change(a: Track, b: Track, t0: float, t1: float, resolution: float, want: bool) -> float | None:
+    """The first instant in ``[t0, t1]`` at which "the footprints touch" becomes ``want``, or None."""
+    if t1 < t0:
+        return None
+    speed = a.speed + b.speed
+    if speed <= 0.0 or t1 == t0:
+        return t0 if bool(touching(a, b, np.array([t0]))[0]) == want else None
+    span = t1 - t0 if math.isfinite(t1) else 0.0
+    if span == 0.0:
+        return t0 if bool(touching(a, b, np.array([t0]))[0]) == want else None
+    step = max(resolution / speed, span / MAX_SAMPLES)
+    times = t0 + step * np.arange(math.ceil(span / step) + 1)
+    times[-1] = t1
+    hits = np.flatnonzero(touching(a, b, times) == want)
+    if not len(hits):
+        return None
+    k = int(hits[0])
+    if k == 0:
+        return t0
+    lo, hi = float(times[k - 1]), float(times[k])
+    while hi - lo > TIME_TOL:
+        mid = 0.5 * (lo + hi)
+        if bool(touching(a, b, np.array([mid]))[0]) == want:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def contact_point(a: Track, b: Track, t: float) -> tuple[float, float]:
+    """Where the footprints meet at ``t``: the centroid of their intersection (a corner, when they just touch)."""
+    times = np.array([t])
+    fa, fb = footprints(a, a.poses(times))[0], footprints(b, b.poses(times))[0]
+    c = shapely.intersection(fa, fb).centroid
+    if c.is_empty:  # not touching after all (the caller asked at a separation): midway between the robots
+        pa, pb = a.poses(times)[0], b.poses(times)[0]
+        return float(0.5 * (pa[0] + pb[0])), float(0.5 * (pa[1] + pb[1]))
+    return float(c.x), float(c.y)
+
+
+class Grid:
+    """Robots filed by the grid cells their track's box touches (see the module docstring)."""
+
+    def __init__(self, cell: float) -> None:
+        self.cell = cell
+        self.cells: dict[tuple[int, int], set[int]] = {}
+        self.filed: dict[int, tuple[tuple[int, int], ...]] = {}
+
+    def _keys(self, box: tuple[float, float, float, float]) -> tuple[tuple[int, int], ...]:
+        c = self.cell
+        x0, y0, x1, y1 = (math.floor(v / c) for v in box)
+        return tuple((gx, gy) for gx in range(x0, x1 + 1) for gy in range(y0, y1 + 1))
+
+    def file(self, index: int, box: tuple[float, float, float, float]) -> set[int]:
+        """File ``index`` under ``box``; return the other robots sharing one of its cells.
+
+        When ``box`` lies in cells the robot is already filed under (a robot coming to rest at the end of its
+        leg), the filing is kept: a superset only costs a box test later, and re-filing on every leg end
+        would double the grid's work.
+        """
+        keys = self._keys(box)
+        old = self.filed.get(index, ())
+        if not old or not set(keys).issubset(old):
+            for key in old:
+                members = self.cells[key]
+                members.discard(index)
+                if not members:
+                    del self.cells[key]
+            self.filed[index] = keys
+            cells = self.cells
+            for key in keys:
+                found = cells.get(key)
+                if found is None:
+                    cells[key] = {index}
+                else:
+                    found.add(index)
+        near: set[int] = set()
+        for key in keys:
+            near |= self.cells[key]
+        near.discard(index)
+        return near

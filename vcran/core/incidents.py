@@ -1,0 +1,85 @@
+"""What happens to a robot on its own (SPEC §4): battery, faults, collisions, as events for ``events.jsonl``.
+
+RanLogic's events (:mod:`vcran.core.effects`) say what the rules did; these say what the robot went
+through, and are logged by the SimPy model when it happens. Where the fleet manager would notice, the model
+also publishes a ``ran_error`` (docs/robots.md lists which).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from vcran.core.effects import Event
+
+
+@dataclass(frozen=True, slots=True)
+class BatteryLow(Event):
+    NAME = "battery_low"
+    charge: float
+    percentage: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"charge": self.charge, "percentage": self.percentage}
+
+
+@dataclass(frozen=True, slots=True)
+class BatteryEmpty(Event):
+    """The battery ran out; the robot stopped at ``(x, y)``."""
+
+    NAME = "battery_empty"
+    x: float
+    y: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"x": self.x, "y": self.y}
+
+
+@dataclass(frozen=True, slots=True)
+class BatterySwapped(Event):
+    NAME = "battery_swapped"
+
+    def fields(self) -> dict[str, Any]:
+        return {}
+
+
+@dataclass(frozen=True, slots=True)
+class FaultStarted(Event):
+    """An injected fault; ``applied`` is false when it found nothing to act on (a motion failure at rest)."""
+
+    NAME = "fault"
+    kind: str
+    duration: float = 0.0
+    applied: bool = True
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"kind": self.kind}
+        if self.duration:
+            out["duration"] = self.duration
+        if not self.applied:
+            out["applied"] = False
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class FaultEnded(Event):
+    """A breakdown is repaired, a link is back."""
+
+    NAME = "fault_end"
+    kind: str
+
+    def fields(self) -> dict[str, Any]:
+        return {"kind": self.kind}
+
+
+@dataclass(frozen=True, slots=True)
+class Collision(Event):
+    """The footprints of this robot and ``other`` started to overlap, around ``(x, y)``."""
+
+    NAME = "collision"
+    other: str
+    x: float
+    y: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"other": self.other, "x": self.x, "y": self.y}

@@ -1,0 +1,101 @@
+"""Collision detection in the simulation (SPEC §4 Footprints and collisions): predict, schedule, confirm.
+
+Whenever a robot's track changes (a leg starts or ends, a hold, a stop: :attr:`RobotNode.on_move`), it is
+re-filed in the :class:`~vcran.core.collisions.Grid` and tested against the robots sharing a cell: for
+each such pair the first instant their footprints start to touch (or, for a pair already in contact, stop
+touching) before either track ends is computed (:func:`~vcran.core.collisions.first_change`) and an event
+is scheduled then. Any later change of either robot's track makes that prediction stale (a version check),
+and the change itself predicts anew. A contact is reported once, as one ``collision`` event (on the robot
+first in fleet order, naming the other). In ``"report"`` mode that is all: the robots drive on and
+publish exactly what they would without detection (the original drove through silently, so the wire
+and a fleet manager's view stay the original's); in ``"stop"`` mode both robots stop where they are, and
+RanLogic reports ``collision`` and cancels their tasks with reason ``collision``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import simpy
+
+from vcran.core.collisions import Grid, Track, contact_point, first_change, shape_of
+from vcran.core.effects import Reason
+from vcran.core.incidents import Collision
+from vcran.sim.robot import Halted, RobotNode
+from vcran.sim.timing import COMPLETION, at
+
+#: Grid cell size in metres: a few legs' width, so a leg's box touches a handful of cells.
+CELL = 20.0
+
+
+class Contacts:
+    def __init__(self, env: simpy.Environment, robots: list[RobotNode], mode: str, resolution: float) -> None:
+        self.env, self.robots, self.stop, self.resolution = env, robots, mode == "stop", resolution
+        self.grid = Grid(CELL)
+        self.shapes = [shape_of(r.config.footprint) for r in robots]
+        self.tracks: list[Track] = []
+        self.version = [0] * len(robots)
+        self.touching: set[tuple[int, int]] = set()
+        self.count = [0] * len(robots)
+        for r in robots:
+            self.tracks.append(self._track(r))
+        for r in robots:
+            r.on_move = self.moved
+            self._check(r.index)
+
+    def _track(self, robot: RobotNode) -> Track:
+        shape, radius = self.shapes[robot.index]
+        leg = robot.fleet.current.get(robot.index)
+        until = leg.t_end if leg is not None else math.inf
+        return Track(robot.index, shape, radius, leg, robot.pose, until)
+
+    def moved(self, robot: RobotNode) -> None:
+        i = robot.index
+        self.version[i] += 1
+        self.tracks[i] = self._track(robot)
+        self._check(i)
+
+    def _check(self, i: int) -> None:
+        track = self.tracks[i]
+        for j in sorted(self.grid.file(i, track.box())):
+            self._predict(min(i, j), max(i, j))
+
+    def _predict(self, i: int, j: int) -> None:
+        a, b = self.tracks[i], self.tracks[j]
+        now = self.env.now
+        ta, tb = a.box(), b.box()
+        pair = (i, j)
+        in_contact = pair in self.touching
+        if not in_contact and (ta[2] < tb[0] or tb[2] < ta[0] or ta[3] < tb[1] or tb[3] < ta[1]):
+            return
+        until = min(a.until, b.until)
+        if not math.isfinite(until):  # both at rest: the situation cannot change until one moves
+            until = now
+        t = first_change(a, b, now, until, self.resolution, want=not in_contact)
+        if t is None:
+            return
+        stamp = (self.version[i], self.version[j])
+        event = at(self.env, t, COMPLETION)
+        event.callbacks.append(lambda _: self._due(i, j, stamp, not in_contact))
+
+    def _due(self, i: int, j: int, stamp: tuple[int, int], starts: bool) -> None:
+        if (self.version[i], self.version[j]) != stamp:
+            return  # a track changed since: the change predicted anew
+        pair = (i, j)
+        if not starts:
+            self.touching.discard(pair)
+            self._predict(i, j)
+            return
+        self.touching.add(pair)
+        a, b = self.tracks[i], self.tracks[j]
+        x, y = contact_point(a, b, self.env.now)
+        ra, rb = self.robots[i], self.robots[j]
+        self.count[i] += 1
+        self.count[j] += 1
+        ra.log_incident(Collision(rb.id, x, y))
+        where = f"at {x:.3f}, {y:.3f}"
+        if self.stop:
+            for robot, other in ((ra, rb), (rb, ra)):
+                robot.halt(Halted(Reason.COLLISION, "collision", f"collided with {other.id} {where}: stopped [§4]"))
+        else:
+            self._predict(i, j)  # when they part again

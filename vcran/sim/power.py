@@ -1,0 +1,77 @@
+"""The battery at the telemetry cadence (SPEC §4): ``battery`` publications, the low warning, idle drain.
+
+Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. ``battery``
+(``sensor_msgs.BatteryState``) is published for a robot when its percentage, rounded to the battery's
+``resolution``, changed, or a charge started or ended, since its last publication: a thousand robots do not put a
+thousand messages per second on the wire. A robot at rest whose battery would run out before the tick
+after next is handed to :meth:`RobotNode.watch_idle`, which schedules the exact instant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from vcran.core.battery import CHARGE, REST, FleetBattery
+from vcran.core.incidents import BatteryLow
+from vcran.core.messages import BatteryState, Header, Message, Time
+from vcran.sim.robot import RobotNode
+
+
+class Power:
+    def __init__(
+        self, robots: list[RobotNode], battery: FleetBattery, period: float,
+        publish: Callable[[float, RobotNode, str, Message], None],
+    ) -> None:
+        self.robots, self.battery, self.period, self._publish = robots, battery, period, publish
+        configs = [c for c in (battery.configs[i] for i in battery.indices) if c is not None]
+        self.resolution = [c.resolution for c in configs]
+        #: Steps per Ah (1 / (capacity * resolution)); the low level and the "empty within two ticks"
+        #: level of each robot, all in ``indices`` order.
+        self.per_step = np.array([1.0 / (c.capacity * c.resolution) for c in configs])
+        self.low = np.array([c.low * c.capacity for c in configs])
+        self.soon = np.array([c.per_idle_second * 2.0 * period for c in configs])
+        self.voltage = [c.voltage for c in configs]
+        self.last = np.full(len(configs), -1.0)
+        self.fleet = robots[0].fleet
+
+    def tick(self, t: float) -> None:
+        """Publish what changed, warn of low batteries, watch resting ones about to run out.
+
+        A robot's ``battery`` is published when its percentage step changes or a charge starts or ends
+        (status CHARGING during a charge, FULL at capacity, else DISCHARGING). A tick is a
+        handful of numpy operations for the whole fleet; Python work is only for the robots in question.
+        """
+        b = self.battery
+        idx = b.indices
+        levels, kinds = b.levels(t, self.fleet.distances(t))
+        steps = np.rint(levels * self.per_step)
+        key = steps * 2.0 + (kinds == CHARGE)
+        changed = np.flatnonzero(key != self.last)
+        self.last = key
+        if len(changed):
+            header = Header(0, Time.from_seconds(t), "")
+            for j in changed:
+                self._battery(t, int(idx[j]), int(j), int(steps[j]), float(levels[j]), int(kinds[j]), header)
+        for j in np.flatnonzero(levels < self.low):
+            i = int(idx[j])
+            if not b.low_warned[i] and kinds[j] != CHARGE:
+                b.low_warned[i] = True
+                robot = self.robots[i]
+                level, pct = float(levels[j]), float(levels[j]) / b.capacity[i]
+                robot.log_incident(BatteryLow(level, pct))
+                robot.report("battery_low", f"battery at {pct:.1%} ({level:.3f} Ah), below its low level [§4]")
+        for j in np.flatnonzero(levels <= self.soon):
+            if kinds[j] == REST:
+                self.robots[int(idx[j])].watch_idle()
+
+    def _battery(self, t: float, i: int, j: int, steps: int, level: float, kind: int, header: Header) -> None:
+        capacity = self.battery.capacity[i]
+        pct = round(steps * self.resolution[j], 9)  # 0.47, not 0.47000000000000003
+        status = (BatteryState.STATUS_FULL if level >= capacity else
+                  BatteryState.STATUS_CHARGING if kind == CHARGE else BatteryState.STATUS_DISCHARGING)
+        self._publish(t, self.robots[i], "battery", BatteryState(
+            header=header, voltage=self.voltage[j], charge=round(pct * capacity, 9), capacity=capacity,
+            design_capacity=capacity, percentage=pct, power_supply_status=status, present=True,
+        ))
