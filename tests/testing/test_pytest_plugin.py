@@ -15,7 +15,7 @@ from hypothesis import settings
 
 def test_report():
     s = settings.default
-    print(f"SETTINGS {s.max_examples} {s.stateful_step_count} {s.deadline} {[h.name for h in s.suppress_health_check]}")
+    print(f"SETTINGS {s.max_examples} {s.stateful_step_count} {s.deadline} {[h.name for h in s.suppress_health_check]} {s.print_blob}")
 """
 
 
@@ -29,12 +29,13 @@ def settings_of_a_user_run(tmp_path: Path, *options: str) -> str:
 
 
 @pytest.mark.parametrize(("profile", "expected"), [
-    ("vcran", "100 50 None ['too_slow']"),
-    ("vcran-deep", "5000 120 None ['too_slow']"),
+    ("vcran", "100 50 None ['too_slow'] False"),
+    ("vcran-deep", "5000 120 None ['too_slow'] False"),
+    ("vcran-nightly", "20000 200 None ['too_slow'] True"),
 ])
 def test_a_run_that_opts_in_gets_the_profile(tmp_path: Path, profile: str, expected: str) -> None:
     assert settings_of_a_user_run(tmp_path, f"--hypothesis-profile={profile}") == expected
 
 
 def test_a_run_that_does_not_opt_in_keeps_hypothesis_defaults(tmp_path: Path) -> None:
-    assert settings_of_a_user_run(tmp_path) == "100 50 0:00:00.200000 []"  # deadline 200 ms
+    assert settings_of_a_user_run(tmp_path) == "100 50 0:00:00.200000 [] False"  # deadline 200 ms

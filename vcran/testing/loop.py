@@ -43,7 +43,7 @@ from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenar
 #: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
 PROTOCOL_ERRORS = frozenset({
     "length_mismatch", "position_taken", "kind_order", "task_completed", "task_cancelled", "already_dispatched",
-    "position_changed", "partial_cancel_unsupported", "malformed", "outside_motion_area", "unknown_robot",
+    "position_changed", "assignment_cancelled", "malformed", "outside_motion_area", "unknown_robot",
 })
 
 #: Default for :func:`check_no_idle_while_waiting`: a robot may idle this long while a job waits.
