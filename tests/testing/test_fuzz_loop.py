@@ -110,6 +110,20 @@ def test_a_robot_out_of_reach_is_not_idle():
     assert len(check_no_idle_while_waiting(_Result(events[:1], 200.0), bound=20.0)) == 1
 
 
+def test_rejections_while_a_robots_link_is_down_are_the_outages():
+    # r1's link is down 20..65: the manager's writes held meanwhile are judged at 65 against a task that
+    # timed out (R9), which it could not know; the same rejection a moment later, or on r2, is its own
+    def rejected(t: float, robot: str) -> dict:
+        return {"t": t, "robot": robot, "event": "rejected", "code": "task_cancelled", "task": "t1",
+                "message": "task t1 was already cancelled, reason timeout"}
+
+    outage = [{"t": 20.0, "robot": "r1", "event": "fault", "kind": "link_down", "duration": 45.0},
+              {"t": 65.0, "robot": "r1", "event": "fault_end", "kind": "link_down"}]
+    assert check_protocol(_Result([*outage, rejected(40.0, "r1"), rejected(65.0, "r1")], 100.0)) == []
+    late = check_protocol(_Result([*outage, rejected(65.5, "r1"), rejected(40.0, "r2")], 100.0))
+    assert [p.split(":")[0] for p in late] == ["t=65.5 r1", "t=40 r2"]
+
+
 def test_a_job_cancelled_out_of_the_managers_sight_waits_from_when_the_link_is_back():
     # j runs on r1 from 5; r1's link is down 20..70 and its task is cancelled at 25, unseen until 70; r2
     # idles throughout and gets j at 100: for the manager j waited 70..100 (30 s), not 25..100 (75 s)

@@ -160,9 +160,15 @@ def check_jobs_ended(result: Any) -> list[str]:
 
 
 def check_protocol(result: Any) -> list[str]:
-    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly."""
+    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly.
+
+    Rejections of a robot while its link is down, up to the instant it is back (§4), are the outage's: what
+    the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out).
+    """
+    cut_off = _fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
     return [f"t={e['t']:g} {e['robot'] or 'fleet'}: ran_error {e['code']}: {e.get('message', '')}"
-            for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS]
+            for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS
+            and not any(a <= e["t"] <= b for a, b in cut_off.get(e["robot"], []))]
 
 
 def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[str]:
