@@ -88,3 +88,25 @@ def test_s4_a_legs_box_covers_only_what_is_left_of_it():
     r = math.sqrt(0.5)
     assert mover.box(1.0, 2.0) == pytest.approx((2.0 - r, -r, 4.0 + r, r), abs=1e-5)
     assert mover.box() == pytest.approx((-r, -r, 10.0 + r, r), abs=1e-5)
+
+
+def test_s4_a_graze_between_two_coarse_samples_is_found():
+    # diamonds (corners 0.75 m out on the axes) touch when |dx| + |dy| <= 1.5; one drives along y = 0 at
+    # 2 m/s past one at rest at (10.31, 1.45): they touch while x is within 10.31 +- 0.05, t in 5.13 .. 5.18
+    # (a 10 cm graze; the origins are 1.6 m apart and more at every 0.8 s a coarse pass looks at)
+    diamond = ((0.75, 0.0), (0.0, 0.75), (-0.75, 0.0), (0.0, -0.75))
+    leg = Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, Limits(2.0))
+    mover = track(0, diamond, leg=leg)
+    still = track(1, diamond, pose=(10.31, 1.45, 0.0))
+    start = first_change(mover, still, 0.0, leg.t_end, 0.05, want=True)
+    assert start == pytest.approx(5.13, abs=2 * TIME_TOL)
+    end = first_change(mover, still, start, leg.t_end, 0.05, want=False)
+    assert end == pytest.approx(5.18, abs=2 * TIME_TOL)
+
+
+def test_s4_an_inexact_change_is_the_first_sample_after_it():
+    # the crossing of the refinement test: the contact ends at 3.5; sampling every 0.05 m / 2 m/s = 0.025 s
+    # from t = 3 puts the first sample apart at 3.525 (3.5 itself still touches)
+    leg = Leg(0.0, 0.0, 0.0, 0.0, 10.0, 0.0, None, Limits(2.0))
+    mover, still = track(0, SQUARE, leg=leg), track(1, SQUARE, pose=(6.0, 0.0, 0.0))
+    assert first_change(mover, still, 3.0, leg.t_end, 0.05, want=False, exact=False) == pytest.approx(3.525)

@@ -30,6 +30,8 @@ TIME_TOL = 1e-9
 BOX_PAD = 1e-6
 #: At most this many refinement rounds (a bracket at instants too large to split to ``TIME_TOL`` stops there).
 MAX_ROUNDS = 16
+#: A scan first compares the robots' origins every this many samples (see :func:`_touching_along`).
+COARSE = 32
 #: Samples per refinement round (see :func:`_refine`).
 REFINE = 64
 #: At most this many samples per pair test (the step grows for very long overlaps of slow pairs).
@@ -47,6 +49,11 @@ class Track:
     pose: tuple[float, float, float]
     until: float  # the track holds until this instant (a leg's end; inf at rest)
     axes: Axes | None = None  # ``shape``'s separating axes when it is convex (:func:`convex_axes`)
+
+    @property
+    def drive(self) -> float:
+        """Fastest the robot's origin moves on this track (m/s): it turns in place."""
+        return self.leg.peak if self.leg is not None else 0.0
 
     @property
     def speed(self) -> float:
@@ -161,8 +168,14 @@ def touching(a: Track, b: Track, times: np.ndarray) -> np.ndarray:
     return out
 
 
-def first_change(a: Track, b: Track, t0: float, t1: float, resolution: float, want: bool) -> float | None:
-    """The first instant in ``[t0, t1]`` at which "the footprints touch" becomes ``want``, or None."""
+def first_change(
+    a: Track, b: Track, t0: float, t1: float, resolution: float, want: bool, exact: bool = True
+) -> float | None:
+    """The first instant in ``[t0, t1]`` at which "the footprints touch" becomes ``want``, or None.
+
+    With ``exact`` false the first sample at which it holds is returned, at most one sampling step after
+    the change (no refinement): enough where only the order of events matters, not the instant.
+    """
     if t1 < t0:
         return None
     speed = a.speed + b.speed
@@ -174,13 +187,39 @@ def first_change(a: Track, b: Track, t0: float, t1: float, resolution: float, wa
     step = max(resolution / speed, span / MAX_SAMPLES)
     times = t0 + step * np.arange(math.ceil(span / step) + 1)
     times[-1] = t1
-    hits = np.flatnonzero(touching(a, b, times) == want)
+    hits = np.flatnonzero(_touching_along(a, b, times, step) == want)
     if not len(hits):
         return None
     k = int(hits[0])
     if k == 0:
         return t0
+    if not exact:
+        return float(times[k])
     return _refine(a, b, float(times[k - 1]), float(times[k]), want)
+
+
+def _touching_along(a: Track, b: Track, times: np.ndarray, step: float) -> np.ndarray:
+    """:func:`touching` at ``times`` (evenly ``step`` apart), skipping stretches where the robots are far apart.
+
+    The robots' origins are first compared every ``COARSE`` samples: neither moves faster than its leg's
+    peak speed, so where, at one end of a coarse stretch, they are further apart than their bounding
+    radii plus what both can drive in the stretch, no sample inside can touch. Only the other stretches are
+    sampled finely, at the same instants a full scan would use, so the answer is the full scan's.
+    """
+    n = len(times)
+    out = np.zeros(n, dtype=bool)
+    ends = np.arange(0, n - 1 + COARSE, COARSE).clip(max=n - 1)
+    pa, pb = a.poses(times[ends]), b.poses(times[ends])
+    reach = a.radius + b.radius + (a.drive + b.drive) * COARSE * step
+    close = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1]) <= reach * (1.0 + 1e-9) + 1e-9
+    stretches = np.flatnonzero(close[:-1] & close[1:]) if len(ends) > 1 else np.flatnonzero(close)
+    if not len(stretches):
+        return out
+    need = np.zeros(n, dtype=bool)
+    for m in stretches.tolist():
+        need[ends[m] : ends[min(m + 1, len(ends) - 1)] + 1] = True
+    out[need] = touching(a, b, times[need])
+    return out
 
 
 def _refine(a: Track, b: Track, lo: float, hi: float, want: bool) -> float:

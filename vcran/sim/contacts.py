@@ -73,7 +73,9 @@ class Contacts:
         ta, tb = a.box(now, until), b.box(now, until)
         if not in_contact and (ta[2] < tb[0] or tb[2] < ta[0] or ta[3] < tb[1] or tb[3] < ta[1]):
             return
-        t = first_change(a, b, now, until, self.resolution, want=not in_contact)
+        # A contact's end is reported nowhere: it only says from when the pair can collide again, so the
+        # first sample apart does (a re-contact within that step would be a graze below the resolution).
+        t = first_change(a, b, now, until, self.resolution, want=not in_contact, exact=not in_contact)
         if t is None:
             return
         stamp = (self.version[i], self.version[j])
