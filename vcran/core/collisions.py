@@ -3,10 +3,11 @@
 A robot's *track* is what it does until its next change: a leg (:class:`vcran.core.motion.Leg`, poses
 closed-form in time) or a rest pose. For two tracks, :func:`first_change` samples both at a step chosen so
 that no point of either footprint moves more than ``resolution`` metres between samples (the documented
-spatial resolution; the temporal one follows from the robots' speeds), discards the samples whose bounding
-circles are apart (numpy), tests the rest with exact polygons (shapely, vectorised), and refines the first
-sample that changed to ``TIME_TOL`` in a few vectorised rounds of ``REFINE`` samples. Contacts that begin and end between two samples are
-missed; at 0.05 m that is a graze thinner than 5 cm.
+spatial resolution; the temporal one follows from the robots' speeds), skips stretches where the robots'
+origins are too far apart to meet, discards the samples whose bounding circles are apart (numpy), tests the
+rest exactly (convex footprints by separating axes in numpy, others as shapely polygons), and refines the
+first sample that changed to ``TIME_TOL`` in a few vectorised rounds of ``REFINE`` samples. Contacts that
+begin and end between two samples are missed; at 0.05 m that is a graze thinner than 5 cm.
 
 Finding *which* pairs to test is :class:`Grid`'s job: a uniform grid over the floor, each robot filed
 under the cells its track's bounding box touches, so a robot meets only its neighbours and the cost grows
@@ -212,12 +213,12 @@ def _touching_along(a: Track, b: Track, times: np.ndarray, step: float) -> np.nd
     pa, pb = a.poses(times[ends]), b.poses(times[ends])
     reach = a.radius + b.radius + (a.drive + b.drive) * COARSE * step
     close = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1]) <= reach * (1.0 + 1e-9) + 1e-9
-    stretches = np.flatnonzero(close[:-1] & close[1:]) if len(ends) > 1 else np.flatnonzero(close)
+    stretches = np.flatnonzero(close[:-1] & close[1:])  # n >= 2, so there are at least two ends
     if not len(stretches):
         return out
     need = np.zeros(n, dtype=bool)
     for m in stretches.tolist():
-        need[ends[m] : ends[min(m + 1, len(ends) - 1)] + 1] = True
+        need[ends[m] : ends[m + 1] + 1] = True
     out[need] = touching(a, b, times[need])
     return out
 
