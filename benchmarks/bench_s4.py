@@ -2,6 +2,7 @@
 
     python benchmarks/bench_s4.py                          # 1000 robots, one simulated hour
     python benchmarks/bench_s4.py --robots 100 --hours 0.25
+    python benchmarks/bench_s4.py --scenario scenarios/warehouse.toml   # a given scenario, base vs collisions
 
 The fleet is ``vcran gen --robots N --hours H --seed 1``. Three variants of it run as ``vcran run`` child
 processes: *base* (``collisions = "off"``, no battery), *collisions* (``collisions = "report"``, the
@@ -62,17 +63,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robots", type=int, default=1000)
     parser.add_argument("--hours", type=float, default=1.0)
+    parser.add_argument("--scenario", type=Path, help="run this scenario (base and collisions only) instead")
     args = parser.parse_args()
     sys.path.insert(0, str(ROOT))
     from vcran.io.gen import generate
 
-    texts = variants(generate(args.robots, args.hours, 1))
+    if args.scenario:
+        texts = variants(args.scenario.read_text())
+        del texts["battery"]
+        title = f"{args.scenario}"
+    else:
+        texts = variants(generate(args.robots, args.hours, 1))
+        title = f"{args.robots} robots x {args.hours:g} h (vcran gen seed 1)"
     walls: dict[str, list[float]] = {name: [] for name in texts}
     cpus: dict[str, list[float]] = {name: [] for name in texts}
     facts: dict[str, dict[str, int]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        for name in ("base", "collisions", "battery", "battery", "collisions", "base"):
+        for name in [n for n in ("base", "collisions", "battery", "battery", "collisions", "base") if n in texts]:
             scenario = work / f"{name}.toml"
             scenario.write_text(texts[name])
             out = work / f"out-{name}"
@@ -88,7 +96,7 @@ def main() -> None:
             }
     cpu = {name: min(c) for name, c in cpus.items()}
     wall = {name: min(w) for name, w in walls.items()}
-    print(f"{args.robots} robots x {args.hours:g} h (vcran gen seed 1); best of two runs each. CPU time (user +")
+    print(f"{title}; best of two runs each. CPU time (user +")
     print("system of the child) is the figure to compare on a shared machine; wall time is shown too.\n")
     print("| variant | CPU s | CPU ratio to base | wall s | wall ratio | tasks | collisions | battery records |")
     print("|---|---|---|---|---|---|---|---|")

@@ -2,8 +2,8 @@
 
 Hypothesis runs with the ``vcran`` profile of vcran's own pytest plugin (:mod:`vcran.testing.pytest_plugin`,
 the one users opt into): no per-example deadline, no too_slow health check. ``pytest
---hypothesis-profile=vcran-deep`` overrides it for a long campaign (hypothesis loads a profile given on the
-command line after this file).
+--hypothesis-profile=vcran-deep`` (or ``vcran-nightly``) overrides it for a long campaign (hypothesis loads a
+profile given on the command line after this file).
 """
 
 from __future__ import annotations

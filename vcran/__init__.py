@@ -63,6 +63,12 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "JobStream": ("vcran.core.scenario", "JobStream"),
     "LinkSettings": ("vcran.core.scenario", "LinkSettings"),
     "JobRecord": ("vcran.core.jobs", "JobRecord"),
+    # many variants and seeds into one KPI table, here or on a Dask cluster (SPEC §10)
+    "load_sweep": ("vcran.sweep.spec", "load"),
+    "run_sweep": ("vcran.sweep.runs", "run_sweep"),
+    "Sweep": ("vcran.sweep.spec", "Sweep"),
+    "SweepResult": ("vcran.sweep.runs", "SweepResult"),
+    "SweepError": ("vcran.sweep.spec", "SweepError"),
 }
 
 #: Literal, so that type checkers and linters read it; a test checks it names exactly _EXPORTS.
@@ -75,6 +81,7 @@ __all__ = [
     "simulate", "Result", "ManagerError", "run_to", "RunResult",
     "telemetry_table", "trace_records",
     "FleetManager", "Handle", "Fleet", "Timer", "Job", "JobStream", "LinkSettings", "JobRecord",
+    "load_sweep", "run_sweep", "Sweep", "SweepResult", "SweepError",
 ]
 
 
@@ -114,3 +121,6 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
     from vcran.io.scenario_file import parse as parse_scenario
     from vcran.io.trace import telemetry_table, trace_records
     from vcran.runner import RunResult, run_to
+    from vcran.sweep.runs import SweepResult, run_sweep
+    from vcran.sweep.spec import Sweep, SweepError
+    from vcran.sweep.spec import load as load_sweep

@@ -36,6 +36,7 @@ COMMANDS: dict[str, str] = {
     "orion": "orion",
     "gen": "gen",
     "fuzz": "fuzz",
+    "sweep": "sweep",
     "report": "report",
     "broker": "broker",
     "decode": "decode",

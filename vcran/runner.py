@@ -40,9 +40,11 @@ def _quiet_collector() -> Iterator[None]:
     A run allocates millions of short-lived objects that reference counting frees, and keeps a large,
     long-lived model that the cyclic collector would otherwise walk again and again (3% of a 100-robot
     run, 14% of a 1000-robot one). The collector's state is the process's: it is restored afterwards.
+    No collection before freezing: freezing is a constant-time move, but a full collection walks the
+    whole process, which is tens of milliseconds per run in a test or fuzzing process that runs
+    thousands (garbage frozen meanwhile is collected once the run has unfrozen it).
     """
     threshold = gc.get_threshold()
-    gc.collect()
     gc.freeze()
     gc.set_threshold(GC_THRESHOLD, threshold[1], threshold[2])
     try:

@@ -100,3 +100,34 @@ def test_fleet_odometer_banks_finished_legs():
     fleet.finish(0)
     assert fleet.distance(0, 10.0) == 4.0
     assert tuple(fleet.sample(10.0)[0]) == (4.0, 0.0, 0.0, 0.0, 0.0)
+
+
+def _both_paths(leg: Leg, t: float) -> list[tuple[float, ...]]:
+    """The pose at ``t`` from Leg.pose_at, the fleet's scalar sweep and its vectorised sweep."""
+    scalar = FleetKinematics([(0.0, 0.0, 0.0)])
+    scalar.start(0, leg)
+    vector = FleetKinematics([(0.0, 0.0, 0.0)] * SCALAR_BELOW)
+    for i in range(SCALAR_BELOW):
+        vector.start(i, leg)
+    return [leg.pose_at(t), tuple(scalar.sample(t)[0]), tuple(vector.sample(t)[0])]
+
+
+def test_a_turn_in_place_takes_the_short_way():
+    """Facing 3π/4, the point straight below (heading -π/2) is 3π/4 away turning left (through π), 5π/4
+    turning right: at 1 rad/s the turn takes 3π/4 s and π/4 s into it the robot faces π."""
+    leg = Leg(0.0, 0, 0, 3 * math.pi / 4, 0, -1, None, Limits(1.0, 0, 0, 1.0))
+    assert leg.turn1 == pytest.approx(3 * math.pi / 4) and leg.t_turn1 == pytest.approx(3 * math.pi / 4)
+    for x, y, theta, v, w in _both_paths(leg, math.pi / 4):
+        assert (x, y, v, w) == (0, 0, 0.0, 1.0)
+        assert abs(wrap(theta - math.pi)) < 1e-12
+
+
+def test_poses_during_the_final_turn():
+    """Drive 2 m along -y (heading -π/2, 2 s at 1 m/s), then turn to the goal θ = π the short way
+    (-π/2 rad, clockwise) at 0.5 rad/s: π s. Half way through it the robot faces -3π/4, turning at -0.5."""
+    leg = Leg(0.0, 0, 0, -math.pi / 2, 0, -2, math.pi, Limits(1.0, 0, 0, 0.5))
+    assert leg.t_turn1 == 0 and leg.t_drive == 2.0 and leg.t_turn2 == pytest.approx(math.pi)
+    for x, y, theta, v, w in _both_paths(leg, 2.0 + math.pi / 2):
+        assert (x, y, v, w) == (0, -2, 0.0, -0.5)
+        assert theta == pytest.approx(-3 * math.pi / 4, abs=1e-12)
+    assert leg.pose_at(leg.t_end) == (0, -2, math.pi, 0.0, 0.0)

@@ -71,6 +71,46 @@ def test_telemetry_of_held_and_stopped_legs_is_bit_for_bit_what_was_published(tm
     assert np.isnan(halts["t0"]).any()  # the scenario did halt a robot mid-leg
 
 
+HALT_BEFORE_THE_LEGS_END = """[simulation]
+until_idle = true
+duration = 100.0
+
+[[robots]]
+id = "r0"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+
+[robots.battery]
+capacity = 0.5
+initial = 0.02734375
+per_metre = 0.005
+per_idle_second = 0.002
+per_action_second = 0.01
+charge_rate = 0.05
+swap_after = 5.0
+
+[[script]]
+t = 0.0
+robot = "r0"
+kind = "task"
+task = "T"
+path = [[0.0, 4.0]]
+"""
+
+
+def test_a_halt_before_its_legs_end_within_one_tick_is_where_the_robot_rests(tmp_path):  # §4, §6
+    """The battery runs out at 3.90625, its leg would end at 4.0, the tick is at 4.0: the robot rests where
+    it halted (hypothesis found the evaluation finishing the leg first, then ignoring the halt)."""
+    scenario = parse(tomllib.loads(HALT_BEFORE_THE_LEGS_END), "<halt>")
+    transport = Frames(scenario.messages())
+    run_to(scenario, tmp_path / "run", transport)
+    published = np.vstack(transport.frames)
+    rows = legs(tmp_path / "run")
+    assert rows["t"][-1] == 3.90625 and np.isnan(rows["t0"][-1])  # the halt, before the leg's end at 4.0
+    assert published[4, 0] == 4.0 and published[4, 2] == 3.90625  # rests where it halted
+    assert samples(tmp_path / "run").tobytes() == published.tobytes()
+
+
 def test_events_carry_the_same_keys_in_the_same_order(tmp_path):
     scenario = load(ROOT / "scenarios" / "demo.toml")
     run_to(scenario, tmp_path / "run", ScriptedTransport(scenario.messages()))

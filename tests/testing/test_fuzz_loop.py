@@ -83,6 +83,70 @@ def test_idle_while_waiting_counts_only_the_overlap_of_idle_robot_and_waiting_jo
     assert len(late) == 2 and "from t=150 to t=220" in late[1]
 
 
+def test_a_robot_out_of_reach_is_not_idle():
+    # r1 idles 0..100 while j waits from 10; its link is down 30..75 and it breaks down 80..90 (§4): the
+    # manager could use it 10..30, 75..80 and 90..100, at most 20 s at a stretch; a fault that applied to
+    # nothing, and another robot's outage, cut nothing
+    events = [
+        {"t": 10.0, "robot": "", "event": "job_arrived", "job": "j"},
+        {"t": 30.0, "robot": "r1", "event": "fault", "kind": "link_down", "duration": 45.0},
+        {"t": 40.0, "robot": "r2", "event": "fault", "kind": "link_down", "duration": 50.0},
+        {"t": 50.0, "robot": "r1", "event": "fault", "kind": "breakdown", "duration": 9.0, "applied": False},
+        {"t": 75.0, "robot": "r1", "event": "fault_end", "kind": "link_down"},
+        {"t": 80.0, "robot": "r1", "event": "fault", "kind": "breakdown", "duration": 10.0},
+        {"t": 90.0, "robot": "r1", "event": "fault_end", "kind": "breakdown"},
+        {"t": 90.0, "robot": "r2", "event": "fault_end", "kind": "link_down"},
+        {"t": 100.0, "robot": "r1", "event": "job_assigned", "job": "j", "task": "t1"},
+        {"t": 100.0, "robot": "r1", "event": "state", "from": "WAITING", "to": "TASK"},
+    ]
+    assert check_no_idle_while_waiting(_Result(events, 100.0), bound=20.0) == []
+    [problem] = check_no_idle_while_waiting(_Result(events, 100.0), bound=19.0)
+    assert "r1 idle from t=10 to t=30" in problem
+    # r2 idles 0..100 (never assigned) with its link down 40..90: 10..40 is 30 s, 90..100 10 s
+    [r2] = check_no_idle_while_waiting(_Result(events, 100.0, robots=("r1", "r2")), bound=29.0)
+    assert "r2 idle from t=10 to t=40" in r2
+    # a link still down when the run ends (j never assigned) cuts r1's idle time from 30 to the end at 200
+    assert check_no_idle_while_waiting(_Result(events[:2], 200.0), bound=20.0) == []
+    assert len(check_no_idle_while_waiting(_Result(events[:1], 200.0), bound=20.0)) == 1
+
+
+def test_rejections_while_a_robots_link_is_down_are_the_outages():
+    # r1's link is down 20..65: the manager's writes held meanwhile are judged at 65 against a task that
+    # timed out (R9), which it could not know; the same rejection a moment later, or on r2, is its own
+    def rejected(t: float, robot: str) -> dict:
+        return {"t": t, "robot": robot, "event": "rejected", "code": "task_cancelled", "task": "t1",
+                "message": "task t1 was already cancelled, reason timeout"}
+
+    outage = [{"t": 20.0, "robot": "r1", "event": "fault", "kind": "link_down", "duration": 45.0},
+              {"t": 65.0, "robot": "r1", "event": "fault_end", "kind": "link_down"}]
+    assert check_protocol(_Result([*outage, rejected(40.0, "r1"), rejected(65.0, "r1")], 100.0)) == []
+    late = check_protocol(_Result([*outage, rejected(65.5, "r1"), rejected(40.0, "r2")], 100.0))
+    assert [p.split(":")[0] for p in late] == ["t=65.5 r1", "t=40 r2"]
+
+
+def test_a_job_cancelled_out_of_the_managers_sight_waits_from_when_the_link_is_back():
+    # j runs on r1 from 5; r1's link is down 20..70 and its task is cancelled at 25, unseen until 70; r2
+    # idles throughout and gets j at 100: for the manager j waited 70..100 (30 s), not 25..100 (75 s)
+    events = [
+        {"t": 0.0, "robot": "", "event": "job_arrived", "job": "j"},
+        {"t": 5.0, "robot": "r1", "event": "job_assigned", "job": "j", "task": "t1"},
+        {"t": 5.0, "robot": "r1", "event": "state", "from": "WAITING", "to": "TASK"},
+        {"t": 20.0, "robot": "r1", "event": "fault", "kind": "link_down", "duration": 50.0},
+        {"t": 25.0, "robot": "r1", "event": "state", "from": "TASK", "to": "WAITING"},
+        {"t": 25.0, "robot": "r1", "event": "task_cancelled", "task": "t1", "reason": "motion_failed"},
+        {"t": 70.0, "robot": "r1", "event": "fault_end", "kind": "link_down"},
+        {"t": 100.0, "robot": "r2", "event": "job_assigned", "job": "j", "task": "t2"},
+        {"t": 100.0, "robot": "r2", "event": "state", "from": "WAITING", "to": "TASK"},
+    ]
+    both = ("r1", "r2")
+    assert check_no_idle_while_waiting(_Result(events, 100.0, robots=both), bound=30.0) == []
+    late = check_no_idle_while_waiting(_Result(events, 100.0, robots=both), bound=29.0)
+    assert [p.split(" (")[0] for p in late] == ["r1 idle from t=70 to t=100", "r2 idle from t=70 to t=100"]
+    # the same cancel seen at once (no outage): j waits 25..100 and r2 idles all of it
+    seen = [e for e in events if e["event"] not in ("fault", "fault_end")]
+    assert "r2 idle from t=25 to t=100" in check_no_idle_while_waiting(_Result(seen, 100.0, robots=both), bound=60.0)[-1]
+
+
 @settings(max_examples=8)
 @given(loop_variants(WAREHOUSE, max_jobs=4, horizon=120.0, settle=400.0))
 def test_the_dispatcher_keeps_the_loop_properties(scenario):

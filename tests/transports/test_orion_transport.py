@@ -391,3 +391,24 @@ def test_ran_status_lists_at_most_fifty_queued_tasks_and_counts_all():
     status = logic.ran_status()
     assert len(status.queue) == QUEUE_SHOWN == 50 and status.queued == 120
     assert status.queue[0].description == "T0"
+
+
+def test_ran_errors_raised_during_an_outage_are_delivered_after_it_and_on_close():
+    """Issue 13 item 7: errors of an outage wait for Orion and go out in order once it answers again;
+    an error raised after the last tick goes out on close, not lost with the process."""
+    orion = FakeOrion(update_status=503)
+    t = transport(orion, backoff_start=0.1, backoff_cap=1.0)
+    t.send(Publish(0.5, "robot_1", "ran_error", error(1)))
+    t.send(frame(1.0))
+    assert t.sender.deliver() is not None  # Orion is down: back off
+    t.send(Publish(1.5, "robot_2", "ran_error", error(2)))
+    t.send(frame(2.0))
+    assert t.sender.deliver() is not None
+    assert orion.updates == []
+    orion.update_status = 204
+    assert t.sender.deliver() is None
+    assert delivered_errors(orion) == [("robot_1", 1), ("robot_2", 2)]
+    t.send(Publish(2.5, "robot_1", "ran_error", error(3)))  # no tick after it
+    t.close()
+    assert delivered_errors(orion) == [("robot_1", 1), ("robot_2", 2), ("robot_1", 3)]
+    assert t.sender.counts.errors_undeliverable == 0

@@ -16,15 +16,27 @@ module:Class``, is fuzzed the other way round: the manager is under test, so the
 stations' stock and the link vary (:mod:`vcran.testing.loop`), and each run is checked against the loop
 properties (every job ends; no protocol error; no robot idles past ``--idle-bound`` while a job waits).
 The shrunk failing scenario is saved the same way, naming its manager.
+
+``--workers K`` or ``--cluster ADDRESS`` (SPEC §10) split the examples, a script's or a manager's, into
+searches of at most 25 with consecutive seeds from ``--seed`` (:func:`vcran.testing.campaign.chunks`)
+and run them on a local process pool or a Dask cluster; the first failure stops them all, and its header
+names the one search, ``--seed S --examples M``, that finds it again in a single process.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vcran.commands import add_scenario_argument
+from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+
+if TYPE_CHECKING:
+    from vcran.core.scenario import Scenario
+    from vcran.testing.campaign import Failure, LoopOptions, Options, Outcome
 
 HELP = ("perturb a scenario's message script and check the rules on every variant; with a fleet manager, vary "
         "its workload and link and check the loop properties")
@@ -39,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--window", type=int, default=3, help="how far a reordering moves a message (default 3)")
     parser.add_argument("--max-ops", type=int, default=8, help="most perturbations per example (default 8)")
     parser.add_argument("--fast", action="store_true", help="skip the second run and the replay of each variant")
+    add_pool_arguments(parser, "the examples, as searches of at most 25 with consecutive seeds,", "1")
     loop = parser.add_argument_group("a fleet manager in the loop (SPEC §9)")
     loop.add_argument("--manager", metavar="MODULE:CLASS",
                       help="fuzz this fleet manager (default: the scenario's [manager], if it has one)")
@@ -50,115 +63,135 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import random
-    import tempfile
+    import importlib.util
     import time
 
     from vcran.commands import CommandError, load_scenario
+    from vcran.io.scenario_file import resolve
 
-    try:
-        from hypothesis import HealthCheck, find, settings
-        from hypothesis.errors import NoSuchExample
-    except ModuleNotFoundError:
-        raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'") from None
-    from vcran.testing.checks import run_variant
-    from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
+    if importlib.util.find_spec("hypothesis") is None:
+        raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'")
+    from vcran.testing.campaign import Options, search, search_loop
 
     if args.examples < 1:
         raise CommandError("--examples must be at least 1")
+    check_pool_options(args)
     base = load_scenario(args.scenario)
-    if args.manager is not None or base.manager is not None:
-        return _fuzz_manager(args, base)
-    entries = list(base.messages())
-    try:
-        perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
-    except ValueError as exc:
-        raise CommandError(str(exc)) from None
-    strategy = perturbations(entries, [r.id for r in base.robots], window=args.window, max_ops=args.max_ops)
-    calls = {"generated": 0, "shrinking": 0}
-    found = False
-
-    def violated(ops: list[Perturbation]) -> bool:
-        nonlocal found
-        calls["shrinking" if found else "generated"] += 1
-        with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
-            bad = bool(run_variant(load_text(perturbed_toml(base, ops)), Path(work), again=not args.fast))
-        found = found or bad
-        return bad
-
-    options = settings(max_examples=args.examples, database=None, deadline=None,
-                       suppress_health_check=list(HealthCheck))
+    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
+    loop = args.manager is not None or base.manager is not None
+    if loop:
+        options: Options | LoopOptions = _loop_options(args, base, text)
+        fn = search_loop
+    else:
+        _check_script(base)
+        options = Options(window=args.window, max_ops=args.max_ops, fast=args.fast)
+        fn = search
     start = time.perf_counter()
-    try:
-        minimal = find(strategy, violated, settings=options, random=random.Random(args.seed))
-    except NoSuchExample:
-        wall = time.perf_counter() - start
-        n = calls["generated"]
-        rate = f", {60 * n / wall:,.0f} examples/min" if wall > 0 else ""
-        print(f"vcran fuzz: {n} examples of {args.scenario} ran clean (seed {args.seed}): {wall:.1f} s{rate}")
-        return 0
+    if args.workers in (None, 1) and args.cluster is None:
+        outcome: Outcome | None = fn(text, str(args.scenario), args.seed, args.examples, options)
+        examples = outcome.examples
+    else:
+        outcome, examples = _campaign(args, fn, text, options)
     wall = time.perf_counter() - start
-    text = perturbed_toml(base, minimal)
-    with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
-        problems = run_variant(load_text(text), Path(work), again=not args.fast)
+    name = args.manager or (base.manager.path if base.manager is not None else None)
+    if outcome is None or outcome.failure is None:
+        if loop:
+            print(f"vcran fuzz: {name} kept the loop properties on {examples} examples of {args.scenario} "
+                  f"(seed {args.seed}): {wall:.1f} s")
+        else:
+            rate = f", {60 * examples / wall:,.0f} examples/min" if wall > 0 else ""
+            print(f"vcran fuzz: {examples} examples of {args.scenario} ran clean (seed {args.seed}): "
+                  f"{wall:.1f} s{rate}")
+        return 0
+    failure = outcome.failure
+    command = f"vcran fuzz {args.scenario}{f' --manager {name}' if loop else ''} --examples {outcome.asked} " \
+              f"--seed {outcome.seed}: a minimal failing {'scenario' if loop else 'script'}"
     header = "\n".join([
-        f"vcran fuzz {args.scenario} --examples {args.examples} --seed {args.seed}: a minimal failing script",
-        f"perturbations: {minimal!r}",
-        *(f"violation: {p}" for p in problems),
+        command,
+        *([f"perturbations: {failure.ops!r}"] if failure.ops is not None else []),
+        *(f"violation: {p}" for p in failure.problems),
         "re-run: vcran run THIS_FILE --out DIR",
     ])
-    text = perturbed_toml(base, minimal, header)
+    text = _failing_file(base, failure, header)
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     save.write_text(text, encoding="utf-8")
     print(text)
-    print(f"vcran fuzz: rule violated after {calls['generated']} examples ({calls['shrinking']} shrinking runs, "
-          f"{wall:.1f} s); the minimal script above is saved in {save}", file=sys.stderr)
-    for p in problems:
+    what = f"{name} broke a loop property" if loop else "rule violated"
+    print(f"vcran fuzz: {what} after {examples} examples ({outcome.shrinking} shrinking runs, {wall:.1f} s); "
+          f"the minimal {'scenario' if loop else 'script'} above is saved in {save}", file=sys.stderr)
+    for p in failure.problems:
         print(f"  {p}", file=sys.stderr)
     return 1
 
 
-def _fuzz_manager(args: argparse.Namespace, base):  # type: ignore[no-untyped-def]
-    import time
-    from dataclasses import replace
+def _check_script(base: Scenario) -> None:
+    from vcran.commands import CommandError
+    from vcran.testing.scripts import perturbed_toml
 
+    try:
+        perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+
+
+def _loop_options(args: argparse.Namespace, base: Scenario, text: str) -> LoopOptions:
+    """A fleet manager's campaign, checked before any example runs."""
     from vcran.api import ManagerError, build_manager
     from vcran.commands import CommandError
-    from vcran.core.scenario import ManagerSpec
-    from vcran.io.scenario_toml import dumps, loop_dict
-    from vcran.testing.loop import fuzz_manager
+    from vcran.testing.campaign import LoopOptions, loop_base
 
     if args.jobs < 1 or not args.horizon > 0 or not args.idle_bound > 0:
         raise CommandError("--jobs, --horizon and --idle-bound must be positive")
     if base.script or base.cycles:
         raise CommandError(f"{args.scenario}: has a [[script]]; a fleet manager plays that part (remove one)")
-    if args.manager is not None:
-        base = replace(base, manager=ManagerSpec(args.manager))
-    try:
-        build_manager(None, base)  # a manager that cannot be built fails now, not as every example's crash
+    try:  # a manager that cannot be built fails now, not as every example's crash
+        build_manager(None, loop_base(text, str(args.scenario), args.manager))
     except ManagerError as exc:
         raise CommandError(str(exc)) from None
-    start = time.perf_counter()
-    finding = fuzz_manager(base, None, examples=args.examples, seed=args.seed, bound=args.idle_bound,
-                           max_jobs=args.jobs, horizon=args.horizon)
-    wall = time.perf_counter() - start
-    name = base.manager.path
-    if finding is None:
-        print(f"vcran fuzz: {name} kept the loop properties on {args.examples} examples of {args.scenario} "
-              f"(seed {args.seed}): {wall:.1f} s")
-        return 0
-    header = "\n".join([
-        f"vcran fuzz {args.scenario} --manager {name} --examples {args.examples} --seed {args.seed}: "
-        "a minimal failing scenario",
-        *(f"violation: {p}" for p in finding.problems),
-        "re-run: vcran run THIS_FILE --out DIR",
-    ])
-    text = dumps(loop_dict(finding.scenario), header)
-    save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
-    save.write_text(text, encoding="utf-8")
-    print(text)
-    print(f"vcran fuzz: {name} broke a loop property after {finding.examples} examples ({finding.shrinks} "
-          f"shrinking runs, {wall:.1f} s); the minimal scenario above is saved in {save}", file=sys.stderr)
-    for p in finding.problems:
-        print(f"  {p}", file=sys.stderr)
-    return 1
+    return LoopOptions(args.manager, args.jobs, args.horizon, args.idle_bound)
+
+
+def _failing_file(base: Scenario, failure: Failure, header: str) -> str:
+    from vcran.io.scenario_toml import dumps
+    from vcran.testing.scripts import perturbed_toml
+
+    if failure.ops is not None:
+        return perturbed_toml(base, failure.ops, header)
+    assert failure.scenario is not None
+    return dumps(failure.scenario, header)
+
+
+def _campaign(args: argparse.Namespace, fn: Callable[..., Outcome], text: str,
+              options: Options | LoopOptions) -> tuple[Outcome | None, int]:
+    """Searches with consecutive seeds on a pool (SPEC §10); the first failure stops them all.
+    Returns the failing outcome (or None) and the examples tried in all searches that finished."""
+    from vcran.commands import CommandError
+    from vcran.sweep.progress import Progress
+    from vcran.testing.campaign import chunks
+
+    plan = chunks(args.examples, args.workers or 1, args.seed)
+    pool = pool_for(args, len(plan))
+    print(f"vcran fuzz: {args.examples} examples as {len(plan)} searches (seeds {plan[0][0]}..{plan[-1][0]}) "
+          f"on {pool.name}", file=sys.stderr)
+    progress = Progress(sys.stderr, args.examples, "examples")
+    examples = 0
+    try:
+        for i, outcome in pool.run(fn, [(text, str(args.scenario), seed, n, options) for seed, n in plan]):
+            if isinstance(outcome, BaseException):
+                pool.stop()
+                raise CommandError(f"the search with seed {plan[i][0]} could not run: "
+                                   f"{type(outcome).__name__}: {outcome}")
+            examples += outcome.examples
+            progress.update(outcome.failure is not None, outcome.examples)
+            if outcome.failure is not None:
+                pool.stop()
+                return outcome, examples
+    except KeyboardInterrupt:
+        pool.stop()
+        progress.close()
+        print(f"vcran fuzz: interrupted after {examples} examples, all clean", file=sys.stderr)
+        raise
+    finally:
+        progress.close()
+        pool.close()
+    return None, examples

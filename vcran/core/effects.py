@@ -57,6 +57,23 @@ class StopAfterLeg:
 
 
 @dataclass(frozen=True, slots=True)
+class SkipMotion:
+    """Drop ``motion``'s point from the path being driven; it is not the running leg (R13)."""
+
+    task: Id
+    motion: Id
+
+
+@dataclass(frozen=True, slots=True)
+class Abandon:
+    """The leg or action of ``task`` that began at this very instant does not happen: a cancel or a
+    timeout at the same instant as the end of the previous leg or action stops the robot there (R14).
+    The AGV stays where the leg began; AgvAction performs nothing."""
+
+    task: Id
+
+
+@dataclass(frozen=True, slots=True)
 class DispatchAction:
     """Send one action to AgvAction (R6 ACTION: one at a time, in sequence order)."""
 
@@ -79,7 +96,7 @@ class ClearTimer:
     task: Id
 
 
-Command = DispatchPath | StopAfterLeg | DispatchAction | StartTimer | ClearTimer
+Command = DispatchPath | StopAfterLeg | SkipMotion | Abandon | DispatchAction | StartTimer | ClearTimer
 
 # --- events ---------------------------------------------------------------------------------------------
 
@@ -151,6 +168,20 @@ class ActionFinished(Event):
 
     def fields(self) -> dict[str, Any]:
         return {"task": self.task.label, "action": self.action.label, "ok": self.ok}
+
+
+@dataclass(frozen=True, slots=True)
+class AssignmentCancelled(Event):
+    """R13: one assignment of a live task was cancelled; its position counts as received, it is never
+    performed (a motion's point is dropped from the path)."""
+
+    NAME = "assignment_cancelled"
+    task: Id
+    kind: str  # "motion" or "action"
+    assignment: Id
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task.label, self.kind: self.assignment.label}
 
 
 @dataclass(frozen=True, slots=True)

@@ -263,6 +263,13 @@ class FleetKinematics:
         self.legs[i, C["t_end"]] = -np.inf
         return x, y, theta
 
+    def abandon(self, i: int) -> None:
+        """The leg of robot ``i`` did not happen (R14): it rests where the leg began, nothing driven."""
+        leg = self.current.pop(i)
+        self._changes += 1
+        self.rest[i, :3] = (leg.x0, leg.y0, wrap(leg.theta0))
+        self.legs[i, C["t_end"]] = -np.inf
+
     def distance(self, i: int, t: float) -> float:
         """Odometer of robot ``i`` at ``t``, including the driven part of its current leg."""
         leg = self.current.get(i)

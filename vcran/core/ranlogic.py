@@ -7,8 +7,10 @@ transports. The driver's one obligation: deliver :meth:`on_timer` at every :clas
 before any input with a later ``now``, and report each dispatched leg and action exactly once.
 
 Tie order inside one instant is the driver's business (docs/determinism.md); RanLogic only requires
-``now`` never to decrease. A task assembled exactly at its deadline is on time (R7 checks ``now >=
-deadline`` when the timer fires, and the driver delivers inputs of an instant before its timers).
+``now`` never to decrease. Times are compared with a tolerance of :data:`TOLERANCE` (R14): the R7 timer
+asks to fire that long after ``first_seen + task_timeout``, so an input at the deadline as a scenario
+writes it is on time whatever binary rounding made of the sum, and a cancel or timeout within that
+tolerance of the instant a leg or action began abandons it (:class:`~vcran.core.effects.Abandon`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from collections.abc import Callable
 from itertools import islice
 
 from vcran.core.effects import (
+    Abandon,
     ActionFinished,
+    AssignmentCancelled,
     ClearTimer,
     DispatchAction,
     DispatchPath,
@@ -28,6 +32,7 @@ from vcran.core.effects import (
     MotionFinished,
     Reason,
     Rejected,
+    SkipMotion,
     StartTimer,
     State,
     StateChanged,
@@ -52,6 +57,9 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
         (State.MOTION, State.WAITING),
     }
 )
+
+#: R14: two instants closer than this are the same instant (seconds).
+TOLERANCE = 1e-6
 
 #: How many recently completed / cancelled tasks ``ran_status`` shows.
 RECENT = 10
@@ -97,6 +105,8 @@ class RanLogic:
         self.last_finished_motion: Id = NIL
         self.last_finished_action: Id = NIL
         self.error_count = 0
+        #: R13 tombstones: (task, kind, id) of assignments cancelled before they arrived, oldest first.
+        self.doomed: OrderedDict[tuple[Id, str, Id], CancelTask] = OrderedDict()
         #: Bumped whenever anything ``ran_status`` or ``assignment_status`` shows changes.
         self.version = 0
         #: Why the robot takes no tasks (SPEC §4: "battery_empty"), or "" when it does.
@@ -137,7 +147,7 @@ class RanLogic:
         self._begin(now)
         task = self.queue.get(task_id)
         if task is not None and not task.assembled and task.ending is None and now >= task.deadline:
-            self._end_task(now, task, Reason.TIMEOUT)
+            self._end_task(now, task, Reason.TIMEOUT, at=task.deadline)
         return self._end()
 
     def on_motion_finished(self, now: float, motion_id: Id) -> list[Effect]:
@@ -146,12 +156,13 @@ class RanLogic:
         task = self._current()
         if task is None or not self._driving(task):
             raise LocalProtocolError(f"{self.robot}: motion {motion_id.label} finished but no leg was running")
-        expected = assignment_id(task.slots[task.motions_done + 1])
+        expected = assignment_id(task.slots[task.route[0]])
         if expected != motion_id:
             raise LocalProtocolError(
                 f"{self.robot}: motion {motion_id.label} finished, expected {expected.label}"
             )
-        task.motions_done += 1
+        task.route.popleft()
+        task.since = now  # the next leg, if any, begins now
         self.last_finished_motion = motion_id
         self.version += 1
         self._emit(MotionFinished(task.id, motion_id))
@@ -179,9 +190,9 @@ class RanLogic:
         self.last_finished_action = action_id
         self.version += 1
         self._emit(ActionFinished(task.id, action_id, ok))
-        if not ok:
+        if not ok:  # reported, but a cancel or timeout already pending keeps its reason (R14)
             self._error(Failed, code or "action_failed", message, task.id, NIL, action_id)
-            self._finish_cancel(now, task, Reason.ACTION_FAILED)
+            self._finish_cancel(now, task, task.ending or Reason.ACTION_FAILED)
         elif task.ending is not None:
             self._finish_cancel(now, task)
         else:
@@ -231,7 +242,7 @@ class RanLogic:
         task = self._current()
         if task is None or not self._driving(task):
             return NIL
-        return assignment_id(task.slots[task.motions_done + 1])
+        return assignment_id(task.slots[task.route[0]])
 
     @property
     def current_action(self) -> Id:
@@ -274,6 +285,9 @@ class RanLogic:
         if task.ending is not None:
             self._reject("task_cancelled", f"task {task.id.label} is being cancelled [R8]", a)
             return
+        if pos is not None and pos in task.skipped:
+            self._reject("assignment_cancelled", f"{kind_of(a)} {assignment_id(a).label} was cancelled [R13]", a)
+            return
         if pos is not None and task.dispatched(pos):
             self._reject("already_dispatched", f"{kind_of(a)} {assignment_id(a).label} was already dispatched [R10]", a)
             return
@@ -286,9 +300,8 @@ class RanLogic:
             return
         task.put(a, pos)
         self.version += 1
-        if task is self._current():
-            self._advance(now)
-        if task.assembled:
+        self._settle(now, task, a)
+        if task.assembled:  # R5 (the task may have ended meanwhile: R13 skips can finish it at once)
             self._emit(ClearTimer(task.id))
 
     def _new_task(self, now: float, a: Assignment) -> None:
@@ -300,31 +313,50 @@ class RanLogic:
         self.version += 1
         self._emit(TaskQueued(task.id))
         if not task.assembled:
-            self._emit(StartTimer(task.id, task.deadline))
+            # R14: the timer waits out the tolerance, so an input at the deadline is on time; rounded
+            # to the nanosecond so that the instant reads as the scenario would write it.
+            self._emit(StartTimer(task.id, round(task.deadline + TOLERANCE, 9)))
         if len(self.queue) == 1:
             self._set_state(State.TASK)
+        self._settle(now, task, a)
+
+    def _settle(self, now: float, task: Task, a: Assignment) -> None:
+        """After ``a`` was accepted: skip it if a cancel named it before it arrived (R13), then let the
+        task go as far as it can."""
+        key = (task.id, kind_of(a), assignment_id(a))
+        cancel = self.doomed.pop(key, None) if self.doomed else None
+        if cancel is not None:
+            self._skip(task, a.sequence.sequence_number)
+            if len(task.skipped) == task.length:
+                self._end_task(now, task, Reason.CANCELLED, cancel)
+                return
+        if task is self._current():
             self._advance(now)
 
     # --- cancel (R8) ------------------------------------------------------------------------------------
 
     def _on_cancel(self, now: float, c: CancelTask) -> None:
-        for name, ident in (("action_id", c.action_id), ("motion_id", c.motion_id)):
-            if not ident.is_unused:
-                self._error(
-                    Rejected,
-                    "partial_cancel_unsupported",
-                    f"cancel_order.{name} {ident.label}: cancelling single assignments is not supported; "
-                    "send a nil or not-supported id to cancel the whole task [R8]",
-                    c.task_id,
-                )
-                return
+        named = [(kind, ident) for kind, ident in (("motion", c.motion_id), ("action", c.action_id))
+                 if not ident.is_unused]
         task = self.queue.get(c.task_id)
         if task is not None:
-            if task.ending is None:  # else it is already ending; the earlier reason stands
+            if task.ending is not None:
+                return  # already ending, whole: the earlier reason stands
+            if named:
+                self._partial_cancel(now, task, c, named)
+            else:
                 self._end_task(now, task, Reason.CANCELLED, c)
             return
         ended = self.history.get(c.task_id)
-        if ended is None:
+        if ended is None and named:
+            for kind, ident in named:
+                self._doom(c, kind, ident)
+            self._error(
+                Rejected, "cancel_unknown_assignment",
+                f"cancel for {_named(named)} of unknown task {c.task_id.label}: remembered, "
+                "skipped if it arrives [R13]", c.task_id, *_ids(named), severity="warning",
+            )
+        elif ended is None:
             self._remember(c.task_id, Ended.of(None, Reason.CANCELLED, now, c))
             self._error(
                 Rejected, "cancel_unknown_task",
@@ -336,21 +368,77 @@ class RanLogic:
             self.history.replace(c.task_id, ended)
             self._error(
                 Rejected, "cancel_finished_task", f"cancel for task {c.task_id.label}, already {_how(ended)} [R8]",
-                c.task_id, severity="warning",
+                c.task_id, *_ids(named), severity="warning",
             )
 
-    def _end_task(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None = None) -> None:
-        """Cancel ``task`` now if nothing of it runs, else once its running leg or action finishes (R8)."""
+    def _partial_cancel(self, now: float, task: Task, c: CancelTask, named: list[tuple[str, Id]]) -> None:
+        """R13: cancel the named assignments of a live task, all or (if one cannot be) none."""
+        positions: list[int] = []
+        unknown: list[tuple[str, Id]] = []
+        for kind, ident in named:
+            pos = task.where.get((kind, ident))
+            if pos is None:
+                unknown.append((kind, ident))
+            elif pos not in task.skipped:  # else cancelled already: a re-read
+                refusal = task.refusal(pos)
+                if refusal is not None:
+                    self._error(Rejected, refusal[0], refusal[1], task.id, *_ids(named), severity="warning")
+                    return
+                positions.append(pos)
+        for kind, ident in unknown:
+            self._doom(c, kind, ident)
+        if unknown:
+            self._error(
+                Rejected, "cancel_unknown_assignment",
+                f"cancel for {_named(unknown)} of task {task.id.label}, not received: remembered, "
+                "skipped if it arrives [R13]", task.id, *_ids(unknown), severity="warning",
+            )
+        if not positions:
+            return
+        for pos in positions:
+            self._skip(task, pos)
+        self.version += 1
+        if len(task.skipped) == task.length:  # every assignment cancelled: the task is (R13)
+            self._end_task(now, task, Reason.CANCELLED, c)
+        elif task is self._current():
+            self._advance(now)
+
+    def _skip(self, task: Task, pos: int) -> None:
+        """R13: the assignment at ``pos`` counts as received and is never performed."""
+        task.skipped.add(pos)
+        a = task.slots[pos]
+        self._emit(AssignmentCancelled(task.id, kind_of(a), assignment_id(a)))
+        if pos in task.route:  # a point of the path being driven, not yet reached
+            task.route.remove(pos)
+            self._emit(SkipMotion(task.id, assignment_id(a)))
+
+    def _doom(self, c: CancelTask, kind: str, ident: Id) -> None:
+        """R13: remember a cancel for an assignment not received yet, bounded like the history (R9)."""
+        key = (c.task_id, kind, ident)
+        self.doomed[key] = c
+        self.doomed.move_to_end(key)
+        while len(self.doomed) > self.history_limit:
+            self.doomed.popitem(last=False)
+
+    def _end_task(
+        self, now: float, task: Task, reason: Reason, cancel: CancelTask | None = None, at: float | None = None
+    ) -> None:
+        """Cancel ``task`` now if nothing of it runs, else once its running leg or action finishes (R8).
+
+        ``at`` is the instant the request is about (the deadline for a timeout; ``now`` for a cancel): a
+        leg or action that began within :data:`TOLERANCE` of it is abandoned instead (R14)."""
         if task is not self._current():
             self._cancel_now(now, task, reason, cancel)
             return
         driving = self._driving(task)
         if driving or task.action_running:
-            task.ending = reason
-            task.cancel = cancel
-            if driving:
-                self._emit(StopAfterLeg(task.id))
-            return
+            if abs((now if at is None else at) - task.since) > TOLERANCE:
+                task.ending = reason
+                task.cancel = cancel
+                if driving:
+                    self._emit(StopAfterLeg(task.id))
+                return
+            self._emit(Abandon(task.id))
         self._finish_cancel(now, task, reason, cancel)
 
     def _finish_cancel(
@@ -382,16 +470,20 @@ class RanLogic:
                 return
             task.m = m
             task.next_action = m + 1
+            task.route.extend(p for p in range(1, m + 1) if p not in task.skipped)
             self._set_state(State.MOTION)
-            if m > 0:
+            if task.route:
+                task.since = now
                 self._emit(DispatchPath(task.id, task.path()))
         if self.state is State.MOTION:
-            if task.motions_done < (task.m or 0) or not task.actions_complete():
+            if task.route or not task.actions_complete():
                 return
             self._set_state(State.ACTION)
         if self.state is State.ACTION and not task.action_running:
+            task.skip_cancelled_actions()
             if task.next_action <= task.length:
                 task.action_running = True
+                task.since = now
                 self.version += 1
                 self._emit(DispatchAction(task.id, task.action_at(task.next_action)))
             else:
@@ -423,7 +515,7 @@ class RanLogic:
 
     def _driving(self, task: Task) -> bool:
         """The AGV is on a leg of ``task``'s path (``task`` being the current task)."""
-        return self.state is State.MOTION and task.m is not None and task.motions_done < task.m
+        return self.state is State.MOTION and bool(task.route)
 
     def _current(self) -> Task | None:
         return next(iter(self.queue.values()), None)
@@ -461,6 +553,16 @@ class RanLogic:
     def _end(self) -> list[Effect]:
         out, self._out = self._out, []
         return out
+
+
+def _named(named: list[tuple[str, Id]]) -> str:
+    return " and ".join(f"{kind} {ident.label}" for kind, ident in named)
+
+
+def _ids(named: list[tuple[str, Id]]) -> tuple[Id, Id]:
+    """(motion, action) ids for an error report."""
+    found = dict(named)
+    return found.get("motion", NIL), found.get("action", NIL)
 
 
 def _how(ended: Ended) -> str:

@@ -30,11 +30,14 @@ def same_content(a: Assignment, b: Assignment) -> bool:
 
 
 _FLATTENERS: dict[type, Callable[[Any], tuple[Any, ...]]] = {}
+#: Float fields are flattened as ``v + 0.0``, which turns -0.0 into 0.0: R10 compares numbers (-0.0 == 0.0),
+#: so the fingerprint must not tell the signs of a zero apart (pickle would).
+_FLOATS = ("float64", "float32")
 
 
 def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
     """A function returning every primitive of a ``cls`` in schema order, ids by their uuid only
-    (SPEC §2), without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
+    (SPEC §2), zeros unsigned, without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
     costs several times more, and this runs for every assignment of every ended task."""
     key = (cls, skip)
     found = _FLATTENERS.get(key)  # type: ignore[call-overload]
@@ -49,14 +52,16 @@ def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
                 continue
             here = f"{path}.{spec.name}"
             if spec.kind == "prim":
-                parts.append(here)
+                parts.append(f"({here} + 0.0)" if spec.ros in _FLOATS else here)
             elif spec.kind == "id":
                 parts.append(f"{here}.uuid")
             elif spec.kind == "msg":
                 walk(spec.cls, here)  # type: ignore[arg-type]
             else:
                 name = f"_a{len(helpers)}"
-                if spec.cls is None:
+                if spec.cls is None and spec.ros[:-2] in _FLOATS:
+                    helpers[name] = lambda items: (len(items), *(v + 0.0 for v in items))
+                elif spec.cls is None:
                     helpers[name] = lambda items: (len(items), *items)
                 elif spec.cls is Id:
                     helpers[name] = lambda items: (len(items), *(i.uuid for i in items))
@@ -106,10 +111,15 @@ class Task:
     where: dict[tuple[str, Id], int] = field(default_factory=dict)
     #: Number of motions, fixed when the path is dispatched (R3); None before.
     m: int | None = None
-    motions_done: int = 0
+    #: Positions of the dispatched path still to drive, the running leg first (R13 may drop later ones).
+    route: deque[int] = field(default_factory=deque)
     #: Position of the next action to dispatch, and whether one is running.
     next_action: int = 0
     action_running: bool = False
+    #: Positions cancelled one by one (R13): received for R3-R5, never performed.
+    skipped: set[int] = field(default_factory=set)
+    #: When the running leg or action began (R14: a cancel or timeout at that instant abandons it).
+    since: float = float("-inf")
     #: Why the task is ending while its running leg or action finishes (R8), if it is.
     ending: Reason | None = None
     #: The cancel that is ending it, kept for the history so that its re-reads stay silent (R10).
@@ -168,8 +178,29 @@ class Task:
         return len(self.slots) == self.length
 
     def path(self) -> tuple[MotionAssignment, ...]:
+        """The motions to drive: positions 1..m but those cancelled before dispatch (R13)."""
         assert self.m is not None
-        return tuple(self.slots[p] for p in range(1, self.m + 1))  # type: ignore[misc]
+        return tuple(self.slots[p] for p in range(1, self.m + 1) if p not in self.skipped)  # type: ignore[misc]
+
+    def skip_cancelled_actions(self) -> None:
+        """Move ``next_action`` past actions cancelled before their turn (R13)."""
+        while self.next_action in self.skipped:
+            self.next_action += 1
+
+    def refusal(self, pos: int) -> tuple[str, str] | None:
+        """R13: why the assignment at ``pos`` can no longer be cancelled on its own (code, message), or None."""
+        a = self.slots[pos]
+        what = f"{kind_of(a)} {assignment_id(a).label}"
+        if self.m is not None and pos <= self.m:  # a motion of the dispatched path
+            if pos not in self.route:
+                return "assignment_finished", f"{what} was already reached [R13]"
+            if pos == self.route[0]:
+                return "assignment_running", f"{what} is the running leg [R13]"
+        elif self.m is not None and pos < self.next_action:
+            return "assignment_finished", f"{what} was already performed [R13]"
+        elif self.action_running and pos == self.next_action:
+            return "assignment_running", f"{what} is the running action [R13]"
+        return None
 
     def action_at(self, pos: int) -> ActionAssignment:
         a = self.slots[pos]
@@ -177,7 +208,8 @@ class Task:
         return a
 
     def dispatched(self, pos: int) -> bool:
-        """Whether the assignment at ``pos`` has gone to the AGV or AgvAction (R10 replacement limit)."""
+        """Whether the assignment at ``pos`` has gone to the AGV or AgvAction (R10 replacement limit);
+        ``pos`` is not a cancelled one (R13)."""
         if self.m is None:
             return False
         if pos <= self.m:

@@ -13,10 +13,11 @@ import os
 import shutil
 from pathlib import Path
 
-#: Everything a run folder may hold (both trace formats, and `--report`'s subfolder).
+#: Everything a run folder may hold (both trace formats, `--report`'s subfolder, and the scenario a sweep
+#: keeps beside a run, docs/sweeps.md).
 RUN_FILES = frozenset({
     "trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json",
-    "trace.jsonl", "telemetry.bin", "events.jsonl", "report",
+    "trace.jsonl", "telemetry.bin", "events.jsonl", "report", "scenario.toml",
 })
 INCOMPLETE = ".incomplete"
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -46,9 +45,9 @@ from vcran.core.scenario import (
     task_entries,
 )
 from vcran.core.schema import MessageError
-from vcran.io.toml_table import ScenarioError, Table
+from vcran.io.toml_table import ScenarioError, Table, read_toml
 
-__all__ = ["ScenarioError", "bundled", "load", "parse", "read"]
+__all__ = ["ScenarioError", "bundled", "load", "parse", "read", "resolve"]
 
 
 def bundled() -> dict[str, Path]:
@@ -60,30 +59,22 @@ def bundled() -> dict[str, Path]:
 SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
+def resolve(path: str | Path) -> Path:
+    """``path``, or the bundled scenario of that name when no such file exists."""
+    path = Path(path)
+    if not path.exists() and path.name == str(path):
+        names = bundled()
+        if path.suffix or path.name not in names:
+            raise ScenarioError(f"{path}: no such file (and no bundled scenario of that name; "
+                                f"bundled: {', '.join(names)})")
+        return names[path.name]
+    return path
+
+
 def load(path: str | Path) -> Scenario:
     """The scenario file at ``path``, or the bundled scenario of that name when no such file exists."""
-    path = Path(path)
-    if not path.exists() and path.name == str(path) and not path.suffix and path.name in bundled():
-        path = bundled()[path.name]
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        names = ", ".join(bundled())
-        hint = f" (and no bundled scenario of that name; bundled: {names})" if path.name == str(path) else ""
-        raise ScenarioError(f"{path}: no such file{hint}") from None
-    except IsADirectoryError:
-        raise ScenarioError(f"{path}: is a folder, not a scenario file") from None
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); scenario files are TOML, which is UTF-8") from None
-    try:
-        data = tomllib.loads(text)
-    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
-        reason = str(exc).split("; use sys.set_int_max_str_digits", 1)[0]
-        raise ScenarioError(f"{path}: not valid TOML: {reason}") from None
+    path = resolve(path)
+    _, data = read_toml(path)
     return parse(data, str(path), default_name=path.stem)
 
 

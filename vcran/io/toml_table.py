@@ -14,7 +14,9 @@ is required only in some cases as optional, checked afterwards.
 from __future__ import annotations
 
 import math
+import tomllib
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 from vcran.core.orion_rules import FORBIDDEN_CHARS
@@ -26,6 +28,28 @@ class ScenarioError(ValueError):
 
 def is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def read_toml(path: Path, kind: str = "scenario") -> tuple[str, dict[str, Any]]:
+    """The text of the TOML file at ``path`` and its table. A file that is missing, a folder, unreadable,
+    not UTF-8 or not TOML is a ScenarioError naming it (scenario and sweep files alike: ``kind``)."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a folder, not a {kind} file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); {kind} files are TOML, which is UTF-8") from None
+    try:
+        return text, tomllib.loads(text)
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
+        reason = str(exc).split("; use sys.set_int_max_str_digits", 1)[0]
+        raise ScenarioError(f"{path}: not valid TOML: {reason}") from None
 
 
 _MISSING = object()

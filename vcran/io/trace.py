@@ -465,11 +465,15 @@ def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarra
     out = []
     j, k, n = 0, 0, len(rows)
     while (t := k * period) <= end:
-        while ending and ending[0][0] <= t:
-            _, _, i, done = heapq.heappop(ending)
-            if fleet.current.get(i) is done:
-                fleet.finish(i)
-        while j < n and rows[j]["t"] <= t:
+        # leg ends and logged rows up to this tick, in the order they happened: a halt before a leg's end
+        # stops it there, a leg's end before a halt leaves nothing to halt (ties: the end first, which
+        # stops the robot at the same place, and lets a leg start where the last one ended)
+        while (ending and ending[0][0] <= t) or (j < n and rows[j]["t"] <= t):
+            if ending and ending[0][0] <= t and (j >= n or ending[0][0] <= rows[j]["t"]):
+                _, _, i, done = heapq.heappop(ending)
+                if fleet.current.get(i) is done:
+                    fleet.finish(i)
+                continue
             r = rows[j]
             i = int(r["robot"])
             if math.isnan(r["t0"]):  # a halt: the robot rests where its leg had brought it

@@ -18,7 +18,7 @@ import math
 
 import simpy
 
-from vcran.core.collisions import Grid, Track, contact_point, first_change, shape_of
+from vcran.core.collisions import Grid, Track, contact_point, convex_axes, first_change, shape_of
 from vcran.core.effects import Reason
 from vcran.core.incidents import Collision
 from vcran.sim.robot import Halted, RobotNode
@@ -33,6 +33,7 @@ class Contacts:
         self.env, self.robots, self.stop, self.resolution = env, robots, mode == "stop", resolution
         self.grid = Grid(CELL)
         self.shapes = [shape_of(r.config.footprint) for r in robots]
+        self.axes = [convex_axes(shape) for shape, _ in self.shapes]
         self.tracks: list[Track] = []
         self.version = [0] * len(robots)
         self.touching: set[tuple[int, int]] = set()
@@ -47,7 +48,7 @@ class Contacts:
         shape, radius = self.shapes[robot.index]
         leg = robot.fleet.current.get(robot.index)
         until = leg.t_end if leg is not None else math.inf
-        return Track(robot.index, shape, radius, leg, robot.pose, until)
+        return Track(robot.index, shape, radius, leg, robot.pose, until, self.axes[robot.index])
 
     def moved(self, robot: RobotNode) -> None:
         i = robot.index
@@ -63,15 +64,18 @@ class Contacts:
     def _predict(self, i: int, j: int) -> None:
         a, b = self.tracks[i], self.tracks[j]
         now = self.env.now
-        ta, tb = a.box(), b.box()
         pair = (i, j)
         in_contact = pair in self.touching
-        if not in_contact and (ta[2] < tb[0] or tb[2] < ta[0] or ta[3] < tb[1] or tb[3] < ta[1]):
-            return
         until = min(a.until, b.until)
         if not math.isfinite(until):  # both at rest: the situation cannot change until one moves
             until = now
-        t = first_change(a, b, now, until, self.resolution, want=not in_contact)
+        # What each covers until either changes: pairs whose boxes are apart cannot start touching then.
+        ta, tb = a.box(now, until), b.box(now, until)
+        if not in_contact and (ta[2] < tb[0] or tb[2] < ta[0] or ta[3] < tb[1] or tb[3] < ta[1]):
+            return
+        # A contact's end is reported nowhere: it only says from when the pair can collide again, so the
+        # first sample apart does (a re-contact within that step would be a graze below the resolution).
+        t = first_change(a, b, now, until, self.resolution, want=not in_contact, exact=not in_contact)
         if t is None:
             return
         stamp = (self.version[i], self.version[j])

@@ -9,6 +9,7 @@ and applies it to the stations.
 from __future__ import annotations
 
 import dataclasses
+from collections import deque
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +29,7 @@ from vcran.core.battery import (
     linear_full_after,
 )
 from vcran.core.effects import (
+    Abandon,
     ClearTimer,
     DispatchAction,
     DispatchPath,
@@ -35,6 +37,7 @@ from vcran.core.effects import (
     ErrorReport,
     Event,
     Reason,
+    SkipMotion,
     StartTimer,
     StopAfterLeg,
 )
@@ -95,11 +98,6 @@ class TimerFired:
 
 
 @dataclass(frozen=True, slots=True)
-class Stop:
-    """RanLogic -> AGV: stop at the end of the running leg (R8)."""
-
-
-@dataclass(frozen=True, slots=True)
 class Halted:
     """Robot -> RanLogic: the robot stopped where it is (SPEC §4: battery, motion failure, collision)."""
 
@@ -114,8 +112,9 @@ class InService:
     """Robot -> RanLogic: a fresh battery; take tasks again (SPEC §4)."""
 
 
-#: Interrupt causes for a working process (besides a :class:`Halted`): stop in place / go on.
-HOLD, RELEASE = "hold", "release"
+#: Interrupt causes for a working process (besides a :class:`Halted`): stop in place / go on / the work
+#: that began at this instant does not happen (R14: a cancel or timeout at the instant the previous ended).
+HOLD, RELEASE, ABANDON = "hold", "release", "abandon"
 
 
 class RobotNode:
@@ -153,6 +152,9 @@ class RobotNode:
         self.parts_moved = 0
         self._capable = frozenset(ActionKind(a) for a in config.actions)
         self._timers: dict[Id, simpy.events.Event] = {}
+        #: The points of the dispatched path still to drive. RanLogic's commands edit it: StopAfterLeg
+        #: empties it (R8), SkipMotion drops a point (R13). ``agv_commands`` only wakes the AGV up.
+        self._route: deque[MotionAssignment] = deque()
         #: SPEC §4 state: the battery (shared fleet arrays; None when this robot has none), the process
         #: currently working (a leg or an action), the holds in force, an armed action failure.
         self.battery = battery if battery is not None and config.battery is not None else None
@@ -213,11 +215,16 @@ class RobotNode:
             if isinstance(effect, Event):
                 self._log(self, effect)
             elif isinstance(effect, DispatchPath):
-                self.agv_commands.put(effect)
+                self._route = deque(effect.motions)
+                self.agv_commands.put(effect.task)
             elif isinstance(effect, DispatchAction):
                 self.action_orders.put(effect)
             elif isinstance(effect, StopAfterLeg):
-                self.agv_commands.put(Stop())
+                self._route.clear()  # the running leg finishes; nothing after it (R8)
+            elif isinstance(effect, SkipMotion):
+                self._route = deque(m for m in self._route if m.motion_id != effect.motion)
+            elif isinstance(effect, Abandon):
+                self._abandon()
             elif isinstance(effect, StartTimer):
                 self._start_timer(effect.task, effect.at)
             else:
@@ -236,38 +243,42 @@ class RobotNode:
         if self._timers.get(task) is deadline:
             self.inbox.put(TimerFired(task, deadline))
 
+    def _abandon(self) -> None:
+        """R14: the leg or action that began at this instant does not happen (its task has ended; an
+        action not begun yet is skipped as its task is no longer current)."""
+        self._route.clear()
+        if self._worker is not None:
+            self._worker.interrupt(ABANDON)
+
     # --- AGV --------------------------------------------------------------------------------------------
 
     def _agv(self) -> Process:
         while True:
-            command = yield self.agv_commands.get()
-            if isinstance(command, Stop) or command.task != self.logic.current_task:
-                continue  # the path it meant has already ended (R8, or the robot stopped on its own)
-            last = command.motions[-1]
-            for motion in command.motions:
+            task = yield self.agv_commands.get()  # a path of ``task`` went into self._route
+            if task != self.logic.current_task:
+                continue  # the path it meant has already ended (the robot stopped on its own)
+            while self._route:
+                motion = self._route.popleft()
                 if self._holds:
                     halt = yield from self._held()
                     if halt is not None:
-                        self._halted(halt)
+                        self._stopped(halt)
                         break
                 leg = self._leg(motion)
                 halt = yield from self._drive(leg)
                 if halt is not None:
-                    self._halted(halt)
+                    self._stopped(halt)
                     break
                 self.fleet.finish(self.index)
                 self.pose = (leg.x1, leg.y1, leg.end_theta)
                 self.inbox.put(MotionDone(motion.motion_id))
-                stop = any(isinstance(c, Stop) for c in self.agv_commands.items)
-                if stop or motion is last or self._holds:  # else the next leg starts now, from this pose
+                if not self._route or self._holds:  # else the next leg starts now, from this pose
                     self._segment(REST)
                     self._moved()
-                if stop:
-                    yield self.agv_commands.get()  # consume the Stop: the rest of the path is dropped (R8)
-                    break
 
-    def _drive(self, leg: Leg) -> Generator[simpy.events.Event, Any, Halted | None]:
-        """Drive ``leg`` to its end (None), or until the robot stops on its own (the :class:`Halted`).
+    def _drive(self, leg: Leg) -> Generator[simpy.events.Event, Any, Halted | str | None]:
+        """Drive ``leg`` to its end (None), until the robot stops on its own (the :class:`Halted`), or
+        :data:`ABANDON` (R14: the robot stays where the leg began).
 
         A hold stops the robot where it is and later resumes the same leg shifted in time by the hold's
         length, so the rest of the leg (and the task) ends exactly that much later (SPEC §4 breakdown).
@@ -287,6 +298,11 @@ class RobotNode:
                 if reaches:
                     return None
                 cause = self._battery_empty_halt()
+            elif cause is ABANDON:
+                self.fleet.abandon(i)
+                self._segment(REST)
+                self._moved()
+                return cause
             elif cause is HOLD:
                 t_hold = env.now
                 self.pose = self.fleet.hold(i, t_hold)
@@ -334,14 +350,14 @@ class RobotNode:
             if self._holds:
                 halt = yield from self._held()
                 if halt is not None:
-                    self._halted(halt)
+                    self._stopped(halt)
                     continue
             outcome = self._precheck(kind)
             if outcome is None:
                 duration = self._charge_time() if kind is ActionKind.CHARGE else self.durations[kind.value]
                 halt = yield from self._act(kind, duration)
                 if halt is not None:
-                    self._halted(halt)
+                    self._stopped(halt)
                     continue
                 x, y, _ = self.pose
                 outcome, carrying = perform(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)
@@ -356,9 +372,10 @@ class RobotNode:
             self.inbox.put(ActionDone(action.action_id, outcome.ok, outcome.code, outcome.message))
 
     def _precheck(self, kind: ActionKind) -> Outcome | None:
-        """A charge that cannot start fails at once (R14: like a missing capability); else None."""
+        """An action that cannot start fails at once, not after its duration (R14): one this robot is not
+        capable of, a charge without battery, charger or a rate above the idle draw; else None."""
         if kind is not ActionKind.CHARGE:
-            return None
+            return None if kind in self._capable else Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}")
         if self.battery is None:
             return Outcome(False, "action_not_capable", "charge: this robot has no battery")
         x, y, _ = self.pose
@@ -369,8 +386,9 @@ class RobotNode:
             return Outcome(False, "charge_too_slow", "charge: charge_rate does not exceed the idle draw")
         return None
 
-    def _act(self, kind: ActionKind, duration: float) -> Generator[simpy.events.Event, Any, Halted | None]:
-        """Wait out an action of ``duration``: held by pause/breakdown, cut short by an empty battery."""
+    def _act(self, kind: ActionKind, duration: float) -> Generator[simpy.events.Event, Any, Halted | str | None]:
+        """Wait out an action of ``duration``: held by pause/breakdown, cut short by an empty battery, or
+        :data:`ABANDON` as it begins (R14: nothing is performed)."""
         env = self.env
         end = env.now + duration
         segment = CHARGE if kind is ActionKind.CHARGE else ACT
@@ -394,7 +412,7 @@ class RobotNode:
                     end += env.now - t_hold
                     self._segment(segment)
                     continue
-            assert isinstance(cause, Halted)
+            assert cause is ABANDON or isinstance(cause, Halted)
             self._segment(REST)
             return cause
 
@@ -411,15 +429,16 @@ class RobotNode:
         finally:
             self._worker = None
 
-    def _held(self) -> Generator[simpy.events.Event, Any, Halted | None]:
-        """Stay where the robot is until every hold is released (None), or it stops for good."""
+    def _held(self) -> Generator[simpy.events.Event, Any, Halted | str | None]:
+        """Stay where the robot is until every hold is released (None), or it stops for good (a
+        :class:`Halted`, or :data:`ABANDON`: the work it held does not happen, R14)."""
         while self._holds:
             cut = linear_empty_after(self._level(), self._rate()) if self.battery is not None else float("inf")
             event = after(self.env, cut, COMPLETION) if cut != float("inf") else self.env.event()
             cause = yield from self._work(event)
             if cause is None:
                 return self._battery_empty_halt()
-            if isinstance(cause, Halted):
+            if cause is ABANDON or isinstance(cause, Halted):
                 return cause
         return None
 
@@ -459,6 +478,12 @@ class RobotNode:
 
     def _halted(self, halted: Halted) -> None:
         self.inbox.put(halted)
+
+    def _stopped(self, cause: Halted | str) -> None:
+        """A work ended early: tell RanLogic when the robot stopped on its own; an abandoned one (R14)
+        was RanLogic's own doing."""
+        if isinstance(cause, Halted):
+            self._halted(cause)
 
     def _moved(self) -> None:
         if self.on_move is not None:

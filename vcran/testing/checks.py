@@ -4,12 +4,14 @@ Used by the whole-simulation fuzz tests and by ``vcran fuzz``. The checks are ab
 "everything completes": a perturbed script legitimately produces rejections, timeouts and cancels. Each
 check returns human-readable violations (empty when the run kept the rules):
 
-* R6: every state change is one of ``TRANSITIONS`` and starts where the previous one ended;
+* R6: every state change is one of the cycle's transitions (restated here from the SPEC, not taken from
+  RanLogic) and starts where the previous one ended;
 * R1/R8/R9: every queued task ends at most once per life, as completed or cancelled with a known reason;
   with ``finished`` (the run went idle), every queued task ended;
-* R7/R8: a cancelled task ends at or after the request (its cancel_order, or first seen + timeout), and
-  later than the request only at the end of the one leg or action that was running; nothing of a task
-  finishes after its end, and at most one leg or action of it finishes after the request;
+* R7/R8/R14: a cancelled task ends at or after the request (its cancel_order, or first seen + timeout),
+  at the request (within R14's tolerance) or at the end of the one leg or action that was running;
+  nothing of a task finishes after its end, and at most one leg or action of it finishes after the request;
+* R13: an assignment cancelled on its own is never finished afterwards;
 * §4/R6: the AGV moves only while its robot is in MOTION (telemetry against the state changes).
 """
 
@@ -23,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from vcran.core.effects import Reason, State
-from vcran.core.ranlogic import TRANSITIONS
 from vcran.core.scenario import Scenario
 from vcran.io.trace import (
     EVENTS_FILE,
@@ -38,8 +39,9 @@ from vcran.io.trace import (
     samples,
     trace_in,
 )
+from vcran.testing.model import TOLERANCE, TRANSITIONS
 
-_TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}
+_TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}  # R6, restated in vcran.testing.model
 _REASONS = {r.value for r in Reason}
 
 
@@ -51,6 +53,7 @@ class _Life:
     end: float | None = None
     reason: str | None = None
     finishes: list[tuple[float, str]] = field(default_factory=list)  # (t, "motion"/"action")
+    skips: list[float] = field(default_factory=list)  # when assignments were cancelled on their own (R13)
 
 
 def check_run(out: Path, task_timeout: float, finished: bool) -> list[str]:
@@ -59,7 +62,7 @@ def check_run(out: Path, task_timeout: float, finished: bool) -> list[str]:
     events = list(event_records(events_beside(trace)))
     cancels = _cancel_requests(trace)
     problems = check_states(events) + check_lives(events, cancels, task_timeout, finished)
-    return problems + check_motion(out, events)
+    return problems + check_cancelled_assignments(events) + check_motion(out, events)
 
 
 def check_states(events: list[dict[str, Any]]) -> list[str]:
@@ -103,6 +106,8 @@ def check_lives(events: list[dict[str, Any]], cancels: dict[tuple[str, str], lis
                 problems.append(f"t={t} {key[0]}: {kind} for task {key[1]}, which is not queued (R8)")
                 continue
             open_life.finishes.append((t, kind))
+        elif kind == "assignment_cancelled" and open_life is not None:
+            open_life.skips.append(t)
     for (robot, task), history in lives.items():
         for life in history:
             where = f"{robot}: task {task} (queued at {life.queued})"
@@ -114,13 +119,17 @@ def check_lives(events: list[dict[str, Any]], cancels: dict[tuple[str, str], lis
                 if life.reason == "timeout":
                     request = life.queued + task_timeout
                 else:
-                    asked = [c for c in cancels.get((robot, task), []) if life.queued <= c <= life.end]
-                    if not asked and any(life.queued <= c <= life.end for c in cancels.get((robot, ""), [])):
+                    whole = [c for c in cancels.get((robot, task), []) if life.queued <= c <= life.end]
+                    # a partial cancel may come before the task: remembered, it skips the assignment on arrival
+                    partial = [c for c in cancels.get((robot, task + "#"), []) if c <= life.end] if life.skips else []
+                    if not whole + partial and any(life.queued <= c <= life.end for c in cancels.get((robot, ""), [])):
                         continue  # a raw payload may have carried the cancel: its task is not known here
-                    if not asked:
+                    if not whole + partial:
                         problems.append(f"{where} cancelled at {life.end} with no cancel_order for it (R8)")
                         continue
-                    request = asked[0]
+                    # the first whole-task cancel; else the instant the last of its assignments was cancelled
+                    # on its own, which cancelled the task (R13)
+                    request = whole[0] if whole else life.skips[-1]
                 problems += _ended_after_request(where, life, request)
     return problems
 
@@ -134,14 +143,15 @@ def _ended_after_request(where: str, life: _Life, request: float) -> list[str]:
     if len(after) > 1:
         return [f"{where}: {len(after)} legs/actions finished after the {life.reason} request at {request}; "
                 "only the running one may (R8)"]
-    if life.end > request and not (after and after[0][0] == life.end):
+    if life.end > request + 2 * TOLERANCE and not (after and after[0][0] == life.end):
         return [f"{where} ended ({life.reason}) at {life.end}, not at the request ({request}) nor at the end "
                 "of its running leg or action (R7/R8)"]
     return []
 
 
 def _cancel_requests(trace: Path) -> dict[tuple[str, str], list[float]]:
-    """Whole-task cancel_order records: (robot, task label) -> times; raw ones under (robot, "")."""
+    """cancel_order records: (robot, task label) -> times of whole-task cancels, (robot, label + "#") ->
+    times of partial ones (R13); raw ones under (robot, "")."""
     out: dict[tuple[str, str], list[float]] = defaultdict(list)
     for _, r in records(trace, ("in",)):
         if r.get("dir") != "in" or r.get("attr") != "cancel_order":
@@ -150,9 +160,28 @@ def _cancel_requests(trace: Path) -> dict[tuple[str, str], list[float]]:
             out[(r["robot"], "")].append(r["t"])
             continue
         v = r["value"]
-        if all(_unused(v[k]) for k in ("motion_id", "action_id")):
-            out[(r["robot"], _label(v["task_id"]))].append(r["t"])
+        whole = all(_unused(v[k]) for k in ("motion_id", "action_id"))
+        out[(r["robot"], _label(v["task_id"]) + ("" if whole else "#"))].append(r["t"])
     return out
+
+
+def check_cancelled_assignments(events: list[dict[str, Any]]) -> list[str]:
+    """R13: a motion or action cancelled on its own never finishes afterwards (in that task's life)."""
+    cancelled: set[tuple[str, str, str, str]] = set()
+    problems = []
+    for e in events:
+        kind, robot = e["event"], e["robot"]
+        if kind == "task_queued":
+            cancelled = {c for c in cancelled if c[:2] != (robot, e["task"])}
+        elif kind == "assignment_cancelled":
+            which = "motion" if "motion" in e else "action"
+            cancelled.add((robot, e["task"], which, e[which]))
+        elif kind in ("motion_finished", "action_finished"):
+            which = kind.split("_")[0]
+            if (robot, e["task"], which, e[which]) in cancelled:
+                problems.append(f"t={e['t']} {robot}: {which} {e[which]} of task {e['task']} finished after it "
+                                "was cancelled (R13)")
+    return problems
 
 
 def _unused(ident: dict[str, Any]) -> bool:

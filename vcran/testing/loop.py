@@ -43,7 +43,7 @@ from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenar
 #: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
 PROTOCOL_ERRORS = frozenset({
     "length_mismatch", "position_taken", "kind_order", "task_completed", "task_cancelled", "already_dispatched",
-    "position_changed", "partial_cancel_unsupported", "malformed", "outside_motion_area", "unknown_robot",
+    "position_changed", "assignment_cancelled", "malformed", "outside_motion_area", "unknown_robot",
 })
 
 #: Default for :func:`check_no_idle_while_waiting`: a robot may idle this long while a job waits.
@@ -105,9 +105,8 @@ def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JIT
     )
 
 
-#: Durations of breakdowns and link outages drawn by :func:`fault_lists`: all shorter than
-#: :data:`IDLE_BOUND`, so a robot cut off by its link never idles long enough to fail
-#: :func:`check_no_idle_while_waiting` by the fault's doing alone.
+#: Durations of breakdowns and link outages drawn by :func:`fault_lists` (short, medium, most of
+#: :data:`IDLE_BOUND`); :func:`check_no_idle_while_waiting` does not count them as idle time.
 FAULT_DURATIONS = (5.0, 20.0, 45.0)
 
 
@@ -161,18 +160,33 @@ def check_jobs_ended(result: Any) -> list[str]:
 
 
 def check_protocol(result: Any) -> list[str]:
-    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly."""
+    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly.
+
+    Rejections of a robot while its link is down, up to the instant it is back (§4), are the outage's: what
+    the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out).
+    """
+    cut_off = _fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
     return [f"t={e['t']:g} {e['robot'] or 'fleet'}: ran_error {e['code']}: {e.get('message', '')}"
-            for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS]
+            for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS
+            and not any(a <= e["t"] <= b for a, b in cut_off.get(e["robot"], []))]
 
 
 def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[str]:
-    """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited."""
+    """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited.
+
+    Judged by what the manager could know (SPEC §4): a robot out of its reach (link down) or broken down is
+    not idle, and a job whose task was cancelled on a robot whose link was down waits, for the manager,
+    only from when that link is back. Such spans cut the stretches rather than lengthen them.
+    """
     end = float(result.summary["sim_time"])
-    waiting = waiting_spans(result.events, end)
+    away = _fault_spans(result.events, end, UNAVAILABLE_FAULTS)
+    unseen = _fault_spans(result.events, end, frozenset({"link_down"}))
+    assignees = _assignees(result.events)
+    waiting = [(job, c, d) for job, a, b in waiting_spans(result.events, end)
+               for c, d in _minus([(a, b)], unseen.get(_robot_at(assignees.get(job, []), a), []))]
     problems = []
-    for robot, spans in _idle_spans(result.events, result.robots, end).items():
-        for a, b in spans:
+    for robot, idle in _idle_spans(result.events, result.robots, end).items():
+        for a, b in _minus(idle, away.get(robot, [])):
             for job, c, d in waiting:
                 lo, hi = max(a, c), min(b, d)
                 if hi - lo > bound:
@@ -192,6 +206,59 @@ def assert_loop_properties(result: Any, bound: float = IDLE_BOUND) -> None:
     problems = loop_problems(result, bound)
     if problems:
         raise AssertionError("the fleet manager broke the loop properties:\n  " + "\n  ".join(problems))
+
+
+#: Fault kinds during which a robot is out of the fleet manager's reach (from ``fault`` to ``fault_end``).
+UNAVAILABLE_FAULTS = frozenset({"link_down", "breakdown"})
+
+
+def _fault_spans(events: list[dict[str, Any]], end: float, kinds: frozenset[str]) -> dict[str, list[tuple[float, float]]]:
+    """Per robot, the spans of its faults of ``kinds`` that applied (one still on at ``end`` lasts until then)."""
+    since: dict[tuple[str, str], float] = {}
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for e in events:
+        if e["event"] not in ("fault", "fault_end") or e.get("kind") not in kinds:
+            continue
+        key = (e["robot"], e["kind"])
+        if e["event"] == "fault" and e.get("applied", True):
+            since.setdefault(key, e["t"])
+        elif e["event"] == "fault_end" and key in since:
+            spans.setdefault(key[0], []).append((since.pop(key), e["t"]))
+    for (robot, _kind), start in since.items():
+        spans.setdefault(robot, []).append((start, end))
+    return spans
+
+
+def _assignees(events: list[dict[str, Any]]) -> dict[str, list[tuple[float, str]]]:
+    """Per job, its robots in assignment order, with the instant each was given it."""
+    out: dict[str, list[tuple[float, str]]] = {}
+    for e in events:
+        if e["event"] == "job_assigned":
+            out.setdefault(e["job"], []).append((e["t"], e["robot"]))
+    return out
+
+
+def _robot_at(assigned: list[tuple[float, str]], t: float) -> str:
+    """The robot a job was last given at or before ``t`` ("" before its first assignment)."""
+    robot = ""
+    for since, who in assigned:
+        if since > t:
+            break
+        robot = who
+    return robot
+
+
+def _minus(spans: list[tuple[float, float]], cuts: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """``spans`` with every instant inside one of ``cuts`` taken out (a span may split in two)."""
+    for c, d in cuts:
+        kept = []
+        for a, b in spans:
+            if a < c:
+                kept.append((a, min(b, c)))
+            if b > d:
+                kept.append((max(a, d), b))
+        spans = kept
+    return spans
 
 
 def _idle_spans(events: list[dict[str, Any]], robots: Sequence[str], end: float) -> dict[str, list[tuple[float, float]]]:

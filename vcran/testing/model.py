@@ -1,4 +1,4 @@
-"""A reference model of one robot's RanLogic (SPEC §3, R1–R10), small enough to be obviously right.
+"""A reference model of one robot's RanLogic (SPEC §3, R1–R14), small enough to be obviously right.
 
 :class:`vcran.core.ranlogic.RanLogic` is written for speed and for the SimPy model: it keeps incremental
 bookkeeping (a position map, ``m``, the next action, a running flag). This model is written for the
@@ -23,6 +23,7 @@ Observations (``Obs``):
 * ``("path", task, motions)``, ``("stop", task)``, ``("action", task, action)``
 * ``("motion_finished", task, motion_id)``, ``("action_finished", task, action_id, ok)``
 * ``("rejected", code, task_id)``, ``("failed", code, task_id)``
+* ``("assignment_cancelled", task, kind, id)``, ``("skip", task, motion_id)`` (R13), ``("abandon", task)`` (R14)
 
 Timers (StartTimer/ClearTimer) and state changes are not observations: the model exposes them as
 views (:meth:`ReferenceRan.deadlines`, :attr:`ReferenceRan.state`) that a test compares with what the
@@ -35,7 +36,9 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from vcran.core.effects import (
+    Abandon,
     ActionFinished,
+    AssignmentCancelled,
     DispatchAction,
     DispatchPath,
     Effect,
@@ -43,6 +46,7 @@ from vcran.core.effects import (
     MotionFinished,
     Reason,
     Rejected,
+    SkipMotion,
     State,
     StopAfterLeg,
     TaskCancelled,
@@ -53,6 +57,15 @@ from vcran.core.ids import NIL, NOT_SUPPORTED, Id
 from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
 
 Obs = tuple[Any, ...]
+
+#: R14: instants closer than this are the same instant; the R7 timer fires this long after the deadline.
+TOLERANCE = 1e-6
+
+#: R6 as the SPEC words it, for the checks of this package (not imported from RanLogic, so that a wrong
+#: table there shows): the cycle WAITING -> TASK -> MOTION -> ACTION -> WAITING, and a cancel from any
+#: state but WAITING back to WAITING.
+CYCLE = (State.WAITING, State.TASK, State.MOTION, State.ACTION)
+TRANSITIONS = frozenset(zip(CYCLE, CYCLE[1:] + CYCLE[:1])) | frozenset((s, State.WAITING) for s in CYCLE[1:])
 
 
 class DriverError(AssertionError):
@@ -83,6 +96,12 @@ def observe(effects: list[Effect]) -> list[Obs]:
             out.append(("rejected", e.code, e.task))
         elif isinstance(e, Failed):
             out.append(("failed", e.code, e.task))
+        elif isinstance(e, AssignmentCancelled):
+            out.append(("assignment_cancelled", e.task, e.kind, e.assignment))
+        elif isinstance(e, SkipMotion):
+            out.append(("skip", e.task, e.motion))
+        elif isinstance(e, Abandon):
+            out.append(("abandon", e.task))
     return out
 
 
@@ -118,17 +137,21 @@ def motions_complete(slots: dict[int, Assignment], length: int) -> int | None:
 
 
 def position_problem(slots: dict[int, Assignment], length: int, a: Assignment) -> str | None:
-    """R2 for ``a`` against the other assignments of its task (``slots`` without ``a``'s own id)."""
+    """R2 for ``a`` against the other assignments of its task (``slots`` without ``a``'s own id).
+
+    Stated as R2 reads, on the positions the task would hold with ``a``: its length is the task's, no
+    position is held twice, and the motions fill a prefix (every motion's position below every action's).
+    """
     pos = a.sequence.sequence_number
     if a.sequence.length != length:
         return "length_mismatch"
     if pos in slots:
         return "position_taken"
-    for p, b in slots.items():
-        if isinstance(a, MotionAssignment) and isinstance(b, ActionAssignment) and p < pos:
-            return "kind_order"
-        if isinstance(a, ActionAssignment) and isinstance(b, MotionAssignment) and p > pos:
-            return "kind_order"
+    held = {**slots, pos: a}
+    motions = [p for p, b in held.items() if isinstance(b, MotionAssignment)]
+    actions = [p for p, b in held.items() if isinstance(b, ActionAssignment)]
+    if motions and actions and max(motions) > min(actions):
+        return "kind_order"
     return None
 
 
@@ -144,13 +167,18 @@ class ModelTask:
     deadline: float
     #: Every accepted assignment, in the order it was accepted (replacements included).
     accepted: list[Assignment] = field(default_factory=list)
-    path: tuple[MotionAssignment, ...] | None = None
+    #: The dispatched path (None before R3 holds); R13 removes unreached points from it.
+    path: list[MotionAssignment] | None = None
     legs_done: int = 0
     actions: list[ActionAssignment] = field(default_factory=list)  # dispatched, in order
     action_running: bool = False
     ending: Reason | None = None
     cancel: CancelTask | None = None
     timer_fired: bool = False
+    #: Assignments cancelled one by one (R13), by key.
+    cancelled: set[tuple[str, Id]] = field(default_factory=set)
+    #: When the running leg or action began (R14).
+    since: float = float("-inf")
 
     def contents(self) -> dict[tuple[str, Id], Assignment]:
         """The latest accepted version of every assignment id."""
@@ -172,6 +200,24 @@ class ModelTask:
         if isinstance(a, MotionAssignment):
             return self.path is not None
         return any(d.action_id == a.action_id for d in self.actions)
+
+    def all_cancelled(self) -> bool:
+        """R13: every position holds an assignment cancelled on its own."""
+        return len(self.slots()) == self.length and all(key(a) in self.cancelled for a in self.slots().values())
+
+    def why_not_cancellable(self, a: Assignment) -> str | None:
+        """R13: a leg driven or running, an action performed or running, cannot be cancelled alone."""
+        if isinstance(a, MotionAssignment):
+            if self.path is None:
+                return None
+            ids = [m.motion_id for m in self.path]
+            if a.motion_id in ids[: self.legs_done]:
+                return "assignment_finished"
+            return "assignment_running" if self.driving and ids[self.legs_done] == a.motion_id else None
+        if not self.dispatched(a):
+            return None
+        running = self.action_running and self.actions[-1].action_id == a.action_id
+        return "assignment_running" if running else "assignment_finished"
 
 
 @dataclass(eq=False)
@@ -198,6 +244,8 @@ class ReferenceRan:
         self.endings: list[Ending] = []  # every ending ever, oldest first
         self.arrivals = 0
         self.errors = 0
+        #: R13: cancels of assignments not received yet, (task, key, the cancel), oldest first.
+        self.doomed: list[tuple[Id, tuple[str, Id], CancelTask]] = []
         self.last_motion: Id = NIL
         self.last_action: Id = NIL
 
@@ -234,8 +282,9 @@ class ReferenceRan:
         return next((t for t in self.tasks if t.id == task), None)
 
     def deadlines(self) -> dict[Id, float]:
-        """R7 timers that must be pending: queued, not assembled, not yet fired."""
-        return {t.id: t.deadline for t in self.tasks if not t.assembled and not t.timer_fired}
+        """R7 timers that must be pending, with the instant each fires (R14: the tolerance after the
+        deadline): queued, not assembled, not yet fired."""
+        return {t.id: t.deadline + TOLERANCE for t in self.tasks if not t.assembled and not t.timer_fired}
 
     @property
     def current_motion(self) -> Id:
@@ -261,15 +310,20 @@ class ReferenceRan:
         return self._reject("malformed", NIL)
 
     def cancel(self, now: float, c: CancelTask) -> list[Obs]:
-        if not (unused(c.motion_id) and unused(c.action_id)):
-            return self._reject("partial_cancel_unsupported", c.task_id)
+        named = [k for k in (("motion", c.motion_id), ("action", c.action_id)) if not unused(k[1])]
         task = self.find(c.task_id)
         out: list[Obs] = []
         if task is not None:
+            if task.ending is None and named:
+                return self._cancel_some(now, task, c, named)
             if task.ending is None:
-                self._end(task, Reason.CANCELLED, c, out)
+                self._end(now, task, Reason.CANCELLED, c, out)
             return out
         ended = self.remembered(c.task_id)
+        if ended is None and named:  # R13: remembered, skipped when it arrives
+            for k in named:
+                self._doom(c, k)
+            return self._reject("cancel_unknown_assignment", c.task_id)
         if ended is None:
             self.endings.append(Ending(c.task_id, None, Reason.CANCELLED, c))
             return self._reject("cancel_unknown_task", c.task_id)
@@ -278,17 +332,52 @@ class ReferenceRan:
         ended.cancel = c
         return self._reject("cancel_finished_task", c.task_id)
 
+    def _cancel_some(self, now: float, task: ModelTask, c: CancelTask, named: list[tuple[str, Id]]) -> list[Obs]:
+        """R13 on a live task: all named assignments are cancelled, or (one refused) none."""
+        contents = task.contents()
+        found = [contents[k] for k in named if k in contents and k not in task.cancelled]
+        for a in found:
+            refusal = task.why_not_cancellable(a)
+            if refusal is not None:
+                return self._reject(refusal, task.id)
+        out: list[Obs] = []
+        unknown = [k for k in named if k not in contents]
+        for k in unknown:
+            self._doom(c, k)
+        if unknown:
+            out += self._reject("cancel_unknown_assignment", task.id)
+        for a in found:
+            self._cancel_one(task, a, out)
+        if found and task.all_cancelled():
+            self._end(now, task, Reason.CANCELLED, c, out)
+        elif found:
+            self._settle(now, out)
+        return out
+
+    def _cancel_one(self, task: ModelTask, a: Assignment, out: list[Obs]) -> None:
+        task.cancelled.add(key(a))
+        out.append(("assignment_cancelled", task.id, *key(a)))
+        ahead = [m.motion_id for m in task.path[task.legs_done + 1:]] if task.path is not None else []
+        if isinstance(a, MotionAssignment) and a.motion_id in ahead:  # unreached point of the driven path
+            assert task.path is not None
+            task.path = [m for m in task.path if m.motion_id != a.motion_id]
+            out.append(("skip", task.id, a.motion_id))
+
+    def _doom(self, c: CancelTask, k: tuple[str, Id]) -> None:
+        self.doomed = [d for d in self.doomed if d[:2] != (c.task_id, k)] + [(c.task_id, k, c)]
+        self.doomed = self.doomed[-self.history_limit:]
+
     def timer(self, now: float, task_id: Id) -> list[Obs]:
         """The driver fires the R7 timer of ``task_id`` at its deadline."""
         out: list[Obs] = []
         task = self.find(task_id)
         if task is None:
             return out
-        if task.deadline != now:
+        if abs(now - (task.deadline + TOLERANCE)) > 1e-9:  # R14: the tolerance after the deadline
             raise DriverError(f"timer of {task_id!r} fired at {now}, deadline {task.deadline}")
         task.timer_fired = True
         if not task.assembled and task.ending is None:
-            self._end(task, Reason.TIMEOUT, None, out)
+            self._end(now, task, Reason.TIMEOUT, None, out, at=task.deadline)
         return out
 
     def leg_finished(self, now: float, motion_id: Id) -> list[Obs]:
@@ -296,12 +385,13 @@ class ReferenceRan:
         if task is None or not task.driving or task.path is None or task.path[task.legs_done].motion_id != motion_id:
             raise DriverError(f"leg {motion_id!r} finished, but it is not the running leg")
         task.legs_done += 1
+        task.since = now
         self.last_motion = motion_id
         out: list[Obs] = [("motion_finished", task.id, motion_id)]
         if task.ending is not None:
-            self._finish(task, task.ending, task.cancel, out)
+            self._finish(now, task, task.ending, task.cancel, out)
         else:
-            self._settle(out)
+            self._settle(now, out)
         return out
 
     def action_finished(self, now: float, action_id: Id, ok: bool, code: str = "action_failed") -> list[Obs]:
@@ -311,14 +401,14 @@ class ReferenceRan:
         task.action_running = False
         self.last_action = action_id
         out: list[Obs] = [("action_finished", task.id, action_id, ok)]
-        if not ok:
+        if not ok:  # R14: a pending cancel's reason comes first
             self.errors += 1
             out.append(("failed", code, task.id))
-            self._finish(task, Reason.ACTION_FAILED, task.cancel, out)
+            self._finish(now, task, task.ending or Reason.ACTION_FAILED, task.cancel, out)
         elif task.ending is not None:
-            self._finish(task, task.ending, task.cancel, out)
+            self._finish(now, task, task.ending, task.cancel, out)
         else:
-            self._settle(out)
+            self._settle(now, out)
         return out
 
     # --- rules ------------------------------------------------------------------------------------------
@@ -333,7 +423,7 @@ class ReferenceRan:
                 task = ModelTask(a.task_id, now, self.arrivals, a.sequence.length, now + self.task_timeout, [a])
                 self.tasks.append(task)
                 out.append(("queued", task.id))
-                self._settle(out)
+                self._accepted(now, task, a, out)
                 return out
             old = ended.task.contents().get(key(a)) if ended.task is not None else None
             if old is not None and identical(old, a):
@@ -344,6 +434,8 @@ class ReferenceRan:
             return out  # R10
         if task.ending is not None:
             return self._reject("task_cancelled", a.task_id)
+        if key(a) in task.cancelled:
+            return self._reject("assignment_cancelled", a.task_id)
         if old is not None and task.dispatched(old):
             return self._reject("already_dispatched", a.task_id)
         if old is not None and task.path is not None and old.sequence.sequence_number != a.sequence.sequence_number:
@@ -352,10 +444,21 @@ class ReferenceRan:
         if problem is not None:
             return self._reject(problem, a.task_id)
         task.accepted.append(a)
-        self._settle(out)
+        self._accepted(now, task, a, out)
         return out
 
-    def _settle(self, out: list[Obs]) -> None:
+    def _accepted(self, now: float, task: ModelTask, a: Assignment, out: list[Obs]) -> None:
+        """``a`` joined ``task``: a cancel that named it before it came takes effect now (R13)."""
+        doomed = next((d for d in self.doomed if d[:2] == (task.id, key(a))), None)
+        if doomed is not None:
+            self.doomed.remove(doomed)
+            self._cancel_one(task, a, out)
+            if task.all_cancelled():
+                self._end(now, task, Reason.CANCELLED, doomed[2], out)
+                return
+        self._settle(now, out)
+
+    def _settle(self, now: float, out: list[Obs]) -> None:
         """Let the current task go as far as what was received allows (R3–R6); then the next one."""
         while True:
             task = self.current()
@@ -366,37 +469,47 @@ class ReferenceRan:
                 m = motions_complete(slots, task.length)
                 if m is None:
                     return
-                task.path = tuple(slots[p] for p in range(1, m + 1))  # type: ignore[misc]
-                if m:
-                    out.append(("path", task.id, task.path))
+                task.path = [slots[p] for p in range(1, m + 1) if key(slots[p]) not in task.cancelled]  # type: ignore[misc]
+                if task.path:
+                    task.since = now
+                    out.append(("path", task.id, tuple(task.path)))
             if task.driving or not task.assembled or task.action_running:
                 return
-            done = len(task.path) + len(task.actions)
-            if done < task.length:
-                action = slots[done + 1]
+            m = motions_complete(slots, task.length)
+            assert m is not None
+            waiting = [a for p, a in sorted(slots.items()) if p > m and key(a) not in task.cancelled
+                       and not task.dispatched(a)]
+            if waiting:
+                action = waiting[0]
                 assert isinstance(action, ActionAssignment)
                 task.actions.append(action)
                 task.action_running = True
+                task.since = now
                 out.append(("action", task.id, action))
                 return
             self.tasks.remove(task)
             self.endings.append(Ending(task.id, task, None, None))
             out.append(("completed", task.id))
 
-    def _end(self, task: ModelTask, reason: Reason, cancel: CancelTask | None, out: list[Obs]) -> None:
-        """R7/R8: end now, or once the running leg or action of the current task finishes."""
+    def _end(self, now: float, task: ModelTask, reason: Reason, cancel: CancelTask | None, out: list[Obs],
+             at: float | None = None) -> None:
+        """R7/R8: end now, or once the running leg or action of the current task finishes; R14: a leg or
+        action that began at the request's instant ``at`` (default ``now``; within the tolerance) is
+        abandoned instead."""
         if task is self.current() and (task.driving or task.action_running):
-            task.ending, task.cancel = reason, cancel
-            if task.driving:
-                out.append(("stop", task.id))
-            return
-        self._finish(task, reason, cancel, out)
+            if abs((now if at is None else at) - task.since) > TOLERANCE:
+                task.ending, task.cancel = reason, cancel
+                if task.driving:
+                    out.append(("stop", task.id))
+                return
+            out.append(("abandon", task.id))
+        self._finish(now, task, reason, cancel, out)
 
-    def _finish(self, task: ModelTask, reason: Reason, cancel: CancelTask | None, out: list[Obs]) -> None:
+    def _finish(self, now: float, task: ModelTask, reason: Reason, cancel: CancelTask | None, out: list[Obs]) -> None:
         self.tasks.remove(task)
         self.endings.append(Ending(task.id, task, reason, cancel))
         out.append(("cancelled", task.id, reason))
-        self._settle(out)
+        self._settle(now, out)
 
     def _reject(self, code: str, task: Id) -> list[Obs]:
         self.errors += 1

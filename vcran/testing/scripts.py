@@ -195,6 +195,19 @@ def assignment_names(entries: Sequence[ScriptEntry], kind: type[MotionAssignment
     return list(names)
 
 
+def own_assignments(entries: Sequence[ScriptEntry]) -> list[tuple[str, str, str, str]]:
+    """``(task, robot, "motion" | "action", id)`` of every assignment of a script, in order of first
+    appearance: what a partial cancel (R13) of the task's own assignments may name."""
+    found: dict[tuple[str, str, str, str], None] = {}
+    for e in entries:
+        m = e.message
+        if isinstance(m, MotionAssignment):
+            found.setdefault((name_of(m.task_id), e.robot, "motion", name_of(m.motion_id)))
+        elif isinstance(m, ActionAssignment):
+            found.setdefault((name_of(m.task_id), e.robot, "action", name_of(m.action_id)))
+    return list(found)
+
+
 def perturbations(
     entries: Sequence[ScriptEntry],
     robots: Sequence[str],
@@ -227,6 +240,9 @@ def perturbations(
         st.builds(lambda t, to, m: InjectCancel(t, to[1], to[0], motion=m), times, targets, motions),
         st.builds(lambda t, to, a: InjectCancel(t, to[1], to[0], action=a), times, targets, actions),
     ]
+    own = own_assignments(entries)
+    if own:  # R13 proper: a partial cancel naming an assignment of its own task
+        ops.append(st.builds(lambda t, x: InjectCancel(t, x[1], x[0], **{x[2]: x[3]}), times, st.sampled_from(own)))
     if malformed:
         ops.append(st.builds(InjectMalformed, times, st.sampled_from(list(robots)),
                              st.sampled_from(["motion_assignment", "action_assignment", "cancel_order"]),

@@ -48,11 +48,13 @@ def ros_strings(max_size: int = 12) -> st.SearchStrategy[str]:
 
 
 def primitives(ros: str) -> st.SearchStrategy[Any]:
-    """Every valid value of a ROS primitive type (``float64``, ``uint8``, ``string``, ...)."""
+    """Every valid value of a ROS primitive type (``float64``, ``uint8``, ``string``, ...). Floats are
+    often signed zeros: 0.0 and -0.0 are equal numbers but different bytes (R9/R10)."""
+    zeros = st.sampled_from([0.0, -0.0])
     if ros == "float64":
-        return st.floats(allow_nan=False, allow_infinity=False)
+        return st.one_of(zeros, st.floats(allow_nan=False, allow_infinity=False))
     if ros == "float32":
-        return st.floats(min_value=-FLOAT32_MAX, max_value=FLOAT32_MAX)
+        return st.one_of(zeros, st.floats(min_value=-FLOAT32_MAX, max_value=FLOAT32_MAX))
     if ros in INT_RANGES:
         lo, hi = INT_RANGES[ros]
         return st.integers(lo, hi)

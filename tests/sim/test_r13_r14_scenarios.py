@@ -1,0 +1,147 @@
+"""R13 and R14 end to end: scenario files through the SimPy model, expectations worked out by hand.
+
+The fleet is one robot at the origin facing +x, 1 m/s, no acceleration limits and instantaneous turns,
+so a leg of d metres takes d seconds; actions take 1 s (dummy) or 2 s (load, unload).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tests.sim.test_scenarios import action, motion, script
+from vcran.testing.checks import check_run
+
+
+def cancel(t, task, motion=None, action=None):
+    named = "".join(f'\n{k} = "{v}"' for k, v in (("motion", motion), ("action", action)) if v)
+    return f't = {t}\nkind = "cancel"\ntask = "{task}"{named}'
+
+
+def finished(out, kind):
+    """``(t, id)`` of every motion_finished / action_finished event."""
+    return [(e["t"], e[kind]) for e in out.of(f"{kind}_finished")]
+
+
+# --- R13 -------------------------------------------------------------------------------------------------
+
+
+def test_r13_a_queued_motion_cancelled_before_dispatch_is_never_driven(run_toml):
+    out = run_toml(script(
+        motion(1, "A", "A_m1", 1, 3, 0, 3),  # a detour that the cancel removes
+        cancel(1.5, "A", motion="A_m1"),
+        motion(2, "A", "A_m2", 2, 3, 4, 0),
+        action(3, "A", "A_a3", 3, 3),
+    ))
+    assert [(e["t"], e["motion"]) for e in out.of("assignment_cancelled")] == [(1.5, "A_m1")]
+    assert finished(out, "motion") == [(7.0, "A_m2")]  # dispatched at 3, straight to (4, 0): 4 s
+    assert out.robot()["completed"] == ["A"]
+    assert out.robot()["distance"] == 4.0
+    assert not out.of("rejected")
+
+
+def test_r13_an_unreached_point_of_the_driving_path_is_skipped(run_toml):
+    out = run_toml(script(
+        motion(1, "A", "A_m1", 1, 4, 2, 0), motion(1, "A", "A_m2", 2, 4, 2, 2),
+        motion(1, "A", "A_m3", 3, 4, 4, 2), action(1, "A", "A_a4", 4, 4),
+        cancel(2, "A", motion="A_m2"),  # while A_m1's leg runs (1 .. 3)
+    ))
+    # A_m1 reached at 3; then straight from (2, 0) to (4, 2), sqrt(8) s, without passing (2, 2)
+    assert finished(out, "motion") == [(3.0, "A_m1"), (pytest.approx(3 + math.sqrt(8)), "A_m3")]
+    assert out.robot()["distance"] == pytest.approx(2 + math.sqrt(8))
+    assert out.robot()["final_pose"]["x"] == 4.0 and out.robot()["final_pose"]["y"] == 2.0
+    assert out.robot()["completed"] == ["A"]
+
+
+def test_r13_the_running_leg_is_refused_with_a_warning_and_driven(run_toml):
+    out = run_toml(script(
+        motion(1, "A", "A_m1", 1, 2, 2, 0), action(1, "A", "A_a2", 2, 2),
+        cancel(2, "A", motion="A_m1"),
+    ))
+    (r,) = out.of("rejected")
+    assert (r["t"], r["code"], r["severity"], r["task"], r["motion"]) == (2.0, "assignment_running", "warning", "A", "A_m1")
+    assert finished(out, "motion") == [(3.0, "A_m1")]
+    assert out.robot()["completed"] == ["A"]
+
+
+def test_r13_every_assignment_cancelled_one_by_one_cancels_the_task(run_toml):
+    out = run_toml(script(
+        motion(1, "A", "A_m1", 1, 2, 5, 0), action(1, "A", "A_a2", 2, 2),  # A drives 1 .. 6
+        motion(2, "B", "B_m1", 1, 2, 1, 0), action(2, "B", "B_a2", 2, 2),  # B waits behind A
+        cancel(3, "B", motion="B_m1"), cancel(4, "B", action="B_a2"),
+    ))
+    assert [e["t"] for e in out.of("assignment_cancelled")] == [3.0, 4.0]
+    (c,) = out.of("task_cancelled")
+    assert (c["t"], c["task"], c["reason"]) == (4.0, "B", "cancelled")
+    assert out.robot()["completed"] == ["A"] and out.robot()["distance"] == 5.0
+
+
+def test_r13_a_cancel_remembered_for_the_only_assignment_cancels_its_task_on_arrival(run_toml):
+    """Found by the fuzzer (the rule checks wanted a cancel_order during the task's life): a partial cancel
+    for B_a1 before B exists is remembered; B_a1 arrives, is skipped, and with every position cancelled B
+    ends at that instant, reason cancelled; A behind it is untouched."""
+    out = run_toml(script(
+        cancel(1, "B", action="B_a1"),
+        action(2, "B", "B_a1", 1, 1), action(2, "A", "A_a1", 1, 1),
+    ))
+    assert [(e["t"], e["code"]) for e in out.of("rejected")] == [(1.0, "cancel_unknown_assignment")]
+    assert [(e["t"], e["task"]) for e in out.of("task_queued")] == [(2.0, "B"), (2.0, "A")]
+    assert [(e["t"], e["task"], e["reason"]) for e in out.of("task_cancelled")] == [(2.0, "B", "cancelled")]
+    assert finished(out, "action") == [(3.0, "A_a1")] and out.robot()["completed"] == ["A"]
+    assert check_run(out.dir, 30.0, finished=True) == []
+
+
+# --- R14 -------------------------------------------------------------------------------------------------
+
+
+def test_r14_last_assignment_at_first_seen_plus_timeout_as_written_is_on_time(run_toml):
+    out = run_toml(script(motion(0.577, "A", "A_m1", 1, 2, 1, 0), action(30.577, "A", "A_a2", 2, 2)))
+    assert out.robot()["completed"] == ["A"] and not out.of("task_cancelled")
+
+
+def test_r14_a_timeout_at_the_instant_a_leg_ends_stops_the_robot_there(run_toml):
+    text = script(
+        motion(0, "A", "A_m1", 1, 4, 10, 0), motion(0, "A", "A_m2", 2, 4, 20, 0),
+        action(0, "A", "A_a3", 3, 4),  # the action at 4 never comes: A times out at 10
+    ).replace("task_timeout = 30.0", "task_timeout = 10.0")
+    out = run_toml(text)
+    assert finished(out, "motion") == [(10.0, "A_m1")]  # the first leg ends exactly at the deadline
+    (c,) = out.of("task_cancelled")
+    assert (c["t"], c["reason"]) == (10.000001, "timeout")
+    r = out.robot()
+    assert (r["final_pose"]["x"], r["final_pose"]["y"], r["distance"]) == (10.0, 0.0, 10.0)  # not 20
+
+
+def test_r14_a_cancel_just_after_an_action_ends_performs_nothing_more(run_toml):
+    out = run_toml(script(
+        action(0, "A", "A_a1", 1, 2, "dummy"), action(0, "A", "A_a2", 2, 2, "load"),  # A_a1: 0 .. 1
+        cancel(1.0000005, "A"),  # within 1 µs of A_a1's end, when A_a2 began
+    ).replace('parts = 3', 'parts = 3\nreach = 100.0'))
+    assert finished(out, "action") == [(1.0, "A_a1")]  # A_a2 abandoned: never finished ...
+    assert out.summary["stations"]["s1"]["parts"] == 3 and out.robot()["carrying"] == 0  # ... nor performed
+    (c,) = out.of("task_cancelled")
+    assert (c["t"], c["reason"]) == (1.0000005, "cancelled")
+
+
+def test_r14_a_cancel_at_the_instant_an_action_ends_dispatches_nothing_more(run_toml):
+    out = run_toml(script(action(0, "A", "A_a1", 1, 2), action(0, "A", "A_a2", 2, 2), cancel(1.0, "A")))
+    assert finished(out, "action") == [(1.0, "A_a1")]
+    assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(1.0, "cancelled")]
+
+
+def test_r14_a_pending_cancel_wins_over_the_failure_of_the_running_action(run_toml):
+    out = run_toml(script(action(0, "A", "A_a1", 1, 1, "load"), cancel(1, "A")))  # no station in reach
+    (f,) = out.of("failed")
+    assert (f["t"], f["code"]) == (2.0, "no_station_in_reach")  # still reported
+    (c,) = out.of("task_cancelled")
+    assert (c["t"], c["reason"]) == (2.0, "cancelled")
+
+
+def test_r14_a_missing_capability_fails_when_the_action_is_dispatched(run_toml):
+    text = script(action(3, "A", "A_a1", 1, 1, "unload")).replace(
+        'max_velocity = 1.0', 'max_velocity = 1.0\nactions = ["dummy", "load"]')
+    out = run_toml(text)
+    (f,) = out.of("failed")
+    assert (f["t"], f["code"]) == (3.0, "action_not_capable")  # not 3 + 2 s of unloading
+    assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(3.0, "action_failed")]

@@ -1,0 +1,101 @@
+"""``vcran sweep SWEEP --out DIR [--workers N] [--cluster ADDRESS] [--keep-runs]`` (SPEC §10, docs/sweeps.md).
+
+Runs every variant × seed of a sweep file, here (a local process pool sized to the machine) or on a Dask
+cluster, and writes one row per run into ``DIR/runs.csv`` and ``DIR/runs.parquet``, plus comparison
+figures when matplotlib is installed. Exit status: 0 when every run ran, 1 when some failed (their rows
+say why), 2 for a sweep that cannot start, 130 on Ctrl-C (the rows done are written all the same).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+
+if TYPE_CHECKING:
+    from vcran.sweep.spec import Sweep
+    from vcran.sweep.worker import Row
+
+HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("sweep", type=Path, help="sweep file (TOML): scenario, seeds, [grid], [[variants]]")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    add_pool_arguments(parser, "the runs", "one per CPU")
+    parser.add_argument("--keep-runs", action="store_true",
+                        help="keep every run's folder (trace, events, summary, scenario.toml) in DIR/runs/NNNN")
+    parser.add_argument("--format", choices=("png", "svg"), default="png", help="figure format (default: png)")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress either)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from vcran.commands import CommandError
+    from vcran.sweep.progress import Progress
+    from vcran.sweep.runs import execute
+    from vcran.sweep.spec import SweepError, load
+    from vcran.sweep.table import have_parquet
+
+    check_pool_options(args)
+    try:
+        sweep = load(args.sweep)
+    except SweepError as exc:
+        raise CommandError(str(exc)) from None
+    runs = len(sweep.seeds) * len(sweep.variants)
+    out: Path = args.out
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CommandError(f"--out {out}: cannot create the folder: {exc.strerror or exc}") from None
+    pool = pool_for(args, runs)
+    if not args.quiet:
+        print(f"sweep {sweep.name}: {len(sweep.variants)} variant(s) x {len(sweep.seeds)} seed(s) = {runs} runs "
+              f"on {pool.name}", file=sys.stderr)
+    progress = Progress(sys.stderr, runs, quiet=args.quiet)
+    start = time.perf_counter()
+    try:
+        result = execute(sweep, pool, keep_runs=out.resolve() if args.keep_runs else None,
+                         on_row=lambda row: progress.update(row["error"] is not None))
+    finally:
+        progress.close()
+        pool.close()
+    wall = time.perf_counter() - start
+
+    files = result.write(out)
+    if not have_parquet() and not args.quiet:
+        print("vcran sweep: runs.parquet not written: pyarrow is not installed (pip install 'vcran[sweep]')",
+              file=sys.stderr)
+    if not result.interrupted:
+        files += figures(sweep, result.rows, out, args.format, args.quiet)
+
+    done, failed = len(result.rows), result.failed
+    if result.interrupted:
+        print(f"vcran sweep: interrupted: {done} of {runs} runs done ({failed} failed); their rows are in "
+              f"{', '.join(str(f) for f in files)}", file=sys.stderr)
+        return 130
+    if not args.quiet:
+        print(f"{runs} runs in {wall:.1f} s: {done - failed} ran, {failed} failed")
+        for r in [r for r in result.rows if r["error"] is not None][:5]:
+            print(f"  run {r['run']} (seed {r['seed']}): {r['error']}")
+        print(f"  written: {', '.join(str(f) for f in files)}")
+    return 1 if failed else 0
+
+
+def figures(sweep: Sweep, rows: list[Row], out: Path, fmt: str, quiet: bool) -> list[Path]:
+    """The comparison figures, when there is something to compare and matplotlib to draw it."""
+    if not sweep.parameters and not sweep.labelled:
+        return []
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        if not quiet:
+            print("vcran sweep: no figures: matplotlib is not installed (pip install 'vcran[report]')",
+                  file=sys.stderr)
+        return []
+    from vcran.sweep.figures import draw
+
+    return draw(sweep, rows, out, fmt)

@@ -1,0 +1,93 @@
+"""One run of a sweep as a pure function of plain data: scenario text, overrides, seed -> row (SPEC §10).
+
+This is all a worker executes, in a process of the local pool or on a Dask worker on another machine, so
+it takes and returns only strings, numbers, lists and dicts: nothing about pools, clusters or files
+leaks into the simulation, and a worker needs vcran installed but not the sweep's files. The run is the
+one ``vcran run`` does on the overridden scenario (same loader, then :func:`vcran.simulate`, its script or
+its fleet manager), which is why a run in a sweep is byte-identical to the same variant and seed run
+alone. Without a folder to keep, nothing touches the disk.
+"""
+
+from __future__ import annotations
+
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from vcran.api import simulate
+from vcran.core.effects import Reason
+from vcran.io.scenario_file import parse
+from vcran.io.scenario_toml import dumps
+from vcran.sweep.overrides import apply
+
+Row = dict[str, Any]
+
+
+def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], out: str | None = None) -> Row:
+    """Run the scenario ``scenario_text`` (read from ``source``, which names it in errors and gives its
+    default name) with ``overrides`` applied, and return its KPIs (:func:`kpis`), ``error`` (None, or
+    what went wrong: a failing run is a row, never a lost sweep) and ``wall_seconds``.
+
+    With ``out`` the run folder is kept there, with the overridden scenario as ``scenario.toml`` (its
+    name set, so that ``vcran run out/scenario.toml`` reproduces the run byte for byte).
+    """
+    start = time.perf_counter()
+    kept: str | None = None
+    try:
+        data = apply(tomllib.loads(scenario_text), overrides)
+        scenario = parse(data, source, default_name=Path(source).stem)
+        data.setdefault("simulation", {})["name"] = scenario.settings.name
+        kept = dumps(data)
+        row: Row = {"error": None, **kpis(simulate(scenario, out=out).summary)}
+    except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
+        row = {"error": f"{type(exc).__name__}: {exc}".strip()}
+    if out is not None and kept is not None:  # after the run: the run folder is written whole, then renamed
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)  # a failed run's folder holds the scenario that fails
+        (folder / "scenario.toml").write_text(kept, encoding="utf-8")
+    row["wall_seconds"] = time.perf_counter() - start
+    return row
+
+
+#: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``, a
+#: fleet with batteries ``battery_used``.
+KPIS = ("sim_time", "tasks_completed", "tasks_cancelled", *(f"cancelled_{r.value}" for r in Reason),
+        "distance", "parts_moved", "errors", "collisions")
+
+
+def kpis(summary: dict[str, Any]) -> dict[str, Any]:
+    """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
+    distance, parts moved, errors and collisions (SPEC §4: each involves two robots, and each robot's
+    summary counts it); with batteries the charge drawn (Ah); with a closed loop (SPEC §9) every figure
+    of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``."""
+    robots = summary["robots"].values()
+    reasons = [c["reason"] for r in robots for c in r["cancelled"]]
+    row: dict[str, Any] = {
+        "sim_time": summary["sim_time"],
+        "tasks_completed": sum(len(r["completed"]) for r in robots),
+        "tasks_cancelled": len(reasons),
+        **{f"cancelled_{r.value}": reasons.count(r.value) for r in Reason},
+        "distance": sum(r["distance"] for r in robots),
+        "parts_moved": sum(r["parts_moved"] for r in robots),
+        "errors": summary["errors"],
+        "collisions": sum(r.get("collisions", 0) for r in robots) // 2,
+    }
+    batteries = [r["battery"] for r in robots if "battery" in r]
+    if batteries:
+        row["battery_used"] = sum(b["used"] for b in batteries)
+    jobs = summary.get("jobs")
+    if isinstance(jobs, dict):
+        _flatten(row, "jobs_", jobs)
+    utilisation = summary.get("utilisation")
+    if isinstance(utilisation, dict) and "fleet" in utilisation:
+        row["utilisation"] = utilisation["fleet"]
+    return row
+
+
+def _flatten(row: dict[str, Any], prefix: str, table: dict[str, Any]) -> None:
+    for key, value in table.items():
+        if isinstance(value, dict):
+            _flatten(row, f"{prefix}{key}_", value)
+        elif isinstance(value, (int, float)):  # None (no lead time without a completed job): an empty cell
+            row[prefix + key] = value
