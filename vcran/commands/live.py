@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, check_out, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
 
@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
     if args.notify_url is not None:
         check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)
+    check_out(args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)
