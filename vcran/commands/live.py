@@ -5,10 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError, add_scenario_argument, check_out, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
+
+if TYPE_CHECKING:
+    from vcran.sim.model import Model
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
 
@@ -57,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CommandError(f"cannot listen for notifications on {args.listen}, {args.notify_url}: {exc.strerror}") from None
 
-    models = []
+    models: list[Model] = []
     line = None if args.quiet else StatusLine(sys.stderr)
 
     def on_signal() -> None:

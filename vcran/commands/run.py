@@ -17,6 +17,7 @@ from vcran.commands._signals import StopSignals
 
 if TYPE_CHECKING:
     from vcran.api import Result
+    from vcran.sim.model import Model
 
 HELP = "simulate a scenario with its message script, or its jobs with a fleet manager, as fast as possible"
 
@@ -48,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
         except ReportError as exc:
             raise CommandError(str(exc)) from None
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
-    models = []
+    models: list[Model] = []
 
     def progress(now: float, tasks_done: int) -> None:
         # the telemetry tick is the safe point to act on a signal (never inside a write or an event)

@@ -164,8 +164,9 @@ class RanLogicMachine(RuleBasedStateMachine):
         path, done = task.path or [], task.legs_done
         actions = task.actions[:-1] if task.action_running else task.actions
         groups: dict[str, list[Assignment]] = {
-            "running": path[done:done + 1] if task.driving else task.actions[-1:] if task.action_running else [],
-            "ahead": path[done + 1:] if task.driving else [],
+            "running": list[Assignment](path[done:done + 1] if task.driving
+                                        else task.actions[-1:] if task.action_running else []),
+            "ahead": list[Assignment](path[done + 1:] if task.driving else []),
             "done": [*path[:done], *actions],
             "pending": [a for a in task.slots().values() if not task.dispatched(a)],
         }

@@ -103,7 +103,7 @@ def robot_actions(known_only: bool = True) -> st.SearchStrategy[RobotAction]:
 def messages_of(cls: type[M]) -> st.SearchStrategy[M]:
     """Any valid message of type ``cls``, derived from its field specs."""
     special = _CLASS_STRATEGIES.get(cls)
-    return cast(st.SearchStrategy[M], special() if special else _generic(cls))
+    return cast(st.SearchStrategy[M], special() if special else _generic(cast(type, cls)))
 
 
 @cache
