@@ -222,3 +222,16 @@ def test_r14_an_incapable_action_fails_before_a_cancel_of_a_later_instant(run_to
     assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(0.5, "action_failed")]
     assert [(e["t"], e["code"]) for e in out.of("rejected")] == [(1.5, "cancel_finished_task")]
     assert [(e["t"], e["action"], e["ok"]) for e in out.of("action_finished")] == [(0.5, "1t1_a2", False)]
+
+
+def test_r14_a_battery_running_out_as_an_incapable_action_fails_stops_the_robot_then(run_toml):
+    """By hand: 1 Ah drawn at 0.25 Ah/s at rest runs out at exactly t=4, between telemetry ticks (3, 6).
+    The action dispatched at 4 fails there (R14), and the robot, empty, stops at 4 too (§4), not at the
+    next tick (6): the failure's zero-length wait (a completion of the instant) must not hide that instant."""
+    out = run_toml(script(action(4, "A", "A_a1", 1, 1, "unload")).replace(
+        "max_velocity = 1.0", "max_velocity = 1.0\nactions = [\"dummy\"]\n"
+        "[robots.battery]\ncapacity = 1.0\nper_idle_second = 0.25",
+    ).replace("task_timeout = 30.0", "task_timeout = 30.0\ntelemetry_period = 3.0"))
+    assert [(e["t"], e["code"]) for e in out.of("failed")] == [(4.0, "action_not_capable"), (4.0, "battery_empty")]
+    assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(4.0, "action_failed")]
+    assert [e["t"] for e in out.of("battery_empty")] == [4.0]

@@ -356,6 +356,7 @@ class RobotNode:
                     assert halt is ABANDON or isinstance(halt, Halted)
                     self._stopped(halt)
                     continue
+                self.watch_idle()  # a resting battery that ran out meanwhile found the robot working
             else:
                 duration = self._charge_time() if kind is ActionKind.CHARGE else self.durations[kind.value]
                 halt = yield from self._act(kind, duration)
