@@ -1,15 +1,26 @@
-"""Fleet-size sweep: ``vcran run`` on generated fleets against a bare-SimPy floor, in one run.
+"""Fleet-size sweep: ``vcran run`` on generated fleets against two bare-SimPy floors, in one run.
 
-    python benchmarks/bench_fleet.py                      # 1, 10, 100, 1000 robots, one simulated hour
-    python benchmarks/bench_fleet.py --sizes 1 10 --hours 0.25
-    python benchmarks/bench_fleet.py --flat 100           # peak memory for 0.5 h, 1 h and 2 h of 100 robots
+    python benchmarks/bench_fleet.py                          # 1, 10, 100, 1000 robots, one simulated hour
+    python benchmarks/bench_fleet.py --sizes 10 100 --hours 0.25
+    python benchmarks/bench_fleet.py --sizes 1000 --baseline ../vcran-before   # CPU against another checkout
+    python benchmarks/bench_fleet.py --flat 1000              # peak memory at 1, 2 and 4 simulated hours
 
-For each size it times the whole ``vcran run`` process (interpreter start-up included, as a user sees
-it) on ``vcran gen --robots N --hours H --seed 1``, and reads back the simulated time, the events logged
-and the output size; peak memory is the child's own ``ru_maxrss``. The floor is a bare SimPy program in a
-child process too: N processes that each wake once per simulated second (the per-robot periodic work a
-naive model would schedule as N timers) for the same simulated time. Figures are wall-clock and this
-machine is shared: compare the ratios within one run, not absolute numbers across runs.
+For each size it runs ``vcran run`` on ``vcran gen --robots N --hours H --seed 1`` in a child process and
+reports: the whole process's wall time (interpreter start-up included, as a user sees it), the in-process
+time of the run itself (``run_to``, imports excluded), CPU seconds (user + system) and CPU microseconds per
+completed task, peak memory (the child's ``ru_maxrss``), and the output bytes per robot-hour of every file.
+
+Two floors run in the same sweep, also as child processes over the same simulated time:
+
+* ``1 Hz floor``: N processes that each wake once per simulated second (what a naive per-robot periodic
+  model schedules);
+* ``event floor``: bare SimPy doing only what vcran's design needs: per robot, one timeout per leg and per
+  action, with the durations the vcran run actually had (read from its ``motion_finished`` and
+  ``action_finished`` events), plus one fleet-wide 1 Hz tick. This is the honest floor for vcran.
+
+``--baseline DIR`` runs the same vcran child with another checkout (its own ``.venv``, e.g. a
+``git worktree`` of the commit before a change), so that ratios come from one run on one machine. The
+machine is usually shared and noisy: compare ratios within one run, never absolute figures across runs.
 """
 
 from __future__ import annotations
@@ -30,31 +41,53 @@ import json, resource, sys, time
 start = time.perf_counter()
 kind = sys.argv[1]
 if kind == "vcran":
+    import vcran.runner
+    from transports.scripted import ScriptedTransport
+    from vcran.io.scenario_file import load
+    from pathlib import Path
+    begin = time.perf_counter()
+    scenario = load(sys.argv[2])
+    vcran.runner.run_to(scenario, Path(sys.argv[3]), ScriptedTransport(scenario.messages()))
+    extra = {"in_process": time.perf_counter() - begin}
+elif kind == "cli":
     from vcran.cli import main
-    code = main(["run", sys.argv[2], "--out", sys.argv[3], "--quiet"])
-    extra = {"code": code}
-else:
+    extra = {"code": main(["run", sys.argv[2], "--out", sys.argv[3], "--quiet"])}
+elif kind == "floor":
     import simpy
     robots, seconds = int(sys.argv[2]), float(sys.argv[3])
     env = simpy.Environment()
-    published = [0]
     def robot(env):
         while True:
             yield env.timeout(1.0)
-            published[0] += 1
     for _ in range(robots):
         env.process(robot(env))
     env.run(until=seconds)
-    extra = {"events": published[0]}
-extra["wall_inside"] = time.perf_counter() - start
-extra["maxrss_kib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    extra = {}
+else:  # event floor: per robot, the run's leg and action durations in sequence; one fleet tick
+    import simpy
+    plan = json.load(open(sys.argv[2]))
+    env = simpy.Environment()
+    def robot(env, durations):
+        for d in durations:
+            yield env.timeout(d)
+    def tick(env):
+        while True:
+            yield env.timeout(1.0)
+    for durations in plan["robots"]:
+        env.process(robot(env, durations))
+    env.process(tick(env))
+    env.run(until=plan["seconds"])
+    extra = {}
+usage = resource.getrusage(resource.RUSAGE_SELF)
+extra["cpu"] = usage.ru_utime + usage.ru_stime
+extra["maxrss_kib"] = usage.ru_maxrss
 print(json.dumps(extra))
 """
 
 
-def child(*args: str) -> tuple[dict, float]:
+def child(python: str, cwd: Path, *args: str) -> tuple[dict, float]:
     start = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", CHILD, *args], capture_output=True, text=True, cwd=ROOT,
+    out = subprocess.run([python, "-c", CHILD, *args], capture_output=True, text=True, cwd=cwd,
                          env={**os.environ, "PYTHONHASHSEED": "0"})
     wall = time.perf_counter() - start
     if out.returncode != 0:
@@ -62,44 +95,97 @@ def child(*args: str) -> tuple[dict, float]:
     return json.loads(out.stdout.strip().splitlines()[-1]), wall
 
 
-def bench(robots: int, hours: float, work: Path) -> dict:
+def _events(folder: Path) -> list[dict]:
+    from vcran.io.trace import event_records, events_beside, trace_in
+
+    try:
+        return list(event_records(events_beside(trace_in(folder))))
+    except ValueError:  # a checkout older than the reader
+        return [json.loads(line) for line in (folder / "events.jsonl").read_text().splitlines()]
+
+
+def _plan(events: list[dict], robots: int, seconds: float) -> dict:
+    """Per robot, the intervals between its leg/action starts and ends, as the event floor replays them."""
+    last: dict[str, float] = {}
+    durations: dict[str, list[float]] = {}
+    for e in events:
+        if e["event"] in ("motion_finished", "action_finished"):
+            rid = e["robot"]
+            durations.setdefault(rid, []).append(max(e["t"] - last.get(rid, 0.0), 0.0))
+            last[rid] = e["t"]
+    rows = list(durations.values()) + [[] for _ in range(robots - len(durations))]
+    return {"robots": rows, "seconds": seconds}
+
+
+def vcran_run(python: str, cwd: Path, scenario: Path, out: Path, robots: int, hours: float) -> dict:
+    info, wall = child(python, cwd, "vcran", str(scenario), str(out))
+    summary = json.loads((out / "summary.json").read_text())
+    tasks = sum(len(r["completed"]) for r in summary["robots"].values())
+    robot_hours = robots * summary["sim_time"] / 3600
+    files = {p.name: p.stat().st_size / robot_hours for p in sorted(out.iterdir()) if p.is_file()}
+    return {"wall": wall, "in_process": info["in_process"], "cpu": info["cpu"], "tasks": tasks,
+            "cpu_per_task_us": 1e6 * info["cpu"] / max(tasks, 1), "maxrss_mib": info["maxrss_kib"] / 1024,
+            "bytes_per_robot_hour": files, "total_per_robot_hour": sum(files.values()),
+            "sim_time": summary["sim_time"]}
+
+
+def bench(robots: int, hours: float, work: Path, baseline: Path | None) -> dict:
     from vcran.io.gen import generate
 
-    scenario = work / f"fleet-{robots}.toml"
+    scenario = work / f"fleet-{robots}-{hours}.toml"
     scenario.write_text(generate(robots, hours, 1))
-    out = work / f"out-{robots}-{hours}"
-    info, wall = child("vcran", str(scenario), str(out))
-    summary = json.loads((out / "summary.json").read_text())
-    with (out / "events.jsonl").open("rb") as f:
-        events = sum(1 for _ in f)
-    with (out / "trace.jsonl").open("rb") as f:
-        records = sum(1 for _ in f) - 2  # header and end line
-    size = sum(p.stat().st_size for p in out.iterdir())
-    tasks = sum(len(r["completed"]) for r in summary["robots"].values())
-    floor, floor_wall = child("floor", str(robots), str(summary["sim_time"]))
-    sim = summary["sim_time"]
-    ticks = int(sim) + 1
-    return {
-        "robots": robots, "hours": hours, "sim_time": sim, "wall": wall, "speed": sim / wall,
-        "tasks": tasks, "events": events, "events_per_s": events / wall,
-        # every periodic record (current_motion per robot per tick) counts as published work
-        "records_per_s": (records + ticks * robots) / wall,
-        "maxrss_mib": info["maxrss_kib"] / 1024, "output_mib": size / 2**20,
-        "floor_wall": floor_wall, "floor_speed": sim / floor_wall, "floor_events_per_s": floor["events"] / floor_wall,
-        "floor_maxrss_mib": floor["maxrss_kib"] / 1024,
-    }
+    row: dict = {"robots": robots, "hours": hours}
+    row["vcran"] = vcran_run(sys.executable, ROOT, scenario, work / f"out-{robots}-{hours}", robots, hours)
+    _, row["cli_wall"] = child(sys.executable, ROOT, "cli", str(scenario), str(work / f"cli-{robots}-{hours}"))
+    if baseline is not None:
+        row["baseline"] = vcran_run(str(baseline / ".venv" / "bin" / "python"), baseline, scenario,
+                                    work / f"base-{robots}-{hours}", robots, hours)
+    sim = row["vcran"]["sim_time"]
+    floor, floor_wall = child(sys.executable, ROOT, "floor", str(robots), str(sim))
+    plan = work / f"plan-{robots}-{hours}.json"
+    plan.write_text(json.dumps(_plan(_events(work / f"out-{robots}-{hours}"), robots, sim)))
+    event_floor, _ = child(sys.executable, ROOT, "event", str(plan))
+    row["floor_cpu"], row["event_floor_cpu"] = floor["cpu"], event_floor["cpu"]
+    return row
 
 
 def table(rows: list[dict]) -> str:
-    head = ("| robots | sim h | wall s | speed (sim s / wall s) | tasks | events/s | records/s | peak MiB "
-            "| output MiB | floor wall s | floor speed | vcran / floor wall |")
-    lines = [head, "|" + "|".join(["---"] * 12) + "|"]
+    out = ["| robots | sim h | tasks | CPU s | CPU µs/task | in-process s | whole process s | peak MiB "
+           "| output kB/robot-h | 1 Hz floor CPU s | event floor CPU s | vcran / event floor |",
+           "|" + "|".join(["---"] * 12) + "|"]
     for r in rows:
-        lines.append(
-            f"| {r['robots']} | {r['hours']:g} | {r['wall']:.2f} | {r['speed']:,.0f} | {r['tasks']} | "
-            f"{r['events_per_s']:,.0f} | {r['records_per_s']:,.0f} | {r['maxrss_mib']:.0f} | {r['output_mib']:.1f} | "
-            f"{r['floor_wall']:.2f} | {r['floor_speed']:,.0f} | {r['wall'] / r['floor_wall']:.1f}x |"
-        )
+        for name in ("baseline", "vcran"):
+            v = r.get(name)
+            if v is None:
+                continue
+            label = f"{r['robots']}" + (" (baseline)" if name == "baseline" else "")
+            whole = f"{r['cli_wall']:.2f}" if name == "vcran" else "-"
+            out.append(
+                f"| {label} | {r['hours']:g} | {v['tasks']} | {v['cpu']:.2f} | {v['cpu_per_task_us']:.0f} | "
+                f"{v['in_process']:.3f} | {whole} | {v['maxrss_mib']:.0f} | {v['total_per_robot_hour'] / 1000:.1f} | "
+                f"{r['floor_cpu']:.2f} | {r['event_floor_cpu']:.2f} | {v['cpu'] / max(r['event_floor_cpu'], 1e-9):.1f}x |")
+    for r in rows:
+        if "baseline" in r:
+            b, v = r["baseline"], r["vcran"]
+            out.append(f"\n{r['robots']} robots: CPU {v['cpu'] / b['cpu']:.2f}x of the baseline, "
+                       f"output {v['total_per_robot_hour'] / b['total_per_robot_hour']:.3f}x")
+    files = "\n".join(
+        f"- {r['robots']} robots, {name}: " + ", ".join(f"{f} {n / 1000:.1f} kB" for f, n in r[name]["bytes_per_robot_hour"].items())
+        for r in rows for name in ("baseline", "vcran") if name in r)
+    return "\n".join(out) + "\n\nbytes per robot-hour per file:\n" + files
+
+
+def flat(robots: int, work: Path) -> str:
+    from vcran.io.gen import generate
+
+    lines = ["| robots | sim h | peak MiB | CPU s |", "|---|---|---|---|"]
+    base = None
+    for hours in (1.0, 2.0, 4.0):
+        scenario = work / f"flat-{robots}-{hours}.toml"
+        scenario.write_text(generate(robots, hours, 1))
+        v = vcran_run(sys.executable, ROOT, scenario, work / f"flat-out-{robots}-{hours}", robots, hours)
+        base = base or v["maxrss_mib"]
+        lines.append(f"| {robots} | {hours:g} | {v['maxrss_mib']:.0f} ({v['maxrss_mib'] / base:.2f}x of 1 h) | {v['cpu']:.1f} |")
     return "\n".join(lines)
 
 
@@ -107,7 +193,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sizes", type=int, nargs="+", default=[1, 10, 100, 1000])
     parser.add_argument("--hours", type=float, default=1.0)
-    parser.add_argument("--flat", type=int, metavar="ROBOTS", help="memory vs run length for this fleet size")
+    parser.add_argument("--baseline", type=Path, help="another checkout (with its .venv) to run the same fleets")
+    parser.add_argument("--flat", type=int, metavar="ROBOTS", help="peak memory at 1, 2 and 4 h for this fleet size")
     parser.add_argument("--keep", type=Path, help="keep outputs in this folder")
     args = parser.parse_args()
     sys.path.insert(0, str(ROOT))
@@ -115,9 +202,9 @@ def main() -> None:
         work = args.keep or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         if args.flat:
-            rows = [bench(args.flat, h, work) for h in (0.5, 1.0, 2.0)]
-        else:
-            rows = [bench(n, args.hours, work) for n in args.sizes]
+            print(flat(args.flat, work))
+            return
+        rows = [bench(n, args.hours, work, args.baseline) for n in args.sizes]
     print(table(rows))
     results = ROOT / "benchmarks" / "results"
     results.mkdir(exist_ok=True)

@@ -33,6 +33,7 @@ from transports.replay import ReplayTransport, inbound_records  # noqa: E402
 from transports.scripted import ScriptedTransport  # noqa: E402
 from vcran.api import EventList, Frames  # noqa: E402
 from vcran.core.scenario import ScriptEntry  # noqa: E402
+from vcran.io.trace import trace_in  # noqa: E402
 from vcran.io.verify import scenario_from_trace, verify  # noqa: E402
 from vcran.runner import run_model, run_to  # noqa: E402
 
@@ -59,7 +60,7 @@ def main() -> None:
         sim = result.summary["sim_time"]
         memory = best(args.repeat, lambda: vcran.simulate(scenario))
         written = best(args.repeat, lambda: vcran.simulate(scenario, out=folder / "loop"))
-        trace = folder / "loop" / "trace.jsonl"
+        trace = trace_in(folder / "loop")
         replayed = scenario_from_trace(trace)
         entries = [ScriptEntry(t, i.entity, i.attribute, i.message, i.raw) for t, i in inbound_records(trace)]
 

@@ -27,6 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from vcran.io.trace import records, trace_in
+
 ROOT = Path(__file__).resolve().parent.parent
 
 BATTERY = """
@@ -86,8 +88,7 @@ def main() -> None:
             walls[name].append(wall)
             cpus[name].append(cpu)
             summary = json.loads((out / "summary.json").read_text())
-            with (out / "trace.jsonl").open("rb") as f:
-                batteries = sum(b'"attr":"battery"' in line for line in f)
+            batteries = sum(1 for _ in records(trace_in(out), ("out",), ("battery",)))
             facts[name] = {
                 "tasks": sum(len(r["completed"]) for r in summary["robots"].values()),
                 "collisions": sum(r.get("collisions", 0) for r in summary["robots"].values()),

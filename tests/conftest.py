@@ -20,6 +20,7 @@ from hypothesis import settings
 from transports.scripted import ScriptedTransport
 from vcran.core.scenario import Scenario
 from vcran.io.scenario_file import parse
+from vcran.io.trace import EVENTS_FILE, event_records, open_input, open_output, records, trace_in
 from vcran.runner import run_to
 
 settings.load_profile("vcran")  # registered by the plugin, which pytest loaded before this file
@@ -42,13 +43,24 @@ class Outputs:
 
     def trace(self) -> list[dict[str, Any]]:
         """The in and out records (without the header and the end record)."""
-        lines = (self.dir / "trace.jsonl").read_text().splitlines()
-        return [r for r in map(json.loads, lines[1:]) if r["dir"] != "end"]
+        return [r for _, r in records(trace_in(self.dir)) if r["dir"] != "end"]
+
+
+def read_lines(path: Path) -> list[str]:
+    """The lines of a run file, compressed (``.zst``) or not."""
+    with open_input(path) as f:
+        return f.read().decode("utf-8").splitlines()
+
+
+def write_lines(path: Path, lines: list[str]) -> None:
+    """Write a run file back, compressed when its name ends in ``.zst`` (tests that tamper with one)."""
+    with open_output(path) as f:
+        f.write(("\n".join(lines) + "\n").encode("utf-8"))
 
 
 def run_scenario(scenario: Scenario, out: Path) -> Outputs:
     run_to(scenario, out, ScriptedTransport(scenario.messages()))
-    events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
+    events = list(event_records(out / EVENTS_FILE))
     return Outputs(out, json.loads((out / "summary.json").read_text()), events)
 
 

@@ -154,4 +154,4 @@ def test_warehouse_every_job_completes_and_the_run_replays_byte_for_byte(tmp_pat
     assert jobs["arrived"] > 150 and jobs["completed"] == jobs["arrived"] and jobs["failed"] == jobs["open"] == 0
     assert result.summary["errors"] == 0
     assert all(r.lead_time is not None and r.lead_time > 0 for r in result.jobs)
-    assert main(["replay", str(tmp_path / "run" / "trace.jsonl"), "--verify", "--quiet"]) == 0  # as docs/library.md
+    assert main(["replay", str(tmp_path / "run" / "trace.jsonl.zst"), "--verify", "--quiet"]) == 0  # as docs/library.md

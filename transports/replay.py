@@ -58,7 +58,7 @@ class ReplayTransport(Transport):
 def inbound_records(trace: Path) -> Iterator[tuple[float, Inbound]]:
     """``(t, Inbound)`` for every ``in`` record, decoded from its plain value (or kept raw)."""
     last = 0.0
-    for n, record in enumerate(records(trace), start=2):
+    for n, record in records(trace, ("in",)):
         if record.get("dir") != "in":
             continue
         t, attr = record.get("t"), record.get("attr")

@@ -51,6 +51,9 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "ManagerError": ("vcran.api", "ManagerError"),
     "run_to": ("vcran.runner", "run_to"),
     "RunResult": ("vcran.runner", "RunResult"),
+    # reading a run folder back (docs/outputs.md)
+    "telemetry_table": ("vcran.io.trace", "telemetry_table"),
+    "trace_records": ("vcran.io.trace", "trace_records"),
     # a fleet manager in the loop (SPEC §9)
     "FleetManager": ("vcran.core.manager", "FleetManager"),
     "Handle": ("vcran.core.manager", "Handle"),
@@ -76,6 +79,7 @@ __all__ = [
     "Id", "id_for", "MotionAssignment", "ActionAssignment", "CancelTask",
     "Transport", "Inbound", "Publish", "Frame",
     "simulate", "Result", "ManagerError", "run_to", "RunResult",
+    "telemetry_table", "trace_records",
     "FleetManager", "Handle", "Fleet", "Timer", "Job", "JobStream", "LinkSettings", "JobRecord",
     "load_sweep", "run_sweep", "Sweep", "SweepResult", "SweepError",
 ]
@@ -115,6 +119,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
     from vcran.io.scenario_file import ScenarioError
     from vcran.io.scenario_file import load as load_scenario
     from vcran.io.scenario_file import parse as parse_scenario
+    from vcran.io.trace import telemetry_table, trace_records
     from vcran.runner import RunResult, run_to
     from vcran.sweep.runs import SweepResult, run_sweep
     from vcran.sweep.spec import Sweep, SweepError

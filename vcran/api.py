@@ -10,7 +10,6 @@ memory. ``vcran run`` is a thin shell on :func:`run`.
 from __future__ import annotations
 
 import importlib
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -22,10 +21,12 @@ import numpy as np
 from transports.scripted import ScriptedTransport
 from vcran.core.jobs import JobRecord
 from vcran.core.manager import FleetManager
+from vcran.core.motion import Leg
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Frame, Inbound, Publish, Transport
+from vcran.io.runfolder import publish, staging
 from vcran.io.scenario_file import ScenarioError, load
-from vcran.io.trace import telemetry
+from vcran.io.trace import EVENTS_FILE, event_records, events_beside, long_table, telemetry_table, trace_in
 from vcran.runner import EventLog, run_model, trace_writer, write_summary
 from vcran.sim.loop import ClosedLoop
 from vcran.sim.model import Model
@@ -60,8 +61,7 @@ class Result:
         if self._events is not None:
             return self._events
         assert self.out is not None
-        with (self.out / "events.jsonl").open(encoding="utf-8") as f:
-            return [json.loads(line) for line in f]
+        return list(event_records(events_beside(trace_in(self.out))))
 
     @cached_property
     def telemetry(self) -> np.ndarray:
@@ -69,12 +69,11 @@ class Result:
         ``t``, ``robot``, ``x``, ``y``, ``theta``, ``v``, ``w``, one row per tick and robot (robots in
         fleet order). ``pandas.DataFrame(result.telemetry)`` makes it a table."""
         n = len(self.robots)
-        if self._frames is not None:
-            rows = np.array([[t, *columns.ravel()] for t, columns in self._frames], dtype="<f8").reshape(
-                -1, 1 + n * len(Frame.FIELDS))
-        else:
+        if self._frames is None:
             assert self.out is not None
-            rows = telemetry(self.out, n)
+            return telemetry_table(self.out)
+        rows = np.array([[t, *columns.ravel()] for t, columns in self._frames], dtype="<f8").reshape(
+            -1, 1 + n * len(Frame.FIELDS))
         return _long(rows, self.robots)
 
     def job(self, job_id: str) -> JobRecord:
@@ -121,9 +120,8 @@ def run(
     fleet_manager, name = build_manager(manager, sc)
     _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
     folder = Path(out) if out is not None else None
-    if folder is not None:
-        folder.mkdir(parents=True, exist_ok=True)
-    events = EventLog(folder / "events.jsonl") if folder is not None else EventList()
+    work = staging(folder) if folder is not None else None  # renamed to folder when the run has ended
+    events = EventLog(work / EVENTS_FILE) if work is not None else EventList()
     transport: Transport
     loop: ClosedLoop | None = None
     if fleet_manager is None:
@@ -132,7 +130,7 @@ def run(
     else:
         transport = loop = ClosedLoop(sc, fleet_manager, events.write)
         options = {"transport": "loop", "manager": name, "link": sc.link.as_dict()}
-    trace = trace_writer(sc, folder, options) if folder is not None else Frames()
+    trace = trace_writer(sc, work, options) if work is not None else Frames()
     model, wall = run_model(sc, transport, trace, events, progress=progress, on_start=on_start)
     summary = model.summary()
     if loop is not None:
@@ -140,8 +138,9 @@ def run(
         summary["jobs"] = loop.jobs.summary(t)
         shares = {r.id: model.busy(r.index) / t if t > 0 else 0.0 for r in model.robots}
         summary["utilisation"] = {"fleet": sum(shares.values()) / len(shares), "robots": shares}
-    if folder is not None:
-        write_summary(folder, summary)
+    if work is not None and folder is not None:
+        write_summary(work, summary)
+        publish(work, folder)
     return Result(summary, loop.jobs.records() if loop is not None else (), folder, wall,
                   tuple(r.id for r in sc.robots), events.count,
                   events.events if isinstance(events, EventList) else None,
@@ -202,7 +201,8 @@ def _name(cls: type) -> str:
 
 
 class EventList:
-    """The events of an in-memory run: the dicts events.jsonl would hold, one per line."""
+    """The events of an in-memory run: the dicts :func:`vcran.io.trace.event_records` reads back from a
+    run folder's events file, one per event (fields without a value left out, as there)."""
 
     def __init__(self) -> None:
         self.events: list[dict[str, Any]] = []
@@ -212,7 +212,7 @@ class EventList:
         return len(self.events)
 
     def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        self.events.append({"t": t, "robot": robot, "event": name, **fields})
+        self.events.append({"t": t, "robot": robot, "event": name, **{k: v for k, v in fields.items() if v is not None}})
 
     def close(self) -> None:
         pass
@@ -234,6 +234,12 @@ class Frames:
     def frame(self, frame: Frame) -> None:
         self.frames.append((frame.t, frame.columns))
 
+    def leg(self, robot: int, leg: Leg, t: float) -> None:
+        pass
+
+    def halt(self, robot: int, t: float) -> None:
+        pass
+
     def end(self, t: float) -> None:
         pass
 
@@ -242,14 +248,4 @@ class Frames:
 
 
 def _long(rows: np.ndarray, robots: tuple[str, ...]) -> np.ndarray:
-    """Telemetry rows ``[t, x0, y0, theta0, v0, w0, x1, ...]`` as one record per tick and robot."""
-    n, ticks = len(robots), rows.shape[0]
-    width = max((len(r) for r in robots), default=1)
-    table = np.empty(ticks * n, dtype=[("t", "<f8"), ("robot", f"<U{width}"),
-                                       *((name, "<f8") for name in Frame.FIELDS)])
-    table["t"] = np.repeat(rows[:, 0], n)
-    table["robot"] = np.tile(np.array(robots), ticks)
-    columns = rows[:, 1:].reshape(ticks, n, len(Frame.FIELDS))
-    for k, name in enumerate(Frame.FIELDS):
-        table[name] = columns[:, :, k].ravel()
-    return table
+    return long_table(rows, robots)

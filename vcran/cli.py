@@ -24,6 +24,7 @@ from typing import NoReturn
 from vcran import __version__
 from vcran.commands import CommandError
 from vcran.commands._signals import Terminated, terminate_like_interrupt
+from vcran.io.runfolder import RunFolderError
 
 #: Subcommand name -> module under vcran.commands. Order is the order of ``vcran --help``.
 COMMANDS: dict[str, str] = {
@@ -88,6 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(args._run(args) or 0)
     except CommandError as exc:
         return _fail(args.command, str(exc), exc.code)
+    except RunFolderError as exc:  # an --out that cannot receive a run, found where the run starts
+        return _fail(args.command, str(exc), BAD_INPUT)
     except BrokenPipeError:  # `vcran gen ... | head`: the reader has all it wanted
         _silence_stdout()
         return OK

@@ -15,6 +15,7 @@ import time
 import numpy as np
 import pytest
 
+from tests.conftest import read_lines
 from tests.transports.test_live import DEMO, broker_process, vcran, wait_until  # noqa: F401 - a fixture
 from vcran.cli import main
 from vcran.io.gen import generate
@@ -22,11 +23,10 @@ from vcran.io.gen import generate
 
 def finished_outputs(out) -> dict:
     """The outputs of a run that stopped cleanly; returns its summary."""
-    last = (out / "trace.jsonl").read_bytes().rstrip(b"\n").rsplit(b"\n", 1)[-1]
-    assert json.loads(last)["dir"] == "end"
-    header = json.loads((out / "trace.jsonl").read_text().split("\n", 1)[0])
-    width = 1 + 5 * len(header["telemetry"]["robots"])
-    assert np.fromfile(out / "telemetry.bin", dtype="<f8").size % width == 0  # whole rows only
+    lines = read_lines(out / "trace.jsonl.zst")
+    assert json.loads(lines[-1])["dir"] == "end"
+    legs = np.load(out / "legs.npy")  # closed properly: its header counts every row written
+    assert (out / "legs.npy").stat().st_size == 512 + legs.nbytes
     return json.loads((out / "summary.json").read_text())
 
 
@@ -37,7 +37,7 @@ def test_run_stops_at_a_signal_with_complete_outputs(tmp_path, signum, code, del
     scenario.write_text(generate(100, 2.0, 1))  # ~10 s of work: the signal lands mid-run
     out = tmp_path / "out"
     proc = vcran("run", str(scenario), "--out", str(out), "--quiet")
-    assert wait_until(lambda: (out / "trace.jsonl").exists(), 20)
+    assert wait_until(lambda: (tmp_path / "out.incomplete" / "trace.jsonl.zst").exists(), 20)  # under way
     time.sleep(delay)  # into the run: orjson's callbacks, file writes
     proc.send_signal(signum)
     stdout, stderr = proc.communicate(timeout=60)
@@ -45,18 +45,19 @@ def test_run_stops_at_a_signal_with_complete_outputs(tmp_path, signum, code, del
     assert "Traceback" not in stderr and f"stopped by {signal.Signals(signum).name}" in stderr
     summary = finished_outputs(out)
     assert 0 < summary["sim_time"] < 7200.0
-    assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_live_ends_normally_on_sigterm(broker_process, tmp_path):  # noqa: F811 - the fixture
     out = tmp_path / "live"
     live = vcran("live", str(DEMO), "--orion", broker_process, "--out", str(out), "--factor", "20", "--quiet")
-    assert wait_until(lambda: (out / "telemetry.bin").exists() and (out / "telemetry.bin").stat().st_size > 480, 20)
+    assert wait_until(lambda: (tmp_path / "live.incomplete" / "trace.jsonl.zst").exists(), 20)
+    time.sleep(1.0)  # x20: some 20 simulated seconds
     live.send_signal(signal.SIGTERM)
     _, stderr = live.communicate(timeout=30)
     assert live.returncode == 0 and "Traceback" not in stderr, stderr
     assert finished_outputs(out)["sim_time"] > 0
-    assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_send_stops_between_messages_on_sigterm(broker_process, tmp_path):  # noqa: F811 - the fixture

@@ -456,7 +456,7 @@ def test_r10_a_zero_of_the_other_sign_is_identical_live_and_ended():
     logic.on_motion(0.0, m)
     assert logic.on_motion(0.1, flipped) == []  # live: identical (R10)
     drive_all(logic, 1.0)
-    assert logic.history[T("A")].reason is None  # completed
+    assert logic.history.get(T("A")).reason is None  # completed
     assert logic.on_motion(2.0, flipped) == []  # ended: still identical, not rejected (R9 only for new content)
 
 

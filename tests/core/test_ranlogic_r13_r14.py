@@ -147,7 +147,7 @@ def test_r13_cancelling_every_assignment_one_by_one_cancels_the_task():
     out = logic.on_cancel(2, cancel("A", action="A_a2"))
     assert of(out, TaskCancelled) == [TaskCancelled(T("A"), Reason.CANCELLED)]
     assert list(logic.queue) == [T("B")]
-    assert logic.history[T("A")].reason is Reason.CANCELLED
+    assert logic.history.get(T("A")).reason is Reason.CANCELLED
 
 
 def test_r13_a_cancelled_assignment_cannot_be_replaced_but_its_re_read_is_silent():

@@ -63,6 +63,6 @@ def test_s4_runs_replay_identically(name, tmp_path):
     from vcran.cli import main
 
     rec = run_scenario(load(ROOT / "scenarios" / f"{name}.toml"), tmp_path / "rec").dir
-    assert main(["replay", str(rec / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
-    for file in ("telemetry.bin", "events.jsonl", "summary.json"):
+    assert main(["replay", str(rec / "trace.jsonl.zst"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    for file in ("legs.npy", "events.jsonl.zst", "summary.json"):
         assert (rec / file).read_bytes() == (tmp_path / "rep" / file).read_bytes()

@@ -14,11 +14,12 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT, Outputs, run_scenario
+from tests.conftest import ROOT, Outputs, read_lines, run_scenario, write_lines
 from tests.sim.test_scenarios import FLEET
 from vcran.cli import main
 from vcran.io.gen import generate
 from vcran.io.scenario_file import load, parse
+from vcran.io.trace import lines
 from vcran.report import read_run, write_report
 from vcran.report import timeline as timeline_module
 from vcran.report.kpi import kpis
@@ -182,13 +183,13 @@ def test_raw_inbound_records_of_a_live_run_are_decoded(demo: Outputs, tmp_path: 
 
     run_dir = tmp_path / "live"
     shutil.copytree(demo.dir, run_dir)
-    lines = (run_dir / "trace.jsonl").read_text().splitlines()
-    for i, line in enumerate(lines):
-        record = json.loads(line)
+    path = run_dir / "trace.jsonl.zst"
+    written = read_lines(path)
+    for n, _, record in lines(path):  # records in full (format 2 writes what changed)
         if record.get("attr") == "motion_assignment":
             raw = encode_attribute("motion_assignment", from_plain(MotionAssignment, record.pop("value")))
-            lines[i] = json.dumps({**record, "raw": raw})
-    (run_dir / "trace.jsonl").write_text("\n".join(lines) + "\n")
+            written[n - 1] = json.dumps({**record, "raw": raw})
+    write_lines(path, written)
     assert read_run(run_dir).targets == read_run(demo.dir).targets != {}
 
 
@@ -297,17 +298,18 @@ def test_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
 
 
 @pytest.mark.parametrize(("damage", "expected"), [
-    (lambda d: (d / "events.jsonl").unlink(), "missing events.jsonl"),
-    (lambda d: (d / "telemetry.bin").write_bytes(b"\0" * 12), "not a whole number"),
+    (lambda d: (d / "events.jsonl.zst").unlink(), "missing events.jsonl.zst"),
+    (lambda d: (d / "legs.npy").write_bytes(b"\0" * 12), "legs.npy: not a vcran leg log"),
+    (lambda d: (d / "trace.jsonl.zst").unlink(), "not a complete run folder, missing trace.jsonl.zst"),
     (lambda d: (d / "summary.json").write_text("{"), "summary.json: unreadable"),
     (lambda d: (d / "summary.json").write_text('{"sim_time": 1, "errors": 0, "robots": {"robot_1": {}}}'),
      "summary.json: unreadable (missing field 'final_pose')"),
-    (lambda d: (d / "trace.jsonl").write_text('{"format": "other"}\n'), "not a vcran trace"),
-    (lambda d: (d / "events.jsonl").write_text('{"t": 1, "robot": "r", "event": "task_queued", "task": "A"}\n[1]\n'),
-     "events.jsonl:2: not an event"),
-    (lambda d: (d / "events.jsonl").write_text("{oops\n"), "events.jsonl:1: not JSON"),
-    (lambda d: (d / "events.jsonl").write_text('{"t": 1, "robot": "robot_1", "event": "state", "from": "WAITING"}\n'),
-     "events.jsonl:1: state event without to"),
+    (lambda d: write_lines(d / "trace.jsonl.zst", ['{"format": "other"}']), "not a vcran trace"),
+    (lambda d: write_lines(d / "events.jsonl.zst", ['{"t": 1, "robot": "r", "event": "task_queued", "task": "A"}', '[1]']),
+     "events.jsonl.zst:2: not an event"),
+    (lambda d: write_lines(d / "events.jsonl.zst", ["{oops"]), "events.jsonl.zst:1: not JSON"),
+    (lambda d: write_lines(d / "events.jsonl.zst", ['{"t": 1, "robot": "robot_1", "event": "state", "from": "WAITING"}']),
+     "events.jsonl.zst:1: state event without to"),
 ])
 def test_damaged_run_folder(demo: Outputs, tmp_path: Path, capsys: pytest.CaptureFixture[str],
                             damage: Callable[[Path], object], expected: str) -> None:

@@ -82,7 +82,7 @@ def test_progress_callback_sees_the_run_and_changes_nothing(tmp_path: Path) -> N
     assert [t for t, _ in seen] == [float(k) for k in range(58)]  # every telemetry tick, to the end at 57 s
     done = [n for t, n in seen]  # tasks 100, 200 and 300 complete at 18.4, 38.5 and 56.3 s
     assert done[18:20] == [0, 1] and done[38:40] == [1, 2] and done[56:] == [2, 3]
-    for name in ("events.jsonl", "trace.jsonl", "telemetry.bin", "summary.json"):
+    for name in ("events.jsonl.zst", "trace.jsonl.zst", "legs.npy", "summary.json"):
         assert (tmp_path / "watched" / name).read_bytes() == (tmp_path / "plain" / name).read_bytes()
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from tests.conftest import ROOT
 
-FILES = ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json")
+FILES = ("trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json")
 
 
 def run_cli(args: list[str], hashseed: str, cwd) -> subprocess.CompletedProcess:
@@ -36,7 +36,7 @@ def test_outputs_are_byte_identical_across_hash_seeds(tmp_path, scenario):
     for name in FILES:
         a, b = (outs[0] / name).read_bytes(), (outs[1] / name).read_bytes()
         assert a == b, f"{name} differs between PYTHONHASHSEED=1 and 4242"
-    assert len((outs[0] / "events.jsonl").read_bytes()) > 0
+    assert len((outs[0] / "events.jsonl.zst").read_bytes()) > 0
 
 
 def test_wall_clock_speed_does_not_reach_the_outputs(tmp_path):

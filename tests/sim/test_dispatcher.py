@@ -128,7 +128,7 @@ def test_s4_link_down_in_the_loop_holds_the_robots_news_until_the_link_is_back(t
     assert [(e["event"], e["t"], e["kind"]) for e in result.events if e["event"].startswith("fault")] == [
         ("fault", 5.0, "link_down"), ("fault_end", 25.0, "link_down")]
     # the RAN itself published on time (the link held it): the trace replays byte for byte
-    assert main(["replay", str(tmp_path / "run" / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify",
+    assert main(["replay", str(tmp_path / "run" / "trace.jsonl.zst"), "--out", str(tmp_path / "replay"), "--verify",
                  "--quiet"]) == 0
 
 

@@ -11,7 +11,7 @@ import pytest
 from tests.conftest import ROOT, run_scenario
 from tests.sim.test_scenarios import FLEET, motion
 from vcran.io.scenario_file import ScenarioError, load, parse
-from vcran.io.trace import telemetry
+from vcran.io.trace import samples
 
 SCENARIO = ROOT / "scenarios" / "faults.toml"
 
@@ -35,7 +35,7 @@ def test_s4_breakdown_delays_completion_by_exactly_its_duration(faults_run, tmp_
 
 
 def test_s4_breakdown_stops_the_robot_where_it_is(faults_run):
-    rows = telemetry(faults_run.dir, 4)
+    rows = samples(faults_run.dir)
     x1, v1 = rows[:, 1], rows[:, 4]  # robot_1's x and v, one row per second
     # t = 8: 1 m of ramp + 5 m at 1 m/s = 6 m; standing still until 15.5, then on at cruise speed
     assert list(x1[8:16]) == [6.0] * 8 and list(v1[8:16]) == [0.0] * 8
@@ -59,7 +59,7 @@ def test_s4_motion_failure_ends_the_leg_where_the_robot_is(faults_run):
 def test_s4_action_failure_then_pause_and_resume(faults_run):
     assert ended(faults_run, "robot_3") == [(2.0, "task_cancelled", "action_failed"), (18.0, "task_completed", None)]
     # paused 3..6: task D (queued at 4) starts driving at 6; 10 m take 2 + 8 + 2 s
-    rows = telemetry(faults_run.dir, 4)
+    rows = samples(faults_run.dir)
     assert list(rows[4:7, 11]) == [0.0, 0.0, 0.0]  # robot_3's x at 4, 5, 6 s
 
 
@@ -84,7 +84,7 @@ mttr = 5.0
 """ + "\n[[script]]\nrobot = \"robot_1\"\n" + motion(1, "A", "A_m1", 1, 1, 80, 0)
     first = run_scenario(parse(tomllib.loads(text)), tmp_path / "a")
     again = run_scenario(parse(tomllib.loads(text)), tmp_path / "b")
-    assert (first.dir / "events.jsonl").read_bytes() == (again.dir / "events.jsonl").read_bytes()
+    assert (first.dir / "events.jsonl.zst").read_bytes() == (again.dir / "events.jsonl.zst").read_bytes()
     breakdowns = first.of("fault")
     assert breakdowns and all(e["kind"] == "breakdown" for e in breakdowns)
     # 80 m at 1 m/s from t = 1: arrival when 80 s of un-held time have passed since t = 1

@@ -230,7 +230,9 @@ def test_r11_message_for_unknown_entity_is_reported_and_dropped(tmp_path):
             return self.done
 
     result = run_to(parse(tomllib.loads(FLEET), "<t>"), tmp_path, Stray())
-    events = [line for line in (tmp_path / "events.jsonl").read_text().splitlines() if "unknown_robot" in line]
+    from tests.conftest import read_lines
+
+    events = [line for line in read_lines(tmp_path / "events.jsonl.zst") if "unknown_robot" in line]
     assert len(events) == 1 and '"robot":"robot_9"' in events[0] and '"t":2.0' in events[0]
     assert result.summary["errors"] == 1 and result.summary["robots"]["robot_1"]["errors"] == 0
 
@@ -273,7 +275,7 @@ def test_raw_payloads_orjson_cannot_write_are_rejected_and_replay(run_toml, tmp_
     ))
     assert [e["code"] for e in out.of("rejected")] == ["malformed"] * 3
     assert out.robot()["completed"] == ["B"]
-    assert main(["replay", str(out.dir / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(out.dir), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_r12_lone_surrogate_in_a_raw_value_is_rejected_recorded_and_replayed(run_toml, tmp_path):
@@ -291,7 +293,7 @@ def test_r12_lone_surrogate_in_a_raw_value_is_rejected_recorded_and_replayed(run
     assert out.robot()["completed"] == ["B"]
     [recorded] = [r for r in out.trace() if r["dir"] == "in" and "raw" in r]
     assert recorded["raw"]["value"]["task_id"]["value"]["description"]["value"] == "\udc00"
-    assert main(["replay", str(out.dir / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(out.dir), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_raw_value_that_is_not_json_fails_to_load():

@@ -15,7 +15,7 @@ from vcran.cli import main
 from vcran.sweep import worker
 
 DEMO = ROOT / "scenarios" / "demo.toml"
-RUN_FILES = ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json")
+RUN_FILES = ("trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json")
 
 SWEEP = """scenario = "{scenario}"
 seeds = [1, 2]

@@ -31,7 +31,7 @@ def test_shell_lines_run_verbatim_and_run_3_alone_is_byte_identical(monkeypatch,
         argv = shlex.split(line)
         assert argv[0] == "vcran"
         assert main(argv[1:] + ["--quiet"]) in (0, 1), line
-    for name in ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json"):
+    for name in ("trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json"):
         assert (tmp_path / "out/demo-sweep/runs/0003" / name).read_bytes() == \
             (tmp_path / "out/demo-run-3" / name).read_bytes(), name
     assert (tmp_path / "out/warehouse-sweep/runs.csv").read_text().count("\n") == 1 + 8

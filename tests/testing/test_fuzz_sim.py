@@ -17,6 +17,7 @@ from hypothesis import event, given, note
 from hypothesis import strategies as st
 
 from vcran.io.scenario_file import parse
+from vcran.io.trace import EVENTS_FILE, event_records
 from vcran.testing.checks import run_variant
 from vcran.testing.scripts import fleets, load_text, perturbations, perturbed_toml
 
@@ -34,8 +35,7 @@ def perturbed_fleets(draw: st.DrawFn, malformed: bool) -> str:
 def run_and_check(text: str, work: Path) -> None:
     scenario = load_text(text)
     assert run_variant(scenario, work) == []
-    for line in (work / "a" / "events.jsonl").read_text().splitlines():  # --hypothesis-show-statistics
-        e = json.loads(line)
+    for e in event_records(work / "a" / EVENTS_FILE):  # --hypothesis-show-statistics
         if e["event"] in ("task_completed", "task_cancelled", "rejected", "failed"):
             event(f"{e['event']} {e.get('reason', e.get('code', ''))}".strip())
     # generated fleets are small and the duration generous: the run must have gone idle

@@ -4,7 +4,6 @@ with a brute-force all-pairs check."""
 
 from __future__ import annotations
 
-import json
 import math
 import tomllib
 from pathlib import Path
@@ -17,7 +16,7 @@ from hypothesis import strategies as st
 
 from tests.conftest import run_scenario
 from vcran.io.scenario_file import parse
-from vcran.io.trace import telemetry
+from vcran.io.trace import read_header, samples
 from vcran.testing.checks import check_run
 
 SQUARE = "[[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]]"
@@ -70,7 +69,7 @@ def test_s4_battery_stays_in_range_and_an_empty_robot_never_moves(capacity, fill
         charges = [r["value"]["charge"] for r in out.trace() if r["attr"] == "battery"]
         assert charges and all(0.0 <= c <= capacity + 1e-9 for c in charges)
         assert 0.0 <= out.robot("r0")["battery"]["charge"] <= capacity + 1e-12
-        rows = telemetry(out.dir, 1)
+        rows = samples(out.dir)
         swaps = [e["t"] for e in out.of("battery_swapped")]
         for empty in out.of("battery_empty"):
             back = min([s for s in swaps if s >= empty["t"]], default=math.inf)
@@ -109,7 +108,7 @@ def brute_force_contacts(text: str, out, pad: float) -> dict[tuple[str, str], li
     """Every pair's contact episodes ``(start, end)``, sampled every BRUTE_STEP s from the robots' legs as
     the script gives them (telemetry would be too coarse), with the squares grown by ``pad`` metres (a
     negative pad: overlapping by more than a graze)."""
-    header = json.loads((out.dir / "trace.jsonl").read_text().splitlines()[0])["fleet"]["robots"]
+    header = read_header(out.dir / "trace.jsonl.zst")["fleet"]["robots"]
     starts = {e["robot"]: e["t"] for e in out.of("state") if e["to"] == "MOTION"}
     script = tomllib.loads(text)["script"]
     end = max(out.summary["sim_time"], 1.0)

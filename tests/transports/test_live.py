@@ -31,6 +31,7 @@ from transports.orion.transport import LiveOptions, OrionTransport  # noqa: E402
 from vcran.broker import start_broker  # noqa: E402
 from vcran.core.codec import decode_attribute, encode_attribute  # noqa: E402
 from vcran.io.scenario_file import parse  # noqa: E402
+from vcran.io.trace import event_records, records  # noqa: E402
 from vcran.runner import run_to  # noqa: E402
 from vcran.sim.live import LiveEnvironment  # noqa: E402
 
@@ -118,7 +119,7 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
     assert summary["robots"]["robot_1"]["completed"] == ["100", "200", "300"]
     assert summary["robots"]["robot_1"]["cancelled"] == []
     assert summary["stations"]["conveyor_2"]["parts"] == 1
-    assert main(["replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(out), "--out", str(tmp_path / "replay"), "--verify", "--quiet"]) == 0
 
 
 def test_a_killed_live_run_keeps_its_recording_up_to_its_last_tick(broker_process, tmp_path):
@@ -127,17 +128,19 @@ def test_a_killed_live_run_keeps_its_recording_up_to_its_last_tick(broker_proces
     out = tmp_path / "live"
     live = vcran("live", str(DEMO), "--orion", url, "--out", str(out), "--factor", "20", "--quiet")
     try:
-        rows = lambda: (out / "telemetry.bin").stat().st_size // 48 if (out / "telemetry.bin").exists() else 0  # noqa: E731
-        assert wait_until(lambda: rows() >= 20, 20)  # on disk while the run goes on: 20 ticks at least
+        # a run in progress writes into <out>.incomplete (docs/outputs.md); flushed at every tick
+        growing = out.with_name("live.incomplete")
+        assert wait_until(lambda: (growing / "trace.jsonl.zst").exists(), 20)
+        time.sleep(1.0)  # x20: some 20 simulated seconds under way
         sender = vcran("send", str(DEMO), "--orion", url, "--factor", "20", "--quiet")
         assert sender.wait(timeout=30) == 0, sender.stderr.read()
-        assert wait_until(lambda: b'"dir":"in"' in (out / "trace.jsonl").read_bytes(), 10)
-        assert (out / "events.jsonl").stat().st_size > 0
+        assert wait_until(lambda: any(r["dir"] == "in" for _, r in records(growing / "trace.jsonl.zst")), 10)
+        assert any(True for _ in event_records(growing / "events.jsonl.zst", cut_off=True))
     finally:
         live.kill()  # SIGKILL: no handler, no close, no summary
         live.communicate(timeout=20)
-    assert not (out / "summary.json").exists()
-    check = vcran("replay", str(out / "trace.jsonl"), "--out", str(tmp_path / "replay"), "--verify")
+    assert not out.exists() and not (growing / "summary.json").exists()  # visibly incomplete
+    check = vcran("replay", str(growing), "--out", str(tmp_path / "replay"), "--verify")
     stdout, stderr = check.communicate(timeout=60)
     assert check.returncode == 0, stderr
     assert "no end record" in stderr and "as far as it goes" in stdout
@@ -182,8 +185,9 @@ class LiveRun:
         assert wait_until(lambda: self.model is not None, 10)
 
     def events(self, name: str) -> list[dict]:
-        path = self.out / "events.jsonl"
-        return [e for e in map(json.loads, path.read_text().splitlines()) if e["event"] == name]
+        from vcran.io.trace import EVENTS_FILE
+
+        return [e for e in event_records(self.out / EVENTS_FILE) if e["event"] == name]
 
     def stop(self):
         self.env.call_soon(self.model.stop)
@@ -236,7 +240,7 @@ def test_broker_restart_mid_run(tmp_path):
         broker.stop()
     assert result.summary["robots"]["robot_1"]["completed"] == ["after"]
     # what was recorded through the outage replays exactly (§6)
-    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
@@ -263,7 +267,7 @@ def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
         elapsed = time.monotonic() - start
         run.stop()
     assert progressed >= 10 * elapsed * 0.8  # kept pace with real time at x10 despite 503s and 300 ms answers
-    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
     downs = [r for r in caplog.records if "retrying with backoff" in r.getMessage()]
     assert len(downs) == 1  # logged once, not once per tick
     assert any("is back" in r.getMessage() for r in caplog.records)
@@ -369,7 +373,7 @@ def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tm
         broker.stop()
     assert result.summary["robots"]["robot_1"]["errors"] == 1
     assert [e["code"] for e in run.events("rejected")] == ["malformed"]
-    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
@@ -416,4 +420,4 @@ def test_s4_link_down_live_the_robot_neither_publishes_nor_receives_until_it_is_
     (queued,) = run.events("task_queued")
     assert queued["t"] == 50.0  # read when the link came back, not when Orion notified it
     assert [e["kind"] for e in run.events("fault_end")] == ["link_down"]
-    assert main(["replay", str(run.out / "trace.jsonl"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+    assert main(["replay", str(run.out / "trace.jsonl.zst"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0

@@ -11,6 +11,7 @@ import httpx
 from tests.conftest import ROOT
 from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401, F811
 from vcran.cli import main
+from vcran.io.trace import EVENTS_FILE, event_records
 
 WAREHOUSE = ROOT / "scenarios" / "warehouse.toml"
 
@@ -34,7 +35,7 @@ def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(b
         stop(live)
     summary = json.loads((tmp_path / "manage" / "summary.json").read_text())
     assert summary["jobs"]["completed"] == 3 and summary["manager"] == "vcran.managers.dispatcher:Dispatcher"
-    events = [json.loads(line) for line in (tmp_path / "manage" / "events.jsonl").read_text().splitlines()]
+    events = list(event_records(tmp_path / "manage" / EVENTS_FILE))
     assert sorted(e["job"] for e in events if e["event"] == "job_completed") == ["job_1", "job_2", "job_3"]
     # each job: a pickup task and a drop-off task, on the robots the live run completed them on
     robots = json.loads((tmp_path / "live" / "summary.json").read_text())["robots"]

@@ -21,6 +21,17 @@ class CommandError(Exception):
         self.code = code
 
 
+def check_out(path: Path) -> None:
+    """A CommandError (exit 2) unless ``--out`` may receive a run (missing, empty or a vcran run folder)."""
+    from vcran.io.runfolder import RunFolderError
+    from vcran.io.runfolder import check_out as check
+
+    try:
+        check(path)
+    except RunFolderError as exc:
+        raise CommandError(str(exc)) from None
+
+
 def add_scenario_argument(parser: argparse.ArgumentParser, what: str) -> None:
     """The SCENARIO argument every scenario command takes, with the same words in every ``--help``."""
     parser.add_argument("scenario", type=Path, metavar="SCENARIO",

@@ -81,15 +81,16 @@ def run(args: argparse.Namespace) -> int:
     loop = args.manager is not None or base.manager is not None
     if loop:
         options: Options | LoopOptions = _loop_options(args, base, text)
-        fn = search_loop
+        fn: Callable[..., Outcome] = search_loop
     else:
         _check_script(base)
         options = Options(window=args.window, max_ops=args.max_ops, fast=args.fast)
         fn = search
     start = time.perf_counter()
     if args.workers in (None, 1) and args.cluster is None:
-        outcome: Outcome | None = fn(text, str(args.scenario), args.seed, args.examples, options)
-        examples = outcome.examples
+        single: Outcome = fn(text, str(args.scenario), args.seed, args.examples, options)
+        outcome: Outcome | None = single
+        examples = single.examples
     else:
         outcome, examples = _campaign(args, fn, text, options)
     wall = time.perf_counter() - start

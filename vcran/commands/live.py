@@ -5,10 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, check_out, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
+
+if TYPE_CHECKING:
+    from vcran.sim.model import Model
 
 HELP = "run the scenario's robots and stations against Orion in real time (its message script is ignored)"
 
@@ -43,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if args.notify_url is not None:
         check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)
+    check_out(args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)
@@ -56,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CommandError(f"cannot listen for notifications on {args.listen}, {args.notify_url}: {exc.strerror}") from None
 
-    models = []
+    models: list[Model] = []
     line = None if args.quiet else StatusLine(sys.stderr)
 
     def on_signal() -> None:

@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError
     from transports.orion.manage import ManageOptions, OrionLink, OrionLoop
     from vcran.api import EventList, ManagerError, build_manager
+    from vcran.io.trace import EVENTS_FILE
     from vcran.runner import EventLog, write_summary
     from vcran.sim.live import LiveEnvironment
 
@@ -66,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-    events: EventLog | EventList = EventLog(args.out / "events.jsonl") if args.out is not None else EventList()
+    events: EventLog | EventList = EventLog(args.out / EVENTS_FILE) if args.out is not None else EventList()
     env = LiveEnvironment(speed=args.factor)
     options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=args.listen)
     client = client_from_args(args)

@@ -15,11 +15,11 @@ HELP = "re-run a recorded trace as fast as possible; --verify exits 1 at the fir
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("trace", type=Path,
-                        help="trace.jsonl of a recorded run (telemetry.bin beside it), or the run's folder")
+                        help="a recorded run's folder or its trace (trace.jsonl.zst; format 1's trace.jsonl too)")
     parser.add_argument("--out", type=Path, metavar="DIR",
                         help="output folder of the replay (with --verify it may be left out: a temporary folder)")
     parser.add_argument("--verify", action="store_true",
-                        help="compare every outbound record, telemetry row and event with the recording")
+                        help="compare every outbound record, leg (telemetry) and event with the recording")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors and differences")
 
 
@@ -27,12 +27,12 @@ def run(args: argparse.Namespace) -> int:
     import tempfile
 
     from vcran.commands import CommandError
+    from vcran.io.trace import trace_in
 
-    trace: Path = args.trace
-    if trace.is_dir():
-        if not (trace / "trace.jsonl").is_file():
-            raise CommandError(f"{trace}: a folder without trace.jsonl; give a recorded run's folder or its trace")
-        trace = trace / "trace.jsonl"
+    try:
+        trace = trace_in(args.trace)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
     if args.out is None:
         if not args.verify:
             raise CommandError("--out DIR is required (with --verify it may be left out: the replay then goes to "
@@ -71,6 +71,6 @@ def _replay(args: argparse.Namespace, trace: Path, out: Path) -> int:
         print(f"vcran replay --verify: {difference}", file=sys.stderr)
         return 1
     if not args.quiet:
-        print("verify: every outbound record, telemetry row and event matches the recording"
+        print("verify: every outbound record, leg (telemetry) and event matches the recording"
               + ("" if complete else " (as far as it goes)"))
     return 0

@@ -12,11 +12,12 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, check_out, load_scenario
 from vcran.commands._signals import StopSignals
 
 if TYPE_CHECKING:
     from vcran.api import Result
+    from vcran.sim.model import Model
 
 HELP = "simulate a scenario with its message script, or its jobs with a fleet manager, as fast as possible"
 
@@ -39,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
     from vcran.io.scenario_file import ScenarioError
 
     scenario = load_scenario(args.scenario)
+    check_out(args.out)
     if args.report:  # a missing extra is said at once, not after the run
         from vcran.report import ReportError, require_matplotlib
 
@@ -47,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
         except ReportError as exc:
             raise CommandError(str(exc)) from None
     bar = progress_bar(sys.stderr, scenario.settings.duration, quiet=args.quiet)
-    models = []
+    models: list[Model] = []
 
     def progress(now: float, tasks_done: int) -> None:
         # the telemetry tick is the safe point to act on a signal (never inside a write or an event)
@@ -97,4 +99,4 @@ def print_summary(result: Result, out: Path) -> None:
             print(f"  {rid}: completed {', '.join(r['completed']) or 'none'}; cancelled {cancelled_text}; "
                   f"distance {r['distance']:.2f} m")
     print(f"  wall time {result.wall_seconds:.3f} s, speed {result.speed:,.0f}x real time")
-    print(f"  outputs in {out}/ (trace.jsonl, telemetry.bin, events.jsonl, summary.json)")
+    print(f"  outputs in {out}/ (trace.jsonl.zst, legs.npy, events.jsonl.zst, summary.json)")

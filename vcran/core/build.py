@@ -32,6 +32,11 @@ from vcran.core.messages import (
     Twist,
     Vector3,
 )
+from vcran.core.schema import unchecked
+
+_header = unchecked(Header)  # seq 0, a valid stamp and "" need no check
+_motion_assignment = unchecked(MotionAssignment)
+_action_assignment = unchecked(ActionAssignment)
 
 #: The category each kind is sent with (OPIL ``RobotAction`` constants).
 CATEGORY_OF: dict[ActionKind, int] = {ActionKind.DUMMY: 5, ActionKind.LOAD: 10, ActionKind.UNLOAD: 20, ActionKind.CHARGE: 200}
@@ -52,11 +57,13 @@ def motion(
     max_acceleration: float = 0.0,
     area: list[tuple[float, float]] | None = None,
     stamp: float = 0.0,
+    checked: bool = True,
 ) -> MotionAssignment:
     """A motion assignment; ``is_waypoint`` defaults to "not the task's last position" (give it
-    explicitly for the last motion of a task that has actions: only the caller knows it is last)."""
-    return MotionAssignment(
-        header=Header(0, Time.from_seconds(stamp), ""),
+    explicitly for the last motion of a task that has actions: only the caller knows it is last).
+    ``checked=False`` skips validation: for repetitions of values already checked once (script cycles)."""
+    return (MotionAssignment if checked else _motion_assignment)(
+        header=_header(0, Time.from_seconds(stamp), ""),
         point_id=_id(name),
         task_id=_id(task),
         motion_id=_id(name),
@@ -107,11 +114,13 @@ def action(
     category: int | None = None,
     code: int | None = None,
     description: str = "",
+    checked: bool = True,
 ) -> ActionAssignment:
-    """An action assignment by kind, or by raw ``category``/``code`` when either is given."""
+    """An action assignment by kind, or by raw ``category``/``code`` when either is given
+    (``checked=False``: as for :func:`motion`)."""
     if category is None and code is None:
         category, code = CATEGORY_OF[ActionKind(kind)], 0
-    return ActionAssignment(
+    return (ActionAssignment if checked else _action_assignment)(
         action_id=_id(name),
         task_id=_id(task),
         sequence=_sequence(seq, length),
@@ -146,13 +155,14 @@ def task(
     max_velocity: float = 0.0,
     stamp: float = 0.0,
     every: float = 0.0,
+    checked: bool = True,
 ) -> list[MotionAssignment | ActionAssignment]:
     """Every assignment of one OPIL task, in sequence order: motions ``{name}_m{i}``, then actions
     ``{name}_a{j}``; ``length`` is the number of both, so the task is assembled once all arrive (R2-R5).
 
     Only the last point's theta is used (with use_orientation; it is the path's goal, so not a waypoint);
     earlier points are passed through. Motion ``i`` is stamped ``stamp + (i - 1) * every``, the time it
-    is meant to be sent.
+    is meant to be sent. ``checked=False``: as for :func:`motion` (script cycles repeat a checked task).
     """
     if not path and not actions:
         raise ValueError("a task needs at least one point or one action")
@@ -163,9 +173,10 @@ def task(
         theta = point[2] if len(point) == 3 else None
         last_with_theta = i == len(path) and theta is not None
         out.append(motion(name, f"{name}_m{i}", i, length, x, y, theta or 0.0, use_orientation=last_with_theta,
-                          is_waypoint=i < len(path), max_velocity=max_velocity, stamp=stamp + (i - 1) * every))
+                          is_waypoint=i < len(path), max_velocity=max_velocity, stamp=stamp + (i - 1) * every,
+                          checked=checked))
     for j, kind in enumerate(actions, start=1):
-        out.append(action(name, f"{name}_a{j}", len(path) + j, length, kind))
+        out.append(action(name, f"{name}_a{j}", len(path) + j, length, kind, checked=checked))
     return out
 
 

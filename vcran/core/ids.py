@@ -15,6 +15,7 @@ The mapping (documented in docs/ids.md):
 
 from __future__ import annotations
 
+import hashlib
 import re
 import uuid as _uuid
 from dataclasses import dataclass
@@ -117,4 +118,21 @@ def id_for(name: str) -> Id:
         raise IdError(f"an id name must be a non-empty string, got {name!r}")
     if _CANONICAL.match(name):
         return Id(_uuid.UUID(name).bytes, name)
-    return Id(_uuid.uuid5(VCRAN_NAMESPACE, name).bytes, name)
+    return Id(uuid5_bytes(name), name)
+
+
+_NAMESPACE_SHA1 = hashlib.sha1(VCRAN_NAMESPACE.bytes, usedforsecurity=False)
+
+
+def uuid5_bytes(name: str) -> bytes:
+    """``uuid5(VCRAN_NAMESPACE, name).bytes`` from the namespace's pre-hashed SHA-1 state.
+
+    A generated fleet names every task, motion and action of every cycle: hashing the namespace again
+    for each, and building a ``uuid.UUID`` object to take its bytes, was most of what an id cost.
+    """
+    h = _NAMESPACE_SHA1.copy()
+    h.update(name.encode("utf-8"))
+    digest = bytearray(h.digest()[:16])
+    digest[6] = (digest[6] & 0x0F) | 0x50  # version 5
+    digest[8] = (digest[8] & 0x3F) | 0x80  # RFC 4122 variant
+    return bytes(digest)

@@ -24,6 +24,7 @@ from vcran.core.schema import (
     String,
     UInt8,
     UInt32,
+    unchecked,
 )
 
 # --- std_msgs / geometry_msgs -------------------------------------------------------------------------
@@ -46,7 +47,9 @@ class Time(Message):
         """Nearest nanosecond; exact inverse of :meth:`to_seconds` for every stamp it produces."""
         total = round(t * 1_000_000_000) if math.isfinite(t) else 0
         secs, nsecs = divmod(total, 1_000_000_000)
-        return cls(int(secs), int(nsecs))
+        if secs <= 2**31 - 1 and secs >= -(2**31):
+            return unchecked(cls)(int(secs), int(nsecs))  # in range by construction
+        return cls(int(secs), int(nsecs))  # raises, naming the field
 
     def to_seconds(self) -> float:
         return (self.secs * 1_000_000_000 + self.nsecs) / 1_000_000_000

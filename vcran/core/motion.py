@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -174,6 +175,14 @@ _COLUMNS = "t0 x0 y0 theta0 x1 y1 end_theta distance heading ux uy rate1 t_turn1
 C = {name: i for i, name in enumerate(_COLUMNS)}
 
 
+class LegObserver(Protocol):
+    """What a leg log is told (vcran.io.trace.TraceWriter): enough to reproduce every sample."""
+
+    def leg(self, robot: int, leg: Leg, t: float) -> None: ...
+
+    def halt(self, robot: int, t: float) -> None: ...
+
+
 class FleetKinematics:
     """Every robot's current leg, sampled for the whole fleet at once.
 
@@ -196,11 +205,17 @@ class FleetKinematics:
         self.held: dict[int, float] = {}
         self._changes = 0  # bumped whenever a leg starts or ends, so the sweeps' cache knows
         self._moving_cache: tuple[int, np.ndarray, np.ndarray] | None = None
+        #: Told of every leg as it starts and of every halt mid-leg (the run's leg log, from which its
+        #: telemetry is reproduced).
+        self.observer: LegObserver | None = None
 
     def __len__(self) -> int:
         return len(self.rest)
 
-    def start(self, i: int, leg: Leg) -> None:
+    def start(self, i: int, leg: Leg, t: float | None = None) -> None:
+        """Robot ``i`` starts ``leg`` (at ``t``: a resumed leg starts later than its shifted ``t0``)."""
+        if self.observer is not None:
+            self.observer.leg(i, leg, leg.t0 if t is None else t)
         self._changes += 1
         row = self.legs[i]
         for name in _COLUMNS:
@@ -220,18 +235,22 @@ class FleetKinematics:
         leg = self.current.pop(i)
         pose = self._rest_at(i, leg, t)
         self.odometer[i] += leg.distance_at(t)
+        if self.observer is not None:
+            self.observer.halt(i, t)
         return pose
 
     def hold(self, i: int, t: float) -> tuple[float, float, float]:
         """Robot ``i`` halts at ``t`` mid-leg, to :meth:`resume` the same leg later (pause, breakdown)."""
         leg = self.current.pop(i)
         self.held[i] = leg.distance_at(t)
+        if self.observer is not None:
+            self.observer.halt(i, t)
         return self._rest_at(i, leg, t)
 
-    def resume(self, i: int, leg: Leg) -> None:
-        """Continue a held leg: ``leg`` is the held one shifted in time by the halt's length."""
+    def resume(self, i: int, leg: Leg, t: float) -> None:
+        """Continue a held leg at ``t``: ``leg`` is the held one shifted in time by the halt's length."""
         del self.held[i]
-        self.start(i, leg)
+        self.start(i, leg, t)
 
     def drop_held(self, i: int) -> None:
         """A held leg is abandoned where it was held (the robot stopped for good): bank its distance."""

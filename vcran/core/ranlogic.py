@@ -43,7 +43,8 @@ from vcran.core.effects import (
 )
 from vcran.core.ids import NIL, Id
 from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment, RanStatus, TaskEnd, Time
-from vcran.core.tasks import Ended, Task, assignment_id, kind_of, same_content
+from vcran.core.schema import unchecked
+from vcran.core.tasks import Ended, History, Task, assignment_id, fingerprint, kind_of, same_content
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
 TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
@@ -66,6 +67,11 @@ RECENT = 10
 QUEUE_SHOWN = 50
 
 
+# Statuses are built from RanLogic's own, already valid state: no re-validation (vcran.core.schema.unchecked).
+_ran_status = unchecked(RanStatus)
+_task_end = unchecked(TaskEnd)
+
+
 class LocalProtocolError(RuntimeError):
     """The driver misused RanLogic (time going backwards, a completion nobody dispatched)."""
 
@@ -79,6 +85,7 @@ class RanLogic:
         *,
         task_timeout: float = 30.0,
         history_limit: int = 10_000,
+        history_bytes: int = 4 << 20,
         area_check: Callable[[MotionAssignment], str | None] | None = None,
     ) -> None:
         if task_timeout <= 0:
@@ -92,7 +99,7 @@ class RanLogic:
         self._area_check = area_check
         self.state = State.WAITING
         self.queue: OrderedDict[Id, Task] = OrderedDict()
-        self.history: OrderedDict[Id, Ended] = OrderedDict()
+        self.history = History(history_limit, history_bytes)
         self.recent_completed: deque[Id] = deque(maxlen=RECENT)
         self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
         self.last_finished_motion: Id = NIL
@@ -245,7 +252,7 @@ class RanLogic:
         return task.action_at(task.next_action).action_id
 
     def ran_status(self) -> RanStatus:
-        return RanStatus(
+        return _ran_status(
             state=self.state.value,
             current_task_id=self.current_task,
             queue=tuple(islice(self.queue, QUEUE_SHOWN)),
@@ -356,8 +363,9 @@ class RanLogic:
                 f"cancel for unknown task {c.task_id.label}: remembered, its assignments will be rejected [R8]",
                 c.task_id, severity="warning",
             )
-        elif ended.cancel != c:
-            ended.cancel = c
+        elif not ended.same_cancel(c):
+            ended.cancel = fingerprint(c)
+            self.history.replace(c.task_id, ended)
             self._error(
                 Rejected, "cancel_finished_task", f"cancel for task {c.task_id.label}, already {_how(ended)} [R8]",
                 c.task_id, *_ids(named), severity="warning",
@@ -444,7 +452,7 @@ class RanLogic:
     def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
         del self.queue[task.id]
         self._remember(task.id, Ended.of(task, reason, now, cancel))
-        self.recent_cancelled.append(TaskEnd(task.id, reason.value, Time.from_seconds(now)))
+        self.recent_cancelled.append(_task_end(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
         if not task.assembled:
             self._emit(ClearTimer(task.id))
@@ -513,11 +521,8 @@ class RanLogic:
         return next(iter(self.queue.values()), None)
 
     def _remember(self, task_id: Id, ended: Ended) -> None:
-        """R9: keep the latest ``history_limit`` ended task ids."""
-        self.history[task_id] = ended
-        self.history.move_to_end(task_id)
-        while len(self.history) > self.history_limit:
-            self.history.popitem(last=False)
+        """R9: keep the latest ``history_limit`` ended task ids (and no more than ``history_bytes``)."""
+        self.history.remember(task_id, ended)
 
     def _reject(self, code: str, message: str, a: Assignment) -> None:
         motion = a.motion_id if isinstance(a, MotionAssignment) else NIL

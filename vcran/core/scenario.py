@@ -123,7 +123,9 @@ class Cycle:
             if start >= self.until:
                 return
             for i, spec in enumerate(self.tasks, start=1):
-                yield from task_entries(start, self.robot, f"{self.prefix}_{k}_{i}", spec, 0.0, self.max_velocity)
+                # Repetition k differs from the first, checked one only in names and times.
+                yield from task_entries(start, self.robot, f"{self.prefix}_{k}_{i}", spec, 0.0, self.max_velocity,
+                                        checked=k == 0)
             k += 1
 
 
@@ -306,8 +308,11 @@ def _drop_none(value: Any) -> Any:
     return value
 
 
-def task_entries(time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float) -> Iterator[ScriptEntry]:
+def task_entries(
+    time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float, *, checked: bool = True
+) -> Iterator[ScriptEntry]:
     """The messages of one task (:func:`vcran.core.build.task`), the ``k``-th at ``time + (k - 1) * every``."""
-    for k, message in enumerate(build.task(task, spec.path, spec.actions, max_velocity=speed, stamp=time, every=every)):
+    messages = build.task(task, spec.path, spec.actions, max_velocity=speed, stamp=time, every=every, checked=checked)
+    for k, message in enumerate(messages):
         attribute = "motion_assignment" if isinstance(message, MotionAssignment) else "action_assignment"
         yield ScriptEntry(time + k * every, robot, attribute, message)

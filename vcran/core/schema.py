@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import math
 import typing
-from dataclasses import dataclass, fields
-from typing import Annotated, Any, ClassVar
+from collections.abc import Callable
+from dataclasses import MISSING, dataclass, fields
+from typing import Annotated, Any, ClassVar, TypeVar
 
 from vcran.core.ids import Id, IdError
 
@@ -33,6 +34,7 @@ INT_RANGES: dict[str, tuple[int, int]] = {
     "uint8": (0, 255),
 }
 FLOAT32_MAX = 3.4028234663852886e38
+M = TypeVar("M")
 
 
 class MessageError(ValueError):
@@ -87,6 +89,41 @@ class Message:
 
     def _check_semantics(self) -> None:
         """Cross-field rules of one message type; raise MessageError naming the field."""
+
+
+_UNCHECKED: dict[type, Any] = {}
+
+
+def unchecked(cls: type[M]) -> Callable[..., M]:
+    """The constructor of ``cls`` without validation, for messages vcran builds itself from values it
+    already holds as valid (statuses, errors, stamps, script expansions of a checked scenario).
+
+    Validation stays where outside input is decoded (the codec, ``from_plain``, the public builders);
+    re-checking every field of every status vcran publishes was a tenth of a large run's time. Same
+    signature and defaults as the dataclass constructor; generated once per class.
+    """
+    found = _UNCHECKED.get(cls)
+    if found is None:
+        helpers: dict[str, Any] = {"_new": object.__new__, "_set": object.__setattr__, "_cls": cls, "_NONE": _NONE}
+        params, body = [], []
+        for f in fields(cls):  # type: ignore[arg-type]
+            if f.default is not MISSING:
+                helpers[f"_d_{f.name}"] = f.default
+                params.append(f"{f.name}=_d_{f.name}")
+            elif f.default_factory is not MISSING:
+                helpers[f"_f_{f.name}"] = f.default_factory
+                params.append(f"{f.name}=_NONE")
+                body.append(f" if {f.name} is _NONE: {f.name} = _f_{f.name}()")
+            else:
+                params.append(f.name)
+            body.append(f" _set(o, {f.name!r}, {f.name})")
+        source = f"def make({', '.join(params)}):\n o = _new(_cls)\n" + "\n".join(body) + "\n return o\n"
+        exec(source, helpers)  # noqa: S102 - source built from the dataclass fields only
+        found = _UNCHECKED[cls] = helpers["make"]
+    return found  # type: ignore[no-any-return]
+
+
+_NONE = object()
 
 
 def _fast(spec: FieldSpec) -> Any:
@@ -243,4 +280,5 @@ __all__ = [
     "check_primitive",
     "short_repr",
     "specs",
+    "unchecked",
 ]

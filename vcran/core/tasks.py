@@ -8,8 +8,9 @@ known once R3 holds, which is also the moment the whole path can go to the AGV.
 from __future__ import annotations
 
 import pickle
+import struct
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from hashlib import blake2b
 from typing import Any
@@ -75,7 +76,7 @@ def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
     return found
 
 
-def fingerprint(a: Assignment) -> bytes:
+def fingerprint(a: Assignment | CancelTask) -> bytes:
     """A 16-byte digest of what :func:`same_content` compares: the kind and every field but the header.
 
     Ended tasks keep these instead of their assignments, so the R9 history costs tens of bytes per
@@ -216,27 +217,98 @@ class Task:
         return pos < self.next_action or (pos == self.next_action and self.action_running)
 
 
+_REASONS: tuple[Reason | None, ...] = (None, *Reason)
+_FIXED = struct.Struct("<dB16s")  # end time, reason (0: completed), fingerprint of the last cancel or zeros
+_NO_CANCEL = bytes(16)
+#: What one history entry costs besides its record (key bytes object, dict slot, eviction queue slot):
+#: the unit of the memory bound, with the record's own length.
+ENTRY_OVERHEAD = 120
+
+
 @dataclass(slots=True, eq=False)
 class Ended:
     """A finished task in the history (R9), or a tombstone left by a cancel for an unknown id (R8).
 
     It keeps only what R9 and R10 still ask of an ended task: the fingerprints of its assignments, so
-    that a re-read of one of them stays silent, and its last cancel. The history holds up to
-    ``history_limit`` of these per robot, so their size is what a long run's memory grows by until
-    that bound (about 0.3 kB per task).
+    that a re-read of one of them stays silent, and the fingerprint of its last cancel. In the
+    :class:`History` it lives as one ``bytes`` record (fixed 25 bytes plus 16 per assignment), decoded
+    back into this view only when an id of an ended task is seen again.
     """
 
     received: frozenset[bytes]
     reason: Reason | None  # None: completed
     time: float
-    #: The last cancel received for this id, so that re-reads of it stay silent (R10).
-    cancel: CancelTask | None = None
+    #: Fingerprint of the last cancel received for this id, so that re-reads of it stay silent (R10).
+    cancel: bytes = _NO_CANCEL
 
     @classmethod
     def of(cls, task: Task | None, reason: Reason | None, time: float, cancel: CancelTask | None = None) -> Ended:
         received = frozenset(map(fingerprint, task.slots.values())) if task is not None else frozenset()
-        return cls(received, reason, time, cancel)
+        return cls(received, reason, time, fingerprint(cancel) if cancel is not None else _NO_CANCEL)
 
     def has_identical(self, a: Assignment) -> bool:
         """R10: ``a`` is a re-read of one of the task's assignments."""
         return bool(self.received) and fingerprint(a) in self.received
+
+    def same_cancel(self, cancel: CancelTask) -> bool:
+        return self.cancel == fingerprint(cancel)
+
+    def record(self) -> bytes:
+        return _FIXED.pack(self.time, _REASONS.index(self.reason), self.cancel) + b"".join(sorted(self.received))
+
+    @classmethod
+    def from_record(cls, record: bytes) -> Ended:
+        time, reason, cancel = _FIXED.unpack_from(record)
+        rest = memoryview(record)[_FIXED.size:]
+        received = frozenset(bytes(rest[i:i + 16]) for i in range(0, len(rest), 16))
+        return cls(received, _REASONS[reason], time, cancel)
+
+
+class History:
+    """R9: the ended task ids of one robot, oldest first, bounded by count and by memory.
+
+    One ``bytes`` record per ended task keyed by the task's uuid bytes (an id is its uuid, SPEC §2), so a
+    long run's memory grows by about 0.2 kB per ended task until the bound, not by the task's messages.
+    ``limit`` is R9's count (``history_limit``); ``max_bytes`` bounds the records plus
+    :data:`ENTRY_OVERHEAD` each, so that tasks with very many assignments cannot grow it without end.
+    """
+
+    __slots__ = ("limit", "max_bytes", "_records", "_order", "_bytes")
+
+    def __init__(self, limit: int, max_bytes: int) -> None:
+        self.limit, self.max_bytes = limit, max_bytes
+        self._records: dict[bytes, bytes] = {}
+        self._order: deque[bytes] = deque()
+        self._bytes = 0
+
+    def __len__(self) -> int:
+        return len(self._records)
+
+    def __iter__(self) -> Iterator[Id]:
+        """The remembered task ids, oldest first (as ids without description: only the uuid is kept)."""
+        return (Id(key) for key in self._order)
+
+    def get(self, task_id: Id) -> Ended | None:
+        record = self._records.get(task_id.uuid)
+        return Ended.from_record(record) if record is not None else None
+
+    def remember(self, task_id: Id, ended: Ended) -> None:
+        key = task_id.uuid
+        old = self._records.pop(key, None)
+        if old is not None:  # not the case in RanLogic (an id in the history never re-enters it), kept exact anyway
+            self._order.remove(key)
+            self._bytes -= len(old) + ENTRY_OVERHEAD
+        record = ended.record()
+        self._records[key] = record
+        self._order.append(key)
+        self._bytes += len(record) + ENTRY_OVERHEAD
+        while len(self._records) > self.limit or (self._bytes > self.max_bytes and len(self._records) > 1):
+            oldest = self._order.popleft()
+            self._bytes -= len(self._records.pop(oldest)) + ENTRY_OVERHEAD
+
+    def replace(self, task_id: Id, ended: Ended) -> None:
+        """Update an entry in place (a later cancel of an ended task), keeping its age."""
+        old = self._records[task_id.uuid]
+        record = ended.record()
+        self._records[task_id.uuid] = record
+        self._bytes += len(record) - len(old)

@@ -283,7 +283,7 @@ def _discriminator(recorded: list[RecordingTable]) -> str | None:
     for key in recorded[0].chosen:
         if not all(key in t.chosen for t in recorded):
             continue
-        shapes = {}
+        shapes: dict[Any, set[tuple[str, ...]]] = {}
         for t in recorded:
             shapes.setdefault(t.chosen[key], set()).add(tuple(t.fields))
         if len({frozenset(s) for s in shapes.values()}) > 1:

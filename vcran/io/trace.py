@@ -1,21 +1,33 @@
-"""Trace files (SPEC §6): JSON Lines of every inbound and outbound message, plus a columnar telemetry file.
+"""Run files (SPEC §6, §8): the trace, the events, the leg log; written compressed as they happen.
 
-``trace.jsonl`` starts with a header (format, version, scenario name, seed, options, the fleet as
-:meth:`Scenario.fleet_dict` so that a replay needs nothing else, and the telemetry layout), then one record
-per message: ``{"t", "dir": "in"|"out", "robot", "attr", "value"}`` with the plain decoded value, or
-``"raw"`` for an inbound payload kept undecoded (it is decoded, and may be rejected, on replay exactly as
-it was live). The last line, ``{"t", "dir": "end"}``, says when the run stopped.
+Format 2 (docs/outputs.md), what :class:`TraceWriter` and :class:`EventWriter` write:
 
-``current_motion`` of the whole fleet is written every telemetry tick into ``telemetry.bin`` beside the
-trace: little-endian float64 rows ``[t, x0, y0, theta0, v0, w0, x1, ...]``, one row per tick, robots in
-header order. At 1 Hz for a thousand robots that is 40 kB a tick instead of a few MB of JSON, and replay
-verification compares it bit for bit. ``assignment_status`` and ``ran_status`` are records in the JSONL,
-written when they change (docs/outputs.md).
+* ``trace.jsonl.zst``: a header line (format, version, scenario, seed, options, the fleet as
+  :meth:`Scenario.fleet_dict` so that a replay needs nothing else, and the leg log's layout), then one
+  record per message ``{"t", "dir": "in"|"out", "robot", "attr", "value"}``, ids compact
+  (:mod:`vcran.io.render`), and ``value`` holding only the fields that differ from the last value of the
+  same direction, robot and attribute (the first one in full); a published message equal to that last
+  value is not written at all (robot descriptions re-sent unchanged), an inbound one is, with an empty
+  ``value`` (the RAN reacted to it: a repeated cancel is an error). An inbound payload that did not decode is
+  kept as ``"raw"``. The last line, ``{"t", "dir": "end"}``, says when the run stopped.
+* ``events.jsonl.zst``: one object per event, every line with the same keys in the same order
+  (:data:`EVENT_KEYS`, ``null`` where an event has no such field).
+* ``legs.npy``: every leg an AGV drove, one row each (:data:`LEG_DTYPE`); ``current_motion`` at every
+  telemetry tick is a function of the fleet's initial poses and these rows, which :func:`samples`
+  evaluates with the very code that produced the published values, so it is reproduced bit for bit.
+
+Both JSON Lines files are zstd streams written as the run goes (a long run never holds its output in
+memory). Format 1 (``trace.jsonl``, ``telemetry.bin``, ``events.jsonl``, uncompressed, every value in
+full) is still read: :func:`records`, :func:`event_records` and :func:`samples` present both formats in
+format 1's form.
 """
 
 from __future__ import annotations
 
+import heapq
+import io
 import json
+import math
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,40 +36,58 @@ from typing import IO, Any
 import numpy as np
 import orjson
 
-from vcran.core.ids import canonical_uuid
+from vcran.core.messages import ATTRIBUTES
+from vcran.core.motion import Leg
 from vcran.core.wire import Frame, Inbound, Publish
+from vcran.io.render import converter, delta_converter, expand
 
 FORMAT = "vcran-trace"
-VERSION = 1
+VERSION = 2
+READS = (1, 2)
+TRACE_FILE = "trace.jsonl.zst"
+EVENTS_FILE = "events.jsonl.zst"
+LEGS_FILE = "legs.npy"
+SUMMARY_FILE = "summary.json"
+#: Format 1's files, still read.
+TRACE_FILE_V1 = "trace.jsonl"
+EVENTS_FILE_V1 = "events.jsonl"
 TELEMETRY_FILE = "telemetry.bin"
 
+#: The keys of every ``events.jsonl.zst`` line, in order. An event field not listed here is written after
+#: them (and a test fails until it is listed).
+EVENT_KEYS = ("t", "robot", "event", "task", "motion", "action", "from", "to", "reason", "ok",
+              "code", "severity", "message",
+              # a fleet manager's job events (closed loop, SPEC §9: vcran.core.jobs)
+              "job", "pickup", "dropoff", "priority", "deadline", "lead_time", "tasks",
+              # a robot on its own (SPEC §4: vcran.core.incidents)
+              "kind", "duration", "applied", "charge", "percentage", "other", "x", "y")
 
-_CANONICAL: dict[bytes, str] = {}
+#: One row of ``legs.npy``. A leg: robot ``robot`` (index in the header's / summary's robot order) started,
+#: at ``t``, the leg from ``(x0, y0, theta0)`` to ``(x, y)`` ending at heading ``theta`` (NaN: facing the
+#: direction of travel) with its speed limits, timed from ``t0`` (``t`` itself, except for a leg resumed
+#: after a hold: the held leg shifted by the hold's length). A halt (pause, breakdown, a stop on its own;
+#: SPEC §4): every column but ``t`` and ``robot`` NaN; the robot rests where its leg had brought it at ``t``.
+LEG_DTYPE = np.dtype([("t", "<f8"), ("robot", "<u4"), ("t0", "<f8"), ("x0", "<f8"), ("y0", "<f8"),
+                      ("theta0", "<f8"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
+                      ("speed", "<f8"), ("accel", "<f8"), ("decel", "<f8"), ("turn_rate", "<f8")])
+_LEG = struct.Struct("<dI" + "d" * 11)
+_HALT = (math.nan,) * 11
+_NPY_HEADER = 512  # bytes reserved for the .npy header, rewritten with the row count at close
 
-
-def _default(value: Any) -> Any:
-    # The only bytes inside messages are Id.uuid: render them as the canonical uuid string, which
-    # makes orjson's native dataclass walk produce exactly vcran.core.plain.to_plain (tests/io/test_trace.py).
-    # A run renders the same few ids many times; the memo is bounded so memory stays flat.
-    text = _CANONICAL.get(value)  # type: ignore[call-overload]
-    if text is not None:
-        return text
-    if isinstance(value, bytes) and len(value) == 16:
-        if len(_CANONICAL) >= 8_192:
-            _CANONICAL.clear()
-        text = _CANONICAL[value] = canonical_uuid(value)
-        return text
-    raise TypeError(f"cannot render {type(value).__name__} in an output file")
+#: zstd level 3 (zstd's default: 300+ MB/s). Long-distance matching does not pay here: measured on a
+#: 1000-robot hour's trace it saved 1.5% for twice the compression time and a 128 MiB window per file.
+ZSTD_LEVEL = 3
+ZSTD_WINDOW_LOG = 23  # 8 MiB: what a run's repeats need (27 with long-distance matching: 1.5% smaller, 2x the CPU, 128 MiB)
 
 
 def dumps(value: Any) -> bytes:
-    """The one JSON rendering of every output line: compact, key order as built, messages as plain.
+    """The one JSON rendering of every output line: compact, key order as built.
 
     orjson instead of the standard library: trace writing is the hot path of a large run (millions of
-    records), orjson is several times faster, walks dataclasses natively, and its output is as
-    deterministic (shortest round-trip floats). Messages are validated finite, so no NaN reaches it.
+    records), and its output is as deterministic (shortest round-trip floats). Messages reach it as
+    plain values through :mod:`vcran.io.render`; they are validated finite, so no NaN reaches it.
     """
-    return orjson.dumps(value, default=_default)
+    return orjson.dumps(value)
 
 
 def raw_json(value: Any) -> bytes:
@@ -79,30 +109,120 @@ def raw_json(value: Any) -> bytes:
         return json.dumps(value, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
 
 
+# --- compressed streams ---------------------------------------------------------------------------------
+
+
+def open_output(path: Path) -> IO[bytes]:
+    """A file that compresses what is written to it when its name ends in ``.zst``."""
+    raw = path.open("wb")
+    if path.suffix != ".zst":
+        return raw
+    import zstandard
+
+    params = zstandard.ZstdCompressionParameters.from_level(
+        ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, write_checksum=True)
+    return _Batched(zstandard.ZstdCompressor(compression_params=params).stream_writer(raw, write_size=1 << 20))  # type: ignore[return-value]
+
+
+class _Batched(io.RawIOBase):
+    """Lines gathered into 256 kB batches before they cross into the compressor: a call into zstandard
+    per record cost more than compressing it."""
+
+    def __init__(self, inner: Any) -> None:
+        super().__init__()
+        self._inner, self._buf = inner, bytearray()
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: Any) -> int:
+        self._buf += data
+        if len(self._buf) >= 1 << 18:
+            self._inner.write(self._buf)
+            self._buf.clear()
+        return len(data)
+
+    def flush(self) -> None:
+        """Compress what is gathered and end the zstd block: a reader of the file gets every line so far."""
+        if not self.closed and self._inner is not None:
+            if self._buf:
+                self._inner.write(self._buf)
+                self._buf.clear()
+            self._inner.flush()
+
+    def close(self) -> None:
+        if not self.closed:
+            if self._buf:
+                self._inner.write(self._buf)
+            self._inner.close()
+            self._inner = None
+        super().close()
+
+
+def open_input(path: Path) -> IO[bytes]:
+    """Read ``path``, decompressing a ``.zst`` file as it is read."""
+    if path.suffix != ".zst":
+        return path.open("rb")
+    import zstandard
+
+    reader = zstandard.ZstdDecompressor(max_window_size=1 << 27).stream_reader(path.open("rb"), closefd=True)
+    return io.BufferedReader(reader, buffer_size=1 << 20)  # type: ignore[arg-type]
+
+
+# --- writing --------------------------------------------------------------------------------------------
+
+
 class TraceWriter:
+    """``trace.jsonl.zst`` and ``legs.npy`` of one run (module docstring)."""
+
     def __init__(self, directory: Path, header: dict[str, Any], robots: tuple[str, ...]) -> None:
         directory.mkdir(parents=True, exist_ok=True)
-        self._jsonl: IO[bytes] = (directory / "trace.jsonl").open("wb", buffering=1 << 20)
-        self._bin: IO[bytes] = (directory / TELEMETRY_FILE).open("wb", buffering=1 << 20)
-        telemetry = {"file": TELEMETRY_FILE, "dtype": "<f8", "fields": ["t", *Frame.FIELDS], "robots": list(robots)}
-        self._jsonl.write(dumps({"format": FORMAT, "version": VERSION, **header, "telemetry": telemetry}) + b"\n")
-        self._width = len(robots) * len(Frame.FIELDS)
+        self._jsonl = open_output(directory / TRACE_FILE)
+        self._legs = LegLog(directory / LEGS_FILE)
+        legs = {"file": LEGS_FILE, "columns": list(LEG_DTYPE.names or ()), "robots": list(robots)}
+        self._jsonl.write(dumps({"format": FORMAT, "version": VERSION, **header, "legs": legs}) + b"\n")
+        self._index = {robot: i for i, robot in enumerate(robots)}
+        #: (dir, robot, attr) -> [last message, its full JSON value]: what the next record is a difference to
+        self._last: dict[tuple[str, str, str], list[Any]] = {}
 
     def inbound(self, t: float, inbound: Inbound) -> None:
-        record: dict[str, Any] = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
+        head = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
         if inbound.message is not None:
-            record["value"] = inbound.message
-            self._jsonl.write(dumps(record) + b"\n")
+            self._value(head, ("in", inbound.entity, inbound.attribute), inbound.message)
         else:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
-            self._jsonl.write(dumps(record)[:-1] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
+            self._jsonl.write(dumps(head)[:-1] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
 
     def publish(self, out: Publish) -> None:
-        record = {"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute, "value": out.message}
-        self._jsonl.write(dumps(record) + b"\n")
+        head = {"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute}
+        self._value(head, ("out", out.robot, out.attribute), out.message)
+
+    def _value(self, head: dict[str, Any], key: tuple[str, str, str], message: Any) -> None:
+        last = self._last.get(key)
+        if last is None or type(last[0]) is not type(message):
+            value = converter(type(message), "compact")(message)
+            self._last[key] = [message, dict(value)]
+        else:
+            value = delta_converter(type(message))(message, last[0], last[1])
+            last[0] = message
+            if not value and head["dir"] == "out":
+                return  # nothing a reader cannot take from the last record
+            # an inbound message is always written, even one equal to the last: the RAN reacted to it
+        head["value"] = value
+        self._jsonl.write(dumps(head) + b"\n")
 
     def frame(self, frame: Frame) -> None:
-        self._bin.write(struct.pack("<d", frame.t))
-        self._bin.write(frame.columns.astype("<f8", copy=False).tobytes())
+        """Telemetry ticks are not written: the leg log determines them (module docstring)."""
+
+    def leg(self, robot: int, leg: Leg, t: float) -> None:
+        """Robot ``robot`` (fleet index) starts ``leg`` at ``t``: one row of the leg log."""
+        lim = leg.limits
+        goal = math.nan if leg.theta_goal is None else leg.theta_goal
+        self._legs.write(t, robot, (leg.t0, leg.x0, leg.y0, leg.theta0, leg.x1, leg.y1, goal,
+                                    lim.speed, lim.accel, lim.decel, lim.turn_rate))
+
+    def halt(self, robot: int, t: float) -> None:
+        """Robot ``robot`` halts mid-leg at ``t``: a row of NaN leg columns."""
+        self._legs.write(t, robot, _HALT)
 
     def end(self, t: float) -> None:
         """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
@@ -112,51 +232,273 @@ class TraceWriter:
         """Hand what is buffered to the operating system (live mode, every tick): a killed run keeps its
         recording up to here. The telemetry file then ends with a whole row."""
         self._jsonl.flush()
-        self._bin.flush()
+        self._legs.flush()
 
     def close(self) -> None:
         self._jsonl.close()
-        self._bin.close()
+        self._legs.close()
+
+
+class LegLog:
+    """``legs.npy`` written row by row; the header's row count is filled in when it is closed."""
+
+    def __init__(self, path: Path) -> None:
+        self._f = path.open("wb", buffering=1 << 20)
+        self._rows = 0
+        self._f.write(_npy_header(0))
+
+    def write(self, t: float, robot: int, columns: tuple[float, ...]) -> None:
+        self._f.write(_LEG.pack(t, robot, *columns))
+        self._rows += 1
+
+    def flush(self) -> None:
+        self._f.flush()
+
+    def close(self) -> None:
+        if self._f.closed:
+            return
+        self._f.seek(0)
+        self._f.write(_npy_header(self._rows))
+        self._f.close()
+
+
+def _npy_header(rows: int) -> bytes:
+    descr = np.lib.format.dtype_to_descr(LEG_DTYPE)
+    text = f"{{'descr': {descr!r}, 'fortran_order': False, 'shape': ({rows},), }}"
+    head = b"\x93NUMPY\x01\x00" + struct.pack("<H", _NPY_HEADER - 10)
+    return head + text.encode("latin1").ljust(_NPY_HEADER - 11) + b"\n"
+
+
+class EventWriter:
+    """``events.jsonl.zst``: one object per line, the same keys in the same order (:data:`EVENT_KEYS`)."""
+
+    def __init__(self, path: Path) -> None:
+        self._f = open_output(path)
+        self.count = 0
+
+    def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
+        line = dict.fromkeys(EVENT_KEYS)
+        line["t"], line["robot"], line["event"] = t, robot, name
+        line.update(fields)
+        self._f.write(dumps(line) + b"\n")
+        self.count += 1
+
+    def flush(self) -> None:
+        self._f.flush()
+
+    def close(self) -> None:
+        self._f.close()
+
+
+# --- reading --------------------------------------------------------------------------------------------
+
+
+def trace_in(path: Path) -> Path:
+    """The trace of a run folder (either format), or ``path`` itself when it is a file. A format 1 name
+    that does not exist beside a format 2 trace (``DIR/trace.jsonl``, as commands written before format 2
+    say) means that trace."""
+    if not path.is_dir():
+        if path.name == TRACE_FILE_V1 and not path.exists() and (path.parent / TRACE_FILE).is_file():
+            return path.parent / TRACE_FILE
+        return path
+    for name in (TRACE_FILE, TRACE_FILE_V1):
+        if (path / name).exists():
+            return path / name
+    raise ValueError(f"{path}: a folder without {TRACE_FILE} (or format 1's {TRACE_FILE_V1}); give a recorded "
+                     "run's folder or its trace")
+
+
+def events_beside(trace: Path) -> Path:
+    """The events file that belongs to ``trace`` (it may not exist: a bare trace replays too)."""
+    return trace.parent / (EVENTS_FILE if trace.suffix == ".zst" else EVENTS_FILE_V1)
 
 
 def read_header(path: Path) -> dict[str, Any]:
     try:
-        with path.open(encoding="utf-8") as f:
-            header = json.loads(f.readline())
+        with open_input(path) as f:
+            first = f.readline()
+        if not first.endswith(b"\n"):
+            raise ValueError(f"{path}: no complete first line; the recording did not finish (was it interrupted?)")
+        header = json.loads(first.decode("utf-8"))
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a vcran trace (not UTF-8 text)") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"{path}: not a vcran trace (line 1 is not JSON: {exc.msg})") from None
+    except Exception as exc:  # zstandard.ZstdError: not a zstd stream
+        if type(exc).__name__ != "ZstdError":
+            raise
+        raise ValueError(f"{path}: not a vcran trace (not a zstd stream: {exc})") from None
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise ValueError(f"{path}: not a vcran trace (its first line is no vcran-trace header)")
-    if header.get("version") != VERSION:
-        raise ValueError(f"{path}: trace version {header.get('version')!r}, this vcran reads {VERSION}")
+    if header.get("version") not in READS:
+        raise ValueError(f"{path}: trace version {header.get('version')!r}, this vcran reads {', '.join(map(str, READS))}")
     return header
 
 
-def records(path: Path) -> Iterator[dict[str, Any]]:
-    """The records after the header, one dict per line."""
-    return (record for _, record in lines(path))
+def robots_of(header: dict[str, Any]) -> list[str]:
+    """The fleet's robot ids in column order, from a header of either format."""
+    layout = header.get("legs") or header.get("telemetry") or {}
+    return [str(r) for r in layout.get("robots", [])]
 
 
-def lines(path: Path) -> Iterator[tuple[str, dict[str, Any]]]:
-    """The records after the header with their text as written (verification compares the text).
+def lines(path: Path, dirs: tuple[str, ...] | None = None,
+          attrs: tuple[str, ...] | None = None) -> Iterator[tuple[int, bytes, dict[str, Any]]]:
+    """The records after the header (those of direction ``dirs`` and attribute ``attrs`` when given): line
+    number, the line as written and its record in format 1's form (full values, plain ids), so that every
+    reader works on both formats. A difference refers only to records of its own attribute, so lines of
+    other attributes are skipped unparsed (a large run's trace is mostly status).
 
-    Every record ends with a newline; a last line without one was cut off (a killed live run keeps what
-    it flushed, docs/outputs.md) and is not a record."""
-    with path.open(encoding="utf-8") as f:
+    Every record ends with a newline; a last line without one, or the end of a zstd stream cut off
+    mid-block, is where a killed run's recording stops (it keeps what it flushed, docs/outputs.md)."""
+    version = read_header(path)["version"]
+    last: dict[tuple[str, str, str], dict[str, Any]] = {}
+    # a prefilter on the quoted name, whatever the spacing (a hand-edited line may have JSON's default one)
+    needles = tuple(b'"%s"' % a.encode() for a in attrs) if attrs is not None else ()
+    with open_input(path) as f:
         f.readline()
-        for n, line in enumerate(f, start=2):
-            if not line.endswith("\n"):
-                return
+        for n, line in enumerate(whole_lines(f), start=2):
+            if needles and not any(needle in line for needle in needles):
+                continue
             try:
-                yield line, json.loads(line)
-            except json.JSONDecodeError as exc:
+                # A raw payload is whatever a peer sent, written by the standard library (raw_json); only it
+                # reads such a line back as it was: orjson turns an integer beyond 64 bits into a float and
+                # refuses NaN. Every other line is vcran's own, which orjson reads faster.
+                record = json.loads(line) if b'"raw"' in line else orjson.loads(line)
+            except (orjson.JSONDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
                 raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
+            if not isinstance(record, dict):
+                raise ValueError(f"{path}:{n}: not a trace record (a JSON object expected)")
+            if (dirs is not None and record.get("dir") not in dirs) or (attrs is not None and record.get("attr") not in attrs):
+                continue
+            if version == 2 and isinstance(record.get("value"), dict):
+                record["value"] = _full(record, last)
+            yield n, line, record
+
+
+def whole_lines(f: IO[bytes]) -> Iterator[bytes]:
+    """The complete lines of ``f``: up to a cut-off last line or a truncated zstd stream."""
+    try:
+        for line in f:
+            if not line.endswith(b"\n"):
+                return
+            yield line
+    except Exception as exc:  # zstandard.ZstdError: the stream ends mid-block
+        if type(exc).__name__ != "ZstdError":
+            raise
+
+
+def _full(record: dict[str, Any], last: dict[tuple[str, str, str], dict[str, Any]]) -> Any:
+    key = (str(record.get("dir")), str(record.get("robot")), str(record.get("attr")))
+    value = record["value"]
+    before = last.get(key)
+    if before is not None:
+        value = {**before, **value}
+    last[key] = value
+    cls = ATTRIBUTES.get(str(record.get("attr")))
+    return expand(cls, value) if cls is not None else value
+
+
+def records(path: Path, dirs: tuple[str, ...] | None = None,
+            attrs: tuple[str, ...] | None = None) -> Iterator[tuple[int, dict[str, Any]]]:
+    """The records after the header (of direction ``dirs`` and attribute ``attrs`` when given) with their
+    line numbers, in format 1's form (:func:`lines`)."""
+    return ((n, record) for n, _, record in lines(path, dirs, attrs))
+
+
+def event_records(path: Path, *, cut_off: bool = False) -> Iterator[Any]:
+    """The events of ``events.jsonl.zst`` (or format 1's ``events.jsonl``), fields without a value left out
+    (a line that is JSON but no object is passed through, for the caller to name). ``cut_off``: the
+    recording was killed; it ends at its last whole line."""
+    with open_input(path) as f:
+        for n, line in enumerate(whole_lines(f) if cut_off else f, start=1):
+            try:
+                event = json.loads(line)
+            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+                raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
+            yield {k: v for k, v in event.items() if v is not None} if isinstance(event, dict) else event
+
+
+def legs(path: Path, *, cut_off: bool = False) -> np.ndarray:
+    """``legs.npy`` (or the one in a run folder) as a structured array of :data:`LEG_DTYPE` rows.
+    ``cut_off``: the run was killed before the row count was written; every whole row is read."""
+    if path.is_dir():
+        path = path / LEGS_FILE
+    if cut_off:
+        data = np.fromfile(path, dtype=np.uint8, offset=_NPY_HEADER)
+        return data[: data.size - data.size % LEG_DTYPE.itemsize].view(LEG_DTYPE)
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (ValueError, EOFError) as exc:
+        raise ValueError(f"{path}: not a vcran leg log ({exc})") from None
+    if data.dtype != LEG_DTYPE:
+        raise ValueError(f"{path}: not a vcran leg log (columns {data.dtype.names})")
+    return data
+
+
+def samples(trace: Path) -> np.ndarray:
+    """``current_motion`` of the whole fleet at every telemetry tick: a (ticks, 1 + robots * 5) float64
+    array ``[t, x0, y0, theta0, v0, w0, x1, ...]``, robots in header order; from ``telemetry.bin``
+    (format 1) or evaluated from the leg log (format 2), bit for bit what was published."""
+    trace = trace_in(trace)
+    header = read_header(trace)
+    robots = robots_of(header)
+    from vcran.io.verify import recorded_end
+
+    end, complete = recorded_end(trace, header)
+    if header["version"] == 1:
+        path = trace.parent / str(header.get("telemetry", {}).get("file", TELEMETRY_FILE))
+        return telemetry(path, len(robots), cut_off=not complete)
+    return _evaluate(header, legs(trace.parent / str(header["legs"]["file"]), cut_off=not complete), end)
+
+
+def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarray:
+    """Drive a :class:`FleetKinematics` through the logged legs and sample it at every tick, exactly as
+    the telemetry process did (:meth:`vcran.sim.ran.Ran.telemetry`: tick k at ``k * period``, up to and
+    including the end)."""
+    from vcran.core.motion import FleetKinematics, Limits
+
+    fleet_spec = header["fleet"]
+    poses = [tuple(float(c) for c in r["pose"]) for r in fleet_spec["robots"]]
+    period = float(fleet_spec["simulation"].get("telemetry_period", 1.0))
+    fleet = FleetKinematics(poses)  # type: ignore[arg-type]
+    ending: list[tuple[float, int, int, Leg]] = []  # (t_end, row, robot, leg): legs to finish
+    out = []
+    j, k, n = 0, 0, len(rows)
+    while (t := k * period) <= end:
+        # leg ends and logged rows up to this tick, in the order they happened: a halt before a leg's end
+        # stops it there, a leg's end before a halt leaves nothing to halt (ties: the end first, which
+        # stops the robot at the same place, and lets a leg start where the last one ended)
+        while (ending and ending[0][0] <= t) or (j < n and rows[j]["t"] <= t):
+            if ending and ending[0][0] <= t and (j >= n or ending[0][0] <= rows[j]["t"]):
+                _, _, i, done = heapq.heappop(ending)
+                if fleet.current.get(i) is done:
+                    fleet.finish(i)
+                continue
+            r = rows[j]
+            i = int(r["robot"])
+            if math.isnan(r["t0"]):  # a halt: the robot rests where its leg had brought it
+                if i in fleet.current:
+                    fleet.stop(i, float(r["t"]))
+            else:
+                if i in fleet.current:
+                    fleet.finish(i)
+                goal = float(r["theta"])
+                leg = Leg(float(r["t0"]), float(r["x0"]), float(r["y0"]), float(r["theta0"]), float(r["x"]),
+                          float(r["y"]), None if math.isnan(goal) else goal,
+                          Limits(float(r["speed"]), float(r["accel"]), float(r["decel"]), float(r["turn_rate"])))
+                fleet.start(i, leg)
+                heapq.heappush(ending, (leg.t_end, j, i, leg))
+            j += 1
+        row = np.empty(1 + 5 * len(poses))
+        row[0] = t
+        row[1:] = fleet.sample(t).reshape(-1)
+        out.append(row)
+        k += 1
+    return np.vstack(out) if out else np.empty((0, 1 + 5 * len(poses)))
 
 
 def telemetry(path: Path, robots: int, *, cut_off: bool = False) -> np.ndarray:
-    """A telemetry file (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array.
+    """A format 1 ``telemetry.bin`` (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array.
 
     ``cut_off``: the recording was killed, so a last partial row is dropped instead of refused."""
     if path.is_dir():
@@ -168,3 +510,34 @@ def telemetry(path: Path, robots: int, *, cut_off: bool = False) -> np.ndarray:
             raise ValueError(f"{path}: size is not a whole number of {width}-column rows")
         data = data[: data.size - data.size % width]
     return data.reshape(-1, width)
+
+
+
+def telemetry_table(run: Path | str) -> np.ndarray:
+    """Every robot's ``current_motion`` at every telemetry tick of a run folder (either format), one row
+    per robot and tick, ticks in order and robots in fleet order, as a structured array with named
+    columns ``t``, ``robot``, ``x``, ``y``, ``theta``, ``v``, ``w``: ``pandas.DataFrame(telemetry_table(run))``
+    or ``polars.from_numpy(telemetry_table(run))``. The values are bit for bit those published."""
+    trace = trace_in(Path(run))
+    return long_table(samples(trace), tuple(robots_of(read_header(trace))))
+
+
+def long_table(rows: np.ndarray, robots: tuple[str, ...]) -> np.ndarray:
+    """Telemetry rows ``[t, x0, y0, theta0, v0, w0, x1, ...]`` as one record per tick and robot."""
+    n, ticks = len(robots), rows.shape[0]
+    width = max((len(r) for r in robots), default=1)
+    table = np.empty(ticks * n, dtype=[("t", "<f8"), ("robot", f"<U{width}"),
+                                       *((name, "<f8") for name in Frame.FIELDS)])
+    table["t"] = np.repeat(rows[:, 0], n)
+    table["robot"] = np.tile(np.array(robots), ticks)
+    columns = rows[:, 1:].reshape(ticks, n, len(Frame.FIELDS))
+    for k, name in enumerate(Frame.FIELDS):
+        table[name] = columns[:, :, k].ravel()
+    return table
+
+
+def trace_records(run: Path | str) -> list[dict[str, Any]]:
+    """The records of a run's trace (either format) in full: every value complete, ids as
+    ``{"uuid", "description"}`` (the header and the end line left out). ``pandas.DataFrame(...)`` of it
+    has one row per message."""
+    return [r for _, r in records(trace_in(Path(run)), ("in", "out"))]

@@ -3,9 +3,10 @@
 The trace header carries the fleet (the scenario without its script) and the last line when the run
 stopped, so the trace alone is enough: the replay runs the same fleet, feeds the recorded inbound messages
 at their recorded times, and stops at the recorded end. Verification then walks the recorded and the
-replayed outputs side by side: every outbound record in ``trace.jsonl``, every telemetry row in
-``telemetry.bin`` and, when the recording has one beside it, every state transition and event in
-``events.jsonl``; it stops at the first difference and names it.
+replayed outputs side by side: every outbound record of the trace, every leg (format 2; the telemetry of
+every tick follows from them) or telemetry row (format 1) and, when the recording has one beside it,
+every state transition and event; it stops at the first difference and names it. Recordings of either
+format verify against a replay (which writes format 2).
 
 A closed-loop run (SPEC §9) replays the same way: its inbound records are what the fleet manager wrote,
 as they reached the RAN. The replay does not run the manager again, so the manager's own events
@@ -27,11 +28,27 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import orjson
 
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Frame
 from vcran.io.scenario_file import ScenarioError, parse
-from vcran.io.trace import TELEMETRY_FILE, lines, read_header, telemetry
+from vcran.io.trace import (
+    LEG_DTYPE,
+    LEGS_FILE,
+    TELEMETRY_FILE,
+    event_records,
+    events_beside,
+    legs,
+    lines,
+    open_input,
+    read_header,
+    robots_of,
+    samples,
+    telemetry,
+    trace_in,
+    whole_lines,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +79,7 @@ class Difference:
 def scenario_from_trace(trace: Path) -> Scenario:
     """The fleet of a recorded run, set to stop exactly when the recording stopped (an incomplete
     recording: at its last recorded instant)."""
+    trace = trace_in(trace)
     header = read_header(trace)
     end, _ = recorded_end(trace, header)
     fleet = header.get("fleet")
@@ -77,15 +95,21 @@ def scenario_from_trace(trace: Path) -> Scenario:
 
 def recorded_end(trace: Path, header: dict[str, Any] | None = None) -> tuple[float, bool]:
     """When the recording stopped, and whether it is complete (ends with its end record). An incomplete
-    one ends at the latest time it holds: of its last whole record or of its last whole telemetry row."""
+    one ends at the latest time it holds: of its last whole record or (format 1) of its last whole
+    telemetry row. A compressed trace is read through to its end."""
+    tail = b""
+    with open_input(trace) as f:
+        try:
+            if trace.suffix != ".zst":
+                f.seek(0, 2)
+                f.seek(max(0, f.tell() - 65536))
+            while chunk := f.read(1 << 20):
+                tail = (tail + chunk)[-65536:]
+        except Exception as exc:  # zstandard.ZstdError: cut off mid-block; what was decoded stands
+            if type(exc).__name__ != "ZstdError":
+                raise
     last: Any = None
-    with trace.open("rb") as f:
-        f.seek(0, 2)
-        size = f.tell()
-        f.seek(max(0, size - 65536))
-        tail = f.read()
-    whole = tail[: tail.rfind(b"\n") + 1].splitlines()  # a cut-off last line is no record
-    for line in reversed(whole):
+    for line in reversed(tail[: tail.rfind(b"\n") + 1].splitlines()):  # a cut-off last line is no record
         try:
             last = json.loads(line)
             break
@@ -95,13 +119,21 @@ def recorded_end(trace: Path, header: dict[str, Any] | None = None) -> tuple[flo
         return float(last["t"]), True
     header = read_header(trace) if header is None else header
     times = [float(last["t"])] if isinstance(last, dict) and isinstance(last.get("t"), (int, float)) else []
-    rows = _telemetry(header, trace, cut_off=True)
+    rows = _telemetry_v1(header, trace, cut_off=True)
     if rows is not None and len(rows):
         times.append(float(rows[-1, 0]))
     return max(times, default=0.0), False
 
 
-def _telemetry(header: dict[str, Any], trace: Path, *, cut_off: bool) -> np.ndarray | None:
+def end_time(trace: Path) -> float:
+    """When a complete recording stopped; a ValueError for one that did not finish."""
+    end, complete = recorded_end(trace)
+    if not complete:
+        raise ValueError(f"{trace}: no end record; the recording did not finish (was it interrupted?)")
+    return end
+
+
+def _telemetry_v1(header: dict[str, Any], trace: Path, *, cut_off: bool) -> np.ndarray | None:
     info = header.get("telemetry")
     if not isinstance(info, dict) or not isinstance(info.get("robots"), list):
         return None
@@ -110,28 +142,53 @@ def _telemetry(header: dict[str, Any], trace: Path, *, cut_off: bool) -> np.ndar
 
 
 def verify(recorded: Path, replayed: Path) -> Difference | None:
-    """Compare a recorded trace (its path; telemetry and events beside it) with a replay's folder;
-    None when the replay reproduced every record. Raises ValueError/OSError naming a missing file."""
+    """Compare a recorded trace (its path; leg log or telemetry, and events, beside it) with a replay's
+    folder; None when the replay reproduced every record. Raises ValueError/OSError naming a missing file.
+
+    A recording of the same format is compared line by line as written. A format 1 recording is compared
+    with the replay's records brought to format 1's form (full values, plain ids, periodic re-sends of an
+    unchanged value left out on both sides) and with its telemetry evaluated from the replay's leg log.
+    """
+    recorded = trace_in(recorded)
     header = read_header(recorded)
-    telemetry_file = recorded.parent / str(header.get("telemetry", {}).get("file", "telemetry.bin"))
-    if not telemetry_file.exists():
-        raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (SPEC §6)")
+    got = trace_in(replayed)
+    if header["version"] == 1:
+        telemetry_file = recorded.parent / str(header.get("telemetry", {}).get("file", TELEMETRY_FILE))
+        if not telemetry_file.exists():
+            raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (SPEC §6)")
+    elif not (recorded.parent / LEGS_FILE).exists():
+        raise ValueError(f"{recorded.parent / LEGS_FILE}: missing; it holds the recording's legs (SPEC §6)")
     _, complete = recorded_end(recorded, header)
+    same = header["version"] == read_header(got)["version"]
     return (
-        _compare_records(recorded, replayed / "trace.jsonl", complete)
-        or _compare_telemetry(header, telemetry_file, replayed, complete)
-        or _compare_events(recorded.parent / "events.jsonl", replayed / "events.jsonl", complete)
+        _compare_records(recorded, got, same, complete)
+        or (_compare_legs(header, recorded.parent, got.parent, complete) if same
+            else _compare_samples(recorded, got, complete))
+        or _compare_events(events_beside(recorded), events_beside(got), same, complete)
     )
 
 
-def _outbound(trace: Path) -> Iterator[tuple[str, dict[str, Any]]]:
-    return ((line, r) for line, r in lines(trace) if r.get("dir") in ("out", "end"))
+def _outbound(trace: Path, as_written: bool) -> Iterator[tuple[bytes, dict[str, Any]]]:
+    last: dict[tuple[Any, Any], Any] = {}
+    for _, line, r in lines(trace, ("out", "end")):
+        if r.get("dir") == "end":
+            yield line.rstrip(b"\n"), r
+        elif r.get("dir") == "out":
+            if as_written:
+                yield line.rstrip(b"\n"), r
+                continue
+            key = (r.get("robot"), r.get("attr"))
+            if last.get(key) == r.get("value"):
+                continue  # a re-send of an unchanged value, which format 2 does not write
+            last[key] = r.get("value")
+            yield orjson.dumps(r), r
 
 
-def _compare_records(expected: Path, got: Path, complete: bool = True) -> Difference | None:
-    """Record by record, as written: text, not Python values (where 1 == 1.0 == True). Of an incomplete
-    recording, every record must be the replay's; the replay's end record and what follows are not."""
-    for (line_a, a), (line_b, b) in zip_longest(_outbound(expected), _outbound(got), fillvalue=("", None)):
+def _compare_records(expected: Path, got: Path, as_written: bool, complete: bool = True) -> Difference | None:
+    """Record by record: text, not Python values (where 1 == 1.0 == True). Of an incomplete recording,
+    every record must be the replay's; the replay's end record and what follows are not compared."""
+    pairs = zip_longest(_outbound(expected, as_written), _outbound(got, as_written), fillvalue=(b"", None))
+    for (line_a, a), (line_b, b) in pairs:
         if not complete and a is None:
             return None
         if line_a == line_b:
@@ -139,52 +196,79 @@ def _compare_records(expected: Path, got: Path, complete: bool = True) -> Differ
         ref = a or b
         assert ref is not None
         path, x, y = first_mismatch(a, b)
-        return Difference("trace.jsonl", ref.get("t"), ref.get("robot"), ref.get("attr"), path, x, y)
+        return Difference(expected.name, ref.get("t"), ref.get("robot"), ref.get("attr"), path, x, y)
     return None
 
 
-def _compare_telemetry(header: dict[str, Any], expected: Path, got_dir: Path, complete: bool = True) -> Difference | None:
-    robots = header["telemetry"]["robots"]
-    a, b = telemetry(expected, len(robots), cut_off=not complete), telemetry(got_dir / TELEMETRY_FILE, len(robots))
+def _compare_legs(header: dict[str, Any], expected_dir: Path, got_dir: Path, complete: bool = True) -> Difference | None:
+    """Every leg bit for bit: the telemetry at every tick is a function of them (vcran.io.trace)."""
+    a, b = legs(expected_dir, cut_off=not complete), legs(got_dir)
+    rows = min(len(a), len(b))
+    robots = robots_of(header)
+    ka = a[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
+    kb = b[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
+    differ = np.flatnonzero(np.any(ka != kb, axis=1))
+    if differ.size:
+        row = int(differ[0])
+        for name in LEG_DTYPE.names or ():
+            x, y = a[row][name], b[row][name]
+            if np.asarray(x).tobytes() != np.asarray(y).tobytes():
+                robot = robots[int(a[row]["robot"])] if int(a[row]["robot"]) < len(robots) else None
+                return Difference(LEGS_FILE, float(a[row]["t"]), robot, "current_motion", f"leg {row}.{name}",
+                                  x.item(), y.item())
+    if len(a) > len(b) or (complete and len(a) != len(b)):
+        return Difference(LEGS_FILE, None, None, "current_motion", "rows", len(a), len(b))
+    return None
+
+
+def _compare_samples(expected: Path, got: Path, complete: bool = True) -> Difference | None:
+    """A format 1 recording's telemetry rows against the replay's, evaluated from its legs, bit for bit."""
+    header = read_header(expected)
+    robots = robots_of(header)
+    recorded = _telemetry_v1(header, expected, cut_off=not complete)
+    a, b = (recorded if recorded is not None else samples(expected)), samples(got)
     rows = min(len(a), len(b))
     bad = np.flatnonzero(np.any(a[:rows].view(np.uint64) != b[:rows].view(np.uint64), axis=1))
     if bad.size:
         row = int(bad[0])
         col = int(np.flatnonzero(a[row].view(np.uint64) != b[row].view(np.uint64))[0])
         if col == 0:
-            return Difference("telemetry.bin", float(a[row, 0]), None, "current_motion", "t", a[row, 0], b[row, 0])
+            return Difference(TELEMETRY_FILE, float(a[row, 0]), None, "current_motion", "t", a[row, 0], b[row, 0])
         robot, field = divmod(col - 1, len(Frame.FIELDS))
-        return Difference("telemetry.bin", float(a[row, 0]), robots[robot], "current_motion",
+        return Difference(TELEMETRY_FILE, float(a[row, 0]), robots[robot], "current_motion",
                           Frame.FIELDS[field], float(a[row, col]), float(b[row, col]))
     if len(a) > len(b) or (complete and len(a) != len(b)):
-        return Difference("telemetry.bin", None, None, "current_motion", "rows", len(a), len(b))
+        return Difference(TELEMETRY_FILE, None, None, "current_motion", "rows", len(a), len(b))
     return None
 
 
-#: How a fleet manager's event starts, as written (orjson; keys t, robot, event in this order; a quote
-#: inside a string value is escaped, so this cannot match within one).
-_JOB_EVENT = '"event":"job_'
+def _event_lines(path: Path, as_written: bool) -> Iterator[tuple[bytes, dict[str, Any]]]:
+    """The events the simulation wrote: all but a fleet manager's ``job_*`` events (SPEC §9: the replay
+    does not run the manager again), as written or (formats differ) in one canonical form."""
+    if as_written:
+        with open_input(path) as f:
+            for line in whole_lines(f):
+                event = json.loads(line)
+                if not str(event.get("event", "")).startswith("job_"):
+                    yield line, event
+        return
+    for event in event_records(path, cut_off=True):  # either format, in one canonical form
+        if not str(event.get("event", "")).startswith("job_"):
+            yield orjson.dumps(event, option=orjson.OPT_SORT_KEYS), event
 
 
-def _simulated(lines: Iterator[str]) -> Iterator[str]:
-    """The lines of events.jsonl that the simulation wrote: all but the fleet manager's ``job_*`` events."""
-    return (line for line in lines if _JOB_EVENT not in line)
-
-
-def _compare_events(expected: Path, got: Path, complete: bool = True) -> Difference | None:
+def _compare_events(expected: Path, got: Path, as_written: bool, complete: bool = True) -> Difference | None:
     if not expected.exists():
         return None
-    with expected.open(encoding="utf-8") as fa, got.open(encoding="utf-8") as fb:
-        for line_a, line_b in zip_longest(_simulated(fa), _simulated(fb)):
-            if not complete and (line_a is None or not line_a.endswith("\n")):
-                return None  # the recording's end (a cut-off last line is no event)
-            if line_a == line_b:
-                continue
-            a = json.loads(line_a) if line_a else None
-            b = json.loads(line_b) if line_b else None
-            ref = a or b or {}
-            path, x, y = first_mismatch(a, b)
-            return Difference("events.jsonl", ref.get("t"), ref.get("robot"), ref.get("event"), path, x, y)
+    pairs = zip_longest(_event_lines(expected, as_written), _event_lines(got, as_written), fillvalue=(b"", None))
+    for (line_a, a), (line_b, b) in pairs:
+        if not complete and a is None:
+            return None  # the recording's end (a cut-off last line is no event)
+        if line_a == line_b:
+            continue
+        ref = a or b or {}
+        path, x, y = first_mismatch(a, b)
+        return Difference(expected.name, ref.get("t"), ref.get("robot"), ref.get("event"), path, x, y)
     return None
 
 

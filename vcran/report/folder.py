@@ -1,7 +1,7 @@
 """A run's output folder read back into a small data model, the one input of every figure and table.
 
-``vcran run --out DIR`` writes ``summary.json``, ``events.jsonl``, ``trace.jsonl`` and ``telemetry.bin``
-(SPEC §8). A report needs a little of each: the fleet's geometry from the trace header, where the robots
+``vcran run --out DIR`` writes ``summary.json``, ``events.jsonl.zst``, ``trace.jsonl.zst`` and ``legs.npy``
+(SPEC §8; format 1 folders, with ``telemetry.bin``, are read too). A report needs a little of each: the fleet's geometry from the trace header, where the robots
 were from the telemetry, what happened from the events, the per-robot totals from the summary, and the
 motion areas and targets that only the inbound assignments carry. Everything is checked here, so the
 figures can trust what they get and a broken folder fails with one clear :class:`ReportError`, never a
@@ -18,11 +18,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import orjson
 
-from vcran.io.trace import read_header, telemetry
+from vcran.io.trace import (
+    LEGS_FILE,
+    TRACE_FILE,
+    event_records,
+    events_beside,
+    read_header,
+    records,
+    robots_of,
+    samples,
+    trace_in,
+)
 
-FILES = ("summary.json", "events.jsonl", "trace.jsonl", "telemetry.bin")
+FILES = ("summary.json",)  # and a trace with its events and leg log (or format 1's telemetry)
 #: The fields the report reads from each kind of event (strings all).
 EVENT_FIELDS = {
     "state": ("from", "to"),
@@ -114,9 +123,17 @@ def read_run(path: Path) -> Run:
     missing = [name for name in FILES if not (path / name).is_file()]
     if missing:
         raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
-    with _reading(path / "trace.jsonl"):
-        header = read_header(path / "trace.jsonl")
-        ids = [str(r) for r in header["telemetry"]["robots"]]
+    try:
+        trace = trace_in(path)
+    except ValueError:
+        raise ReportError(f"{path}: not a complete run folder, missing {TRACE_FILE}") from None
+    beside = [events_beside(trace)] + ([path / LEGS_FILE] if trace.name == TRACE_FILE else [])
+    missing = [p.name for p in beside if not p.is_file()]
+    if missing:
+        raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
+    with _reading(trace):
+        header = read_header(trace)
+        ids = robots_of(header)
         configs = {r["id"]: r for r in header["fleet"]["robots"]}
         robots = tuple(_robot(configs[rid]) for rid in ids)
         stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
@@ -126,10 +143,10 @@ def read_run(path: Path) -> Run:
         sim_time = float(summary["sim_time"])
         errors = int(summary["errors"])
         jobs = _jobs(summary) if "jobs" in summary else None
-    with _reading(path / "telemetry.bin"):
-        ticks = telemetry(path, len(ids))
-    events = list(_events(path / "events.jsonl"))
-    areas, targets, batteries = _assignments(path / "trace.jsonl")
+    with _reading(trace):
+        ticks = samples(trace)
+    events = list(_events(events_beside(trace)))
+    areas, targets, batteries = _assignments(trace)
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
                sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs)
 
@@ -192,12 +209,8 @@ def _station(config: dict[str, Any]) -> StationSpec:
 
 
 def _events(path: Path) -> Iterator[dict[str, Any]]:
-    with path.open("rb") as f:
-        for n, line in enumerate(f, start=1):
-            try:
-                event = orjson.loads(line)
-            except orjson.JSONDecodeError as exc:
-                raise ReportError(f"{path}:{n}: not JSON ({exc})") from None
+    try:
+        for n, event in enumerate(event_records(path), start=1):
             if not (isinstance(event, dict) and isinstance(event.get("t"), int | float)
                     and isinstance(event.get("robot"), str) and isinstance(event.get("event"), str)):
                 raise ReportError(f"{path}:{n}: not an event (an object with t, robot and event expected)")
@@ -205,6 +218,8 @@ def _events(path: Path) -> Iterator[dict[str, Any]]:
             if missing:
                 raise ReportError(f"{path}:{n}: {event['event']} event without {', '.join(missing)}")
             yield event
+    except (OSError, ValueError) as exc:
+        raise ReportError(f"{path}: unreadable ({_describe(exc)})") from None
 
 
 def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]],
@@ -212,27 +227,21 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
     """Motion areas and targets from the inbound ``motion_assignment`` records of the trace, and the
     published ``battery`` percentages (SPEC §4), in one pass.
 
-    The trace of a large run is mostly outbound status; a byte test skips those lines unparsed. A live
-    run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
+    A live run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
     decoded them, and one that does not decode (the RAN rejected it) is skipped.
     """
     areas: dict[tuple[str, tuple[Point, ...]], MotionArea] = {}
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
     batteries: dict[str, list[tuple[float, float]]] = {}
-    with path.open("rb") as f:
-        f.readline()
-        for n, line in enumerate(f, start=2):
-            if b'"attr":"battery"' in line:
+    with _reading(path):
+        for n, record in records(path, attrs=("motion_assignment", "battery")):
+            if record.get("attr") == "battery":
                 try:
-                    record = orjson.loads(line)
                     batteries.setdefault(record["robot"], []).append((float(record["t"]), float(record["value"]["percentage"])))
-                except (orjson.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+                except (KeyError, TypeError, ValueError) as exc:
                     raise ReportError(f"{path}:{n}: not a battery record ({_describe(exc)})") from None
                 continue
-            if b"motion_assignment" not in line:
-                continue
             try:
-                record = orjson.loads(line)
                 if record.get("dir") != "in" or record.get("attr") != "motion_assignment":
                     continue
                 value = record["value"] if "value" in record else _decoded(record.get("raw"))
@@ -243,7 +252,7 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
                 point = value["point"]
                 targets.setdefault((robot, motion), []).append((record["t"], point["x"], point["y"]))
                 polygon = tuple((p["x"], p["y"]) for p in value["motion_area"]["polygon"]["points"])
-            except (orjson.JSONDecodeError, KeyError, TypeError) as exc:
+            except (KeyError, TypeError) as exc:
                 raise ReportError(f"{path}:{n}: not a motion_assignment record ({_describe(exc)})") from None
             if polygon and (robot, polygon) not in areas:
                 areas[robot, polygon] = MotionArea(robot, polygon)

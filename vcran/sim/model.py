@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from array import array
+from collections.abc import Callable, Iterator
 from typing import Any, Protocol
 
 import simpy
@@ -40,6 +41,48 @@ def default_decode(attribute: str, raw: Any) -> Message:
     return decode_attribute(attribute, raw)
 
 
+class Labels:
+    """Task labels in order, for the summary: one UTF-8 buffer and an offset per entry, optionally with a
+    second short text each (a cancel's reason). A run ends tens of thousands of tasks per robot-hour at
+    fleet scale; a list of strings (and of dicts) was most of what its memory grew by."""
+
+    __slots__ = ("_text", "_ends", "_tags", "_tag_names")
+
+    def __init__(self) -> None:
+        self._text = bytearray()
+        self._ends = array("Q")
+        self._tags = array("B")
+        self._tag_names: list[str] = []
+
+    def append(self, label: str, tag: str | None = None) -> None:
+        self._text += label.encode("utf-8", "surrogatepass")
+        self._ends.append(len(self._text))
+        if tag is not None:
+            if tag not in self._tag_names:
+                self._tag_names.append(tag)
+            self._tags.append(self._tag_names.index(tag))
+
+    def __len__(self) -> int:
+        return len(self._ends)
+
+    def __iter__(self) -> Iterator[str]:
+        start = 0
+        for end in self._ends:
+            yield self._text[start:end].decode("utf-8", "surrogatepass")
+            start = end
+
+    def __eq__(self, other: object) -> bool:
+        """Equal to a list of the same labels (what callers compared before it was compact)."""
+        if isinstance(other, (list, tuple, Labels)):
+            return list(self) == list(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def pairs(self) -> Iterator[tuple[str, str]]:
+        return zip(self, (self._tag_names[i] for i in self._tags))
+
+
 class Model:
     def __init__(
         self,
@@ -66,8 +109,8 @@ class Model:
         ]
         station_map = StationMap(self.stations)
         self.fleet = FleetKinematics([r.pose for r in scenario.robots])
-        self.completed: dict[str, list[str]] = {r.id: [] for r in scenario.robots}
-        self.cancelled: dict[str, list[dict[str, str]]] = {r.id: [] for r in scenario.robots}
+        self.completed: dict[str, Labels] = {r.id: Labels() for r in scenario.robots}
+        self.cancelled: dict[str, Labels] = {r.id: Labels() for r in scenario.robots}
         self.fleet_errors = 0
         self.tasks_done = 0
         self._busy = [0.0] * len(scenario.robots)            # seconds not WAITING, per robot ...
@@ -134,7 +177,7 @@ class Model:
             self.completed[robot.id].append(event.task.label)
             self.tasks_done += 1
         elif isinstance(event, TaskCancelled):
-            self.cancelled[robot.id].append({"task": event.task.label, "reason": event.reason.value})
+            self.cancelled[robot.id].append(event.task.label, event.reason.value)
         elif isinstance(event, ErrorReport):
             self.ran.publish_error(robot, event)
 
@@ -203,8 +246,8 @@ class Model:
         robots = {}
         for r in self.robots:
             robots[r.id] = {
-                "completed": self.completed[r.id],
-                "cancelled": self.cancelled[r.id],
+                "completed": list(self.completed[r.id]),
+                "cancelled": [{"task": task, "reason": reason} for task, reason in self.cancelled[r.id].pairs()],
                 "distance": self.fleet.distance(r.index, t),
                 "final_pose": dict(zip(("x", "y", "theta"), map(float, poses[r.index, :3]))),
                 "carrying": r.carrying,

@@ -30,11 +30,16 @@ from vcran.core.messages import (
     Time,
 )
 from vcran.core.scenario import RobotConfig
+from vcran.core.schema import unchecked
 from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.sim.robot import Decoded, Malformed, RobotNode
 from vcran.sim.timing import FAULT, TELEMETRY, at
 
 Decode = Callable[[str, Any], Message]
+
+# Published messages are built from the model's own valid state: not re-validated (schema.unchecked).
+_ran_error = unchecked(RanError)
+_assignment_status = unchecked(AssignmentStatus)
 
 
 class Ran:
@@ -91,7 +96,7 @@ class Ran:
             self._dirty.append(robot)
 
     def publish_error(self, robot: RobotNode, error: ErrorReport) -> None:
-        message = RanError(
+        message = _ran_error(
             code=error.code, severity=error.severity, message=error.message, task_id=error.task,
             motion_id=error.motion, action_id=error.action, stamp=Time.from_seconds(self.env.now),
             count=error.count,
@@ -177,7 +182,7 @@ class Ran:
     @staticmethod
     def assignment_status(robot: RobotNode) -> AssignmentStatus:
         logic = robot.logic
-        return AssignmentStatus(
+        return _assignment_status(
             current_task_id=logic.current_task,
             current_motion_id=logic.current_motion,
             current_action_id=logic.current_action,

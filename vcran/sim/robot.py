@@ -234,7 +234,14 @@ class RobotNode:
     def _start_timer(self, task: Id, when: float) -> None:
         deadline = at(self.env, when, DEADLINE)
         self._timers[task] = deadline
-        deadline.callbacks.append(lambda event: self.inbox.put(TimerFired(task, event)))
+        deadline.callbacks.append(lambda event: self._deadline_due(task, event))
+
+    def _deadline_due(self, task: Id, deadline: simpy.events.Event) -> None:
+        # Most deadlines are cleared long before they are due (the task was assembled in time): those
+        # do not wake RanLogic at all. One still current is checked again when it is taken out of the
+        # inbox, in case something of the same instant clears it first.
+        if self._timers.get(task) is deadline:
+            self.inbox.put(TimerFired(task, deadline))
 
     def _abandon(self) -> None:
         """R14: the leg or action that began at this instant does not happen (its task has ended; an
@@ -304,7 +311,7 @@ class RobotNode:
                 cause = yield from self._held()
                 if cause is None:
                     leg = dataclasses.replace(leg, t0=leg.t0 + (env.now - t_hold))
-                    self.fleet.resume(i, leg)
+                    self.fleet.resume(i, leg, env.now)
                     self._segment(DRIVE)
                     self._moved()
                     continue

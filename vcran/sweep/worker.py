@@ -33,17 +33,19 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
     name set, so that ``vcran run out/scenario.toml`` reproduces the run byte for byte).
     """
     start = time.perf_counter()
+    kept: str | None = None
     try:
         data = apply(tomllib.loads(scenario_text), overrides)
         scenario = parse(data, source, default_name=Path(source).stem)
-        if out is not None:
-            folder = Path(out)
-            folder.mkdir(parents=True, exist_ok=True)
-            data.setdefault("simulation", {})["name"] = scenario.settings.name
-            (folder / "scenario.toml").write_text(dumps(data), encoding="utf-8")
+        data.setdefault("simulation", {})["name"] = scenario.settings.name
+        kept = dumps(data)
         row: Row = {"error": None, **kpis(simulate(scenario, out=out).summary)}
     except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
         row = {"error": f"{type(exc).__name__}: {exc}".strip()}
+    if out is not None and kept is not None:  # after the run: the run folder is written whole, then renamed
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)  # a failed run's folder holds the scenario that fails
+        (folder / "scenario.toml").write_text(kept, encoding="utf-8")
     row["wall_seconds"] = time.perf_counter() - start
     return row
 

@@ -1,4 +1,4 @@
-"""The rules, checked on a run's output folder (``events.jsonl``, ``telemetry.bin``, ``trace.jsonl``).
+"""The rules, checked on a run's output folder (events, trace and the telemetry its leg log determines).
 
 Used by the whole-simulation fuzz tests and by ``vcran fuzz``. The checks are about the rules, not about
 "everything completes": a perturbed script legitimately produces rejections, timeouts and cancels. Each
@@ -17,7 +17,6 @@ check returns human-readable violations (empty when the run kept the rules):
 
 from __future__ import annotations
 
-import json
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,7 +26,19 @@ import numpy as np
 
 from vcran.core.effects import Reason, State
 from vcran.core.scenario import Scenario
-from vcran.io.trace import read_header, records, telemetry
+from vcran.io.trace import (
+    EVENTS_FILE,
+    LEGS_FILE,
+    SUMMARY_FILE,
+    TRACE_FILE,
+    event_records,
+    events_beside,
+    read_header,
+    records,
+    robots_of,
+    samples,
+    trace_in,
+)
 from vcran.testing.model import TOLERANCE, TRANSITIONS
 
 _TRANSITIONS = {(a.value, b.value) for a, b in TRANSITIONS}  # R6, restated in vcran.testing.model
@@ -47,8 +58,9 @@ class _Life:
 
 def check_run(out: Path, task_timeout: float, finished: bool) -> list[str]:
     """Every violation of the rules found in the output folder ``out`` (module docstring)."""
-    events = [json.loads(line) for line in (out / "events.jsonl").read_text(encoding="utf-8").splitlines()]
-    cancels = _cancel_requests(out / "trace.jsonl")
+    trace = trace_in(out)
+    events = list(event_records(events_beside(trace)))
+    cancels = _cancel_requests(trace)
     problems = check_states(events) + check_lives(events, cancels, task_timeout, finished)
     return problems + check_cancelled_assignments(events) + check_motion(out, events)
 
@@ -141,7 +153,7 @@ def _cancel_requests(trace: Path) -> dict[tuple[str, str], list[float]]:
     """cancel_order records: (robot, task label) -> times of whole-task cancels, (robot, label + "#") ->
     times of partial ones (R13); raw ones under (robot, "")."""
     out: dict[tuple[str, str], list[float]] = defaultdict(list)
-    for r in records(trace):
+    for _, r in records(trace, ("in",)):
         if r.get("dir") != "in" or r.get("attr") != "cancel_order":
             continue
         if "value" not in r:
@@ -183,8 +195,9 @@ def _label(ident: dict[str, Any]) -> str:
 def check_motion(out: Path, events: list[dict[str, Any]]) -> list[str]:
     """The AGV moves only in MOTION: between two telemetry ticks where its pose changed, or at a tick
     where it has a velocity, its robot was in MOTION at some instant of that interval."""
-    robots = read_header(out / "trace.jsonl")["telemetry"]["robots"]
-    rows = telemetry(out, len(robots))
+    trace = trace_in(out)
+    robots = robots_of(read_header(trace))
+    rows = samples(trace)
     if len(rows) == 0:
         return []
     changes: dict[str, list[tuple[float, str, str]]] = defaultdict(list)
@@ -235,7 +248,7 @@ def overdue(robots: list[Any], now: float) -> list[str]:
 
 # --- one variant, end to end ---------------------------------------------------------------------------------
 
-_FILES = ("trace.jsonl", "telemetry.bin", "events.jsonl", "summary.json")
+_FILES = (TRACE_FILE, LEGS_FILE, EVENTS_FILE, SUMMARY_FILE)
 
 
 def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[str]:
@@ -261,7 +274,7 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
         for name in _FILES:
             if (work / "a" / name).read_bytes() != (work / "b" / name).read_bytes():
                 return [f"{name} differs between two runs of the same scenario (§5)"]
-        trace = work / "a" / "trace.jsonl"
+        trace = work / "a" / TRACE_FILE
         run_to(scenario_from_trace(trace), work / "c", ReplayTransport(trace))
         difference = verify(trace, work / "c")
         return [f"replay verification (§6): {difference}"] if difference is not None else []

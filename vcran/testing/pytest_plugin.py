@@ -23,7 +23,7 @@ from __future__ import annotations
 try:
     from hypothesis import HealthCheck, settings
 except ModuleNotFoundError:  # pragma: no cover - exercised by the wheel test's plain install
-    settings = None
+    settings = None  # type: ignore[misc,assignment]
 
 #: Profile name -> (examples per test, steps per state machine run).
 PROFILES: dict[str, tuple[int, int]] = {

@@ -29,6 +29,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import strategies as st
 
 from vcran.core import build
@@ -273,7 +277,7 @@ def fleets(draw: st.DrawFn, max_robots: int = 3, max_tasks: int = 4) -> dict[str
     unloads succeed or fail; tasks arrive one message at a time or all at once. The run stops when idle.
     """
     n = draw(st.integers(1, max_robots))
-    robots = []
+    robots: list[dict[str, Any]] = []
     for i in range(1, n + 1):
         robots.append({
             "id": f"robot_{i}", "pose": [0.0, 3.0 * (i - 1), 0.0],

@@ -21,6 +21,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import event
 from hypothesis import strategies as st
 from hypothesis.control import currently_in_test_context
@@ -164,8 +168,9 @@ class RanLogicMachine(RuleBasedStateMachine):
         path, done = task.path or [], task.legs_done
         actions = task.actions[:-1] if task.action_running else task.actions
         groups: dict[str, list[Assignment]] = {
-            "running": path[done:done + 1] if task.driving else task.actions[-1:] if task.action_running else [],
-            "ahead": path[done + 1:] if task.driving else [],
+            "running": list[Assignment](path[done:done + 1] if task.driving
+                                        else task.actions[-1:] if task.action_running else []),
+            "ahead": list[Assignment](path[done + 1:] if task.driving else []),
             "done": [*path[:done], *actions],
             "pending": [a for a in task.slots().values() if not task.dispatched(a)],
         }

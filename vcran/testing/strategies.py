@@ -13,6 +13,10 @@ from collections.abc import Callable
 from functools import cache
 from typing import Any, TypeVar, cast
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import strategies as st
 
 from vcran.core.ids import Id
@@ -103,7 +107,7 @@ def robot_actions(known_only: bool = True) -> st.SearchStrategy[RobotAction]:
 def messages_of(cls: type[M]) -> st.SearchStrategy[M]:
     """Any valid message of type ``cls``, derived from its field specs."""
     special = _CLASS_STRATEGIES.get(cls)
-    return cast(st.SearchStrategy[M], special() if special else _generic(cls))
+    return cast(st.SearchStrategy[M], special() if special else _generic(cast(type, cls)))
 
 
 @cache

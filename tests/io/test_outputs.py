@@ -1,0 +1,163 @@
+"""Run folders people can load (issue 14, SPEC §6, §8): the documented calls, the format's promises."""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+import re
+import tomllib
+import typing
+
+import numpy as np
+import pytest
+
+from tests.conftest import ROOT, read_lines
+from transports.scripted import ScriptedTransport
+from vcran.core import effects
+from vcran.core.ids import NIL, Id
+from vcran.io.gen import generate
+from vcran.io.scenario_file import load, parse
+from vcran.io.trace import EVENT_KEYS, legs, samples
+from vcran.runner import run_to
+
+
+def test_outputs_doc_blocks_run(tmp_path, monkeypatch):
+    """Every ```python block of docs/outputs.md, in order, in one namespace, from the repository root."""
+    text = (ROOT / "docs" / "outputs.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert len(blocks) >= 3
+    monkeypatch.chdir(ROOT)
+    namespace: dict[str, object] = {}
+    for block in blocks:
+        exec(compile(block, "docs/outputs.md", "exec"), namespace)  # noqa: S102 - our own documentation
+
+
+class Frames(ScriptedTransport):
+    """Keeps every telemetry frame the model sent (the values live mode publishes)."""
+
+    def __init__(self, script):
+        super().__init__(script)
+        self.frames = []
+
+    def send(self, out):
+        super().send(out)
+        if hasattr(out, "columns"):
+            self.frames.append(np.concatenate(([out.t], out.columns.reshape(-1))))
+
+
+@pytest.mark.parametrize("robots", [3, 40])  # few movers: scalar sampling; 40: numpy's vectorised path
+def test_telemetry_evaluated_from_the_legs_is_bit_for_bit_what_was_published(tmp_path, robots):  # §6
+    scenario = parse(tomllib.loads(generate(robots, 0.05, 3)), "<gen>")
+    transport = Frames(scenario.messages())
+    run_to(scenario, tmp_path / "run", transport)
+    published = np.vstack(transport.frames)
+    evaluated = samples(tmp_path / "run")
+    assert evaluated.shape == published.shape
+    assert evaluated.tobytes() == published.tobytes()
+    assert np.count_nonzero(published[:, 4::5]) > 0  # robots did move
+
+
+@pytest.mark.parametrize("name", ["faults", "battery", "crossing"])
+def test_telemetry_of_held_and_stopped_legs_is_bit_for_bit_what_was_published(tmp_path, name):  # §4, §6
+    """Pauses, breakdowns, an empty battery and collisions halt robots mid-leg; a halted robot's next leg
+    starts where it halted, a resumed leg is timed from its shifted origin: the leg log says all of it."""
+    scenario = load(ROOT / "scenarios" / f"{name}.toml")
+    transport = Frames(scenario.messages())
+    run_to(scenario, tmp_path / "run", transport)
+    published = np.vstack(transport.frames)
+    assert samples(tmp_path / "run").tobytes() == published.tobytes()
+    halts = legs(tmp_path / "run")
+    assert np.isnan(halts["t0"]).any()  # the scenario did halt a robot mid-leg
+
+
+HALT_BEFORE_THE_LEGS_END = """[simulation]
+until_idle = true
+duration = 100.0
+
+[[robots]]
+id = "r0"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+
+[robots.battery]
+capacity = 0.5
+initial = 0.02734375
+per_metre = 0.005
+per_idle_second = 0.002
+per_action_second = 0.01
+charge_rate = 0.05
+swap_after = 5.0
+
+[[script]]
+t = 0.0
+robot = "r0"
+kind = "task"
+task = "T"
+path = [[0.0, 4.0]]
+"""
+
+
+def test_a_halt_before_its_legs_end_within_one_tick_is_where_the_robot_rests(tmp_path):  # §4, §6
+    """The battery runs out at 3.90625, its leg would end at 4.0, the tick is at 4.0: the robot rests where
+    it halted (hypothesis found the evaluation finishing the leg first, then ignoring the halt)."""
+    scenario = parse(tomllib.loads(HALT_BEFORE_THE_LEGS_END), "<halt>")
+    transport = Frames(scenario.messages())
+    run_to(scenario, tmp_path / "run", transport)
+    published = np.vstack(transport.frames)
+    rows = legs(tmp_path / "run")
+    assert rows["t"][-1] == 3.90625 and np.isnan(rows["t0"][-1])  # the halt, before the leg's end at 4.0
+    assert published[4, 0] == 4.0 and published[4, 2] == 3.90625  # rests where it halted
+    assert samples(tmp_path / "run").tobytes() == published.tobytes()
+
+
+def test_events_carry_the_same_keys_in_the_same_order(tmp_path):
+    scenario = load(ROOT / "scenarios" / "demo.toml")
+    run_to(scenario, tmp_path / "run", ScriptedTransport(scenario.messages()))
+    lines = read_lines(tmp_path / "run" / "events.jsonl.zst")
+    assert len(lines) > 10
+    assert {tuple(json.loads(line)) for line in lines} == {EVENT_KEYS}
+
+
+def _placeholder(hint):
+    if hint is Id:
+        return NIL
+    if isinstance(hint, type) and issubclass(hint, enum.Enum):
+        return next(iter(hint))
+    return {str: "x", bool: True, int: 1, float: 1.0}[hint]
+
+
+def test_every_event_field_has_an_event_key():
+    """A new event class with a field EVENT_KEYS lacks would break the one-schema promise: list it."""
+    seen = []
+    stack = list(effects.Event.__subclasses__())
+    while stack:
+        cls = stack.pop()
+        stack.extend(cls.__subclasses__())
+        if not dataclasses.is_dataclass(cls) or not cls.NAME:
+            continue
+        hints = typing.get_type_hints(cls)
+        event = cls(**{f.name: _placeholder(hints[f.name]) for f in dataclasses.fields(cls)})
+        assert set(event.fields()) <= set(EVENT_KEYS), cls
+        seen.append(cls.NAME)
+    assert {"state", "task_queued", "task_completed", "task_cancelled", "rejected", "failed"} <= set(seen)
+
+
+def test_trace_repeats_nothing_a_reader_can_take_from_an_earlier_record(tmp_path):
+    scenario = parse(tomllib.loads(generate(2, 0.1, 1)), "<gen>")
+    run_to(scenario, tmp_path / "run", ScriptedTransport(scenario.messages()))
+    lines = read_lines(tmp_path / "run" / "trace.jsonl.zst")
+    records = [json.loads(line) for line in lines[1:-1]]
+    descriptions = [r for r in records if r["attr"] == "robot_description"]
+    assert len(descriptions) == 2  # one per robot: the 60 s re-sends are unchanged (0.1 h = 6 of them)
+    footprints = [r for r in records if r["attr"] == "assignment_status" and "footprint" in r["value"]]
+    assert len(footprints) == 2  # the first status of each robot only
+    last = {}
+    for r in records:
+        if "value" in r:
+            key = (r["dir"], r["robot"], r["attr"])
+            before = last.get(key, {})
+            assert r["value"] and all(before.get(k, object()) != v for k, v in r["value"].items())
+            last[key] = {**before, **r["value"]}
+    motion = next(r for r in records if r["attr"] == "motion_assignment")
+    assert isinstance(motion["value"]["task_id"], str)  # compact: the name, not a 75-byte object

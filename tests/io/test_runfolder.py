@@ -1,0 +1,68 @@
+"""Atomic run folders (issue 14 item 4, SPEC §6): complete or visibly incomplete, never mixed into."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.conftest import ROOT
+from transports.scripted import ScriptedTransport
+from vcran.cli import main
+from vcran.io.runfolder import RunFolderError
+from vcran.io.scenario_file import load
+from vcran.runner import run_to
+
+DEMO = ROOT / "scenarios" / "demo.toml"
+
+
+class Interrupted(Exception):
+    pass
+
+
+def test_interrupted_run_leaves_an_incomplete_folder_and_the_previous_run_intact(tmp_path, capsys):
+    scenario = load(DEMO)
+    out = tmp_path / "run"
+    run_to(scenario, out, ScriptedTransport(scenario.messages()))
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def stop_at_20(t: float, done: int) -> None:
+        if t >= 20:
+            raise Interrupted
+
+    with pytest.raises(Interrupted):
+        run_to(scenario, out, ScriptedTransport(scenario.messages()), progress=stop_at_20)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # untouched, still complete
+    partial = tmp_path / "run.incomplete"
+    assert sorted(p.name for p in partial.iterdir()) == ["events.jsonl.zst", "legs.npy", "trace.jsonl.zst"]
+    assert not (partial / "summary.json").exists()
+    # what was written before the interruption replays as far as it goes, as a killed live run does (§6)
+    assert main(["replay", str(partial), "--out", str(tmp_path / "rep"), "--verify"]) == 0
+    assert "has no end record" in capsys.readouterr().err
+
+    run_to(scenario, out, ScriptedTransport(scenario.messages()))  # the next run clears the leftover
+    assert not partial.exists()
+    assert json.loads((out / "summary.json").read_text())["sim_time"] == 57.0
+
+
+def test_a_folder_that_is_not_a_run_is_refused_and_left_alone(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me")
+    assert main(["run", str(DEMO), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran run: ") and "is not a vcran run folder" in err and err.count("\n") == 1
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+    assert not (tmp_path / "mine.incomplete").exists()
+    scenario = load(DEMO)
+    with pytest.raises(RunFolderError):
+        run_to(scenario, out, ScriptedTransport(scenario.messages()))
+
+
+def test_an_empty_folder_or_an_earlier_run_is_a_valid_out(tmp_path):
+    out = tmp_path / "empty"
+    out.mkdir()
+    assert main(["run", str(DEMO), "--out", str(out), "--quiet"]) == 0
+    assert main(["run", str(DEMO), "--out", str(out), "--quiet", "--report"]) in (0, 2)  # report needs matplotlib
+    assert main(["run", str(DEMO), "--out", str(out), "--quiet"]) == 0  # a run folder with its report
+    assert (out / "summary.json").exists() and not (out / "report").exists()  # replaced as a whole

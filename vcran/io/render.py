@@ -1,0 +1,180 @@
+"""Prepared converters: messages to plain JSON values, one generated function per message class.
+
+A trace writes millions of messages. Letting orjson walk each dataclass and call back into Python for
+every id costs several times more than handing it plain dicts; so each message class gets, once, a
+function generated from its schema (:func:`vcran.core.schema.specs`) that builds the dict directly,
+field by field, nested messages through their own converters and ids through one memoised renderer.
+Any message class, including ones added later, goes through the same path: nothing here names a field.
+
+Two id styles share the machinery: ``plain`` (trace v1 and ``vcran decode``: ``{"uuid", "description"}``)
+and ``compact`` (trace v2, docs/outputs.md): the name when the id is the stable id of its description
+(:func:`vcran.core.ids.id_for`), ``null`` for the nil id without description, else
+``[uuid, description]``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from vcran.core.ids import Id, canonical_uuid, id_for
+from vcran.core.schema import FieldSpec, specs
+
+Convert = Callable[[Any], Any]
+
+#: Bound of each id memo: a run renders the same few ids many times; memory must stay flat.
+_MEMO_LIMIT = 8_192
+
+
+def _plain_id(ident: Id) -> dict[str, str]:
+    return {"uuid": canonical_uuid(ident.uuid), "description": ident.description}
+
+
+def _compact_id(ident: Id) -> Any:
+    d = ident.description
+    if d and id_for(d).uuid == ident.uuid:
+        return d
+    if not d and ident.uuid == bytes(16):
+        return None
+    return [canonical_uuid(ident.uuid), d]
+
+
+def _memoised(render: Callable[[Id], Any]) -> Callable[[Id], Any]:
+    # Keyed by identity, holding the Id itself so that its address cannot be reused while memoised:
+    # Id equality ignores the description, which the rendering does not.
+    memo: dict[int, tuple[Id, Any]] = {}
+
+    def rendered(ident: Id) -> Any:
+        hit = memo.get(id(ident))
+        if hit is not None and hit[0] is ident:
+            return hit[1]
+        if len(memo) >= _MEMO_LIMIT:
+            memo.clear()
+        value = render(ident)
+        memo[id(ident)] = (ident, value)
+        return value
+
+    return rendered
+
+
+ID_STYLES: dict[str, Callable[[Id], Any]] = {"plain": _memoised(_plain_id), "compact": _memoised(_compact_id)}
+_CONVERTERS: dict[tuple[type, str], Convert] = {}
+
+
+def converter(cls: type, style: str = "plain") -> Convert:
+    """The function turning a ``cls`` message into its plain JSON value, ids in ``style``."""
+    key = (cls, style)
+    found = _CONVERTERS.get(key)
+    if found is not None:
+        return found
+    helpers: dict[str, Any] = {"_id": ID_STYLES[style]}
+    parts = []
+    for spec in specs(cls):
+        here = f"m.{spec.name}"
+        if spec.kind == "prim":
+            expr = here
+        elif spec.kind == "id":
+            expr = f"_id({here})"
+        elif spec.kind == "msg":
+            helpers[f"_c_{spec.name}"] = converter(spec.cls, style)  # type: ignore[arg-type]
+            expr = f"_c_{spec.name}({here})"
+        elif spec.cls is None:
+            expr = f"list({here})"
+        elif spec.cls is Id:
+            expr = f"[_id(i) for i in {here}]"
+        else:
+            helpers[f"_c_{spec.name}"] = converter(spec.cls, style)
+            expr = f"[_c_{spec.name}(i) for i in {here}]"
+        parts.append(f"{spec.name!r}: {expr}")
+    found = eval(f"lambda m: {{{', '.join(parts)}}}", helpers)  # noqa: S307 - source built from specs only
+    _CONVERTERS[key] = found
+    return found
+
+
+_DELTAS: dict[tuple[type, str], Callable[[Any, Any, dict[str, Any]], dict[str, Any]]] = {}
+
+
+def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, dict[str, Any]], dict[str, Any]]:
+    """``delta(message, last, full)``: the fields of ``message`` whose JSON value differs from ``full``
+    (the JSON value of ``last``, the previous message of the same stream), updating ``full`` in place.
+
+    A field holding the very object ``last`` held (a footprint, a task id: statuses share them from
+    tick to tick) is skipped without being converted, so an unchanged status costs a few identity tests.
+    """
+    key = (cls, style)
+    found = _DELTAS.get(key)
+    if found is not None:
+        return found
+    helpers: dict[str, Any] = {}
+    body = []
+    for spec in specs(cls):
+        name = spec.name
+        helpers[f"_c_{name}"] = _field_converter(spec, style)
+        body.append(
+            f" v = m.{name}\n"
+            f" if v is not last.{name}:\n"
+            f"  c = _c_{name}(v)\n"
+            f"  if c != full[{name!r}]:\n"
+            f"   full[{name!r}] = out[{name!r}] = c\n"
+        )
+    source = "def delta(m, last, full):\n out = {}\n" + "".join(body) + " return out\n"
+    exec(source, helpers)  # noqa: S102 - source built from specs only
+    found = _DELTAS[key] = helpers["delta"]
+    return found  # type: ignore[no-any-return]
+
+
+def _field_converter(spec: FieldSpec, style: str) -> Convert:
+    """The JSON value of one field, as :func:`converter` renders it."""
+    if spec.kind == "prim":
+        return lambda v: v
+    if spec.kind == "id":
+        return ID_STYLES[style]
+    if spec.kind == "msg":
+        return converter(spec.cls, style)  # type: ignore[arg-type]
+    if spec.cls is None:
+        return list
+    item = ID_STYLES[style] if spec.cls is Id else converter(spec.cls, style)
+    return lambda v: [item(i) for i in v]
+
+
+def to_json_value(message: Any, style: str = "plain") -> Any:
+    """``message`` as a plain JSON value through its class's prepared converter."""
+    return converter(type(message), style)(message)
+
+
+def from_compact_id(value: Any) -> Id:
+    """The inverse of the compact id style; raises ValueError for anything else."""
+    if value is None:
+        return Id(bytes(16))
+    if isinstance(value, str) and value:
+        return id_for(value)
+    if isinstance(value, list) and len(value) == 2 and all(isinstance(v, str) for v in value):
+        return Id.parse(value[0], value[1])
+    raise ValueError(f"not a compact id: {value!r}")
+
+
+def expand(cls: type, value: Any) -> Any:
+    """A compact (v2) JSON value of a ``cls`` message in the plain form, ids as ``{"uuid", "description"}``,
+    for :func:`vcran.core.plain.from_plain` to validate and build. Anything not shaped like ``cls`` is
+    passed through unchanged, so that from_plain names the problem."""
+    if not isinstance(value, dict):
+        return value
+    out = dict(value)
+    for spec in specs(cls):
+        if spec.name not in out:
+            continue
+        v = out[spec.name]
+        if spec.kind == "id":
+            out[spec.name] = _plain_of_compact(v)
+        elif spec.kind == "msg":
+            out[spec.name] = expand(spec.cls, v)  # type: ignore[arg-type]
+        elif spec.kind == "array" and spec.cls is not None and isinstance(v, list):
+            out[spec.name] = [_plain_of_compact(i) if spec.cls is Id else expand(spec.cls, i) for i in v]
+    return out
+
+
+def _plain_of_compact(value: Any) -> Any:
+    try:
+        return _plain_id(from_compact_id(value))
+    except ValueError:
+        return value

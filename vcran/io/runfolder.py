@@ -1,0 +1,70 @@
+"""Run folders that are complete or visibly incomplete (SPEC §6, §8).
+
+A run writes into a sibling of its ``--out`` folder named ``<name>.incomplete`` and renames it to
+``<name>`` only when every file is closed. A run that is interrupted, crashes or is killed leaves
+``<name>.incomplete`` behind (the next run into ``<name>`` clears it), never a folder that looks finished,
+and never a fresh partial trace beside an older run's ``summary.json``. An existing ``--out`` is
+replaced only when it is a vcran run folder; anything else is refused rather than mixed into.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+#: Everything a run folder may hold (both trace formats, `--report`'s subfolder, and the scenario a sweep
+#: keeps beside a run, docs/sweeps.md).
+RUN_FILES = frozenset({
+    "trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json",
+    "trace.jsonl", "telemetry.bin", "events.jsonl", "report", "scenario.toml",
+})
+INCOMPLETE = ".incomplete"
+
+
+class RunFolderError(ValueError):
+    """``--out`` cannot receive a run (it holds something else)."""
+
+
+def is_run_folder(path: Path) -> bool:
+    """A folder with a trace and nothing but what a run writes."""
+    names = {p.name for p in path.iterdir()}
+    return names <= RUN_FILES and bool(names & {"trace.jsonl.zst", "trace.jsonl"})
+
+
+def check_out(out: Path) -> None:
+    """Raise :class:`RunFolderError` unless ``out`` may receive a run: missing, empty, or a run folder."""
+    if out.name.endswith(INCOMPLETE):
+        raise RunFolderError(f"{out}: names an unfinished run's folder; choose another --out")
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise RunFolderError(f"{out}: exists and is not a folder")
+    if any(out.iterdir()) and not is_run_folder(out):
+        raise RunFolderError(f"{out}: exists and is not a vcran run folder; refusing to write a run into it "
+                             "(choose a new --out, or remove it)")
+
+
+def staging(out: Path) -> Path:
+    """A fresh, empty ``<out>.incomplete`` beside ``out`` (checked with :func:`check_out` first)."""
+    check_out(out)
+    work = out.with_name(out.name + INCOMPLETE)
+    try:
+        if work.exists():
+            shutil.rmtree(work)  # an earlier interrupted run into the same --out
+        work.mkdir(parents=True)
+    except OSError as exc:  # a read-only or missing parent, a file on the way: named as the --out it is for
+        raise RunFolderError(f"{out}: cannot create {work.name} beside it to write the run in: "
+                             f"{exc.strerror or exc}") from None
+    return work
+
+
+def publish(work: Path, out: Path) -> None:
+    """Put the finished run ``work`` in place of ``out``: renames, so a reader never sees a mix."""
+    old = None
+    if out.exists():
+        old = out.with_name(f"{out.name}.replaced-{os.getpid()}")
+        out.rename(old)
+    work.rename(out)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
