@@ -299,7 +299,7 @@ class RobotNode:
                     return None
                 cause = self._battery_empty_halt()
             elif cause is ABANDON:
-                self.fleet.abandon(i)
+                self.fleet.abandon(i, env.now)
                 self._segment(REST)
                 self._moved()
                 return cause
