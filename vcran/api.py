@@ -242,6 +242,9 @@ class Frames:
     def halt(self, robot: int, t: float) -> None:
         pass
 
+    def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None:
+        pass
+
     def end(self, t: float) -> None:
         pass
 

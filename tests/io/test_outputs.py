@@ -111,6 +111,84 @@ def test_a_halt_before_its_legs_end_within_one_tick_is_where_the_robot_rests(tmp
     assert samples(tmp_path / "run").tobytes() == published.tobytes()
 
 
+ABANDONED_LEGS = """[simulation]
+until_idle = true
+duration = 100.0
+task_timeout = 10.0
+
+[[robots]]
+id = "r0"
+pose = [0.0, 3.0, 0.0]
+max_velocity = 1.0
+
+[[robots]]
+id = "r1"
+pose = [0.0, 6.0, 0.0]
+max_velocity = 1.0
+
+[[script]]
+t = 0.0
+robot = "r0"
+kind = "motion"
+task = "A"
+id = "A_m1"
+seq = [1, 1]
+point = [0.0, 0.0, 0.0]
+
+[[script]]
+t = 0.0
+robot = "r0"
+kind = "cancel"
+task = "A"
+
+[[script]]
+t = 0.0
+robot = "r1"
+kind = "motion"
+task = "B"
+id = "B_m1"
+seq = [1, 4]
+point = [10.0, 6.0, 0.0]
+
+[[script]]
+t = 0.0
+robot = "r1"
+kind = "motion"
+task = "B"
+id = "B_m2"
+seq = [2, 4]
+point = [20.0, 6.0, 0.0]
+
+[[script]]
+t = 0.0
+robot = "r1"
+kind = "action"
+task = "B"
+id = "B_a3"
+seq = [3, 4]
+action = "dummy"
+"""
+
+
+def test_legs_abandoned_as_they_begin_are_not_in_the_evaluated_telemetry(tmp_path):  # R14, §6
+    """By hand (R14: a leg that began at the instant of a cancel or of a timeout's deadline is abandoned,
+    the robot stays where it began). r0's leg is dispatched at 0 and cancelled at 0: r0 rests at (0, 3)
+    at every tick. r1 reaches (10, 6) at 10, B's deadline (its position 4 never comes), and starts the leg
+    to (20, 6); the tick at 10 sees it leave at 1 m/s, the timer (10 + 1 µs) abandons that leg: r1 rests
+    at (10, 6) from then on. The fuzzer found the leg log keeping abandoned legs (the evaluated telemetry
+    drove r0 to (0, 0) after its task was cancelled), or it would put r1 1 µs down its leg."""
+    scenario = parse(tomllib.loads(ABANDONED_LEGS), "<abandon>")
+    transport = Frames(scenario.messages())
+    run_to(scenario, tmp_path / "run", transport)
+    published = np.vstack(transport.frames)  # columns: t, then x, y, theta, v, w per robot
+    assert (published[:, 1:6] == [0.0, 3.0, 0.0, 0.0, 0.0]).all()
+    ten = published[published[:, 0] == 10.0]
+    assert ten[0, 6:10].tolist() == [10.0, 6.0, 0.0, 1.0]  # leaving (10, 6) at the tick of its deadline
+    assert (published[published[:, 0] > 10.0, 6:11] == [10.0, 6.0, 0.0, 0.0, 0.0]).all()
+    assert published[-1, 0] > 10.0
+    assert samples(tmp_path / "run").tobytes() == published.tobytes()
+
+
 def test_events_carry_the_same_keys_in_the_same_order(tmp_path):
     scenario = load(ROOT / "scenarios" / "demo.toml")
     run_to(scenario, tmp_path / "run", ScriptedTransport(scenario.messages()))

@@ -145,3 +145,93 @@ def test_r14_a_missing_capability_fails_when_the_action_is_dispatched(run_toml):
     (f,) = out.of("failed")
     assert (f["t"], f["code"]) == (3.0, "action_not_capable")  # not 3 + 2 s of unloading
     assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(3.0, "action_failed")]
+
+
+#: Found by the fuzzer (tests/testing/test_fuzz_sim.py), as it printed it but for the robot's irrelevant
+#: geometry: ``vcran run`` of this crashed (exit 70) with "action 1t1_a2 finished but none was running".
+CAPABILITY_CANCEL_SAME_INSTANT = """
+[simulation]
+seed = 0
+duration = 5000.0
+until_idle = true
+task_timeout = 5.0
+[simulation.action_durations]
+dummy = 0.5
+load = 1.0
+unload = 1.5
+[[robots]]
+id = "robot_1"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 0.5
+actions = ["dummy", "load"]
+[[script]]
+t = 0.0
+robot = "robot_1"
+kind = "action"
+task = "1t1"
+id = "1t1_a1"
+seq = [1, 2]
+action = "dummy"
+[[script]]
+t = 0.0
+robot = "robot_1"
+kind = "cancel"
+task = "1t1"
+action = "1t1_a1"
+[[script]]
+t = 0.5
+robot = "robot_1"
+kind = "action"
+task = "1t1"
+id = "1t1_a2"
+seq = [2, 2]
+action = "unload"
+[[script]]
+t = 0.5
+robot = "robot_1"
+kind = "cancel"
+task = "1t1"
+"""
+
+
+def test_r14_a_cancel_at_the_instant_an_incapable_action_is_dispatched_abandons_it(run_toml):
+    """By hand. t=0: 1t1_a1 (position 1 of 2) queues 1t1, m = 0 (TASK > MOTION at once, R6); the partial
+    cancel skips 1t1_a1, not dispatched yet (R13). t=0.5: 1t1_a2 completes the assembly (R4/R5):
+    MOTION > ACTION, 1t1_a1 is passed over, 1t1_a2 is dispatched. The robot cannot unload, so 1t1_a2
+    would fail as it is dispatched (R14), a completion of t=0.5, which comes after that instant's inbound
+    messages (docs/determinism.md): the whole-task cancel of t=0.5 finds 1t1_a2 begun at its own instant
+    and abandons it (R14): nothing is performed, so nothing fails; 1t1 ends at 0.5, reason cancelled."""
+    out = run_toml(CAPABILITY_CANCEL_SAME_INSTANT)
+    assert [(e["t"], e["event"], e.get("to", e.get("task"))) for e in out.events] == [
+        (0.0, "task_queued", "1t1"), (0.0, "state", "TASK"), (0.0, "state", "MOTION"),
+        (0.0, "assignment_cancelled", "1t1"),
+        (0.5, "state", "ACTION"), (0.5, "task_cancelled", "1t1"), (0.5, "state", "WAITING"),
+    ]
+    assert out.of("assignment_cancelled")[0]["action"] == "1t1_a1"
+    assert out.of("task_cancelled")[0]["reason"] == "cancelled"
+    assert out.robot()["completed"] == [] and out.robot()["errors"] == 0
+    assert check_run(out.dir, 5.0, finished=True) == []
+
+
+def test_r14_an_incapable_action_fails_before_a_cancel_of_a_later_instant(run_toml):
+    """The same task with the cancel 1 s later: 1t1_a2 failed at 0.5, as dispatched (R14), so the task
+    ended then with reason action_failed, and the cancel of an ended task is a warning (R8)."""
+    out = run_toml(CAPABILITY_CANCEL_SAME_INSTANT.replace("t = 0.5\nrobot = \"robot_1\"\nkind = \"cancel\"",
+                                                          "t = 1.5\nrobot = \"robot_1\"\nkind = \"cancel\""))
+    assert [(e["t"], e["code"]) for e in out.of("failed")] == [(0.5, "action_not_capable")]
+    assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(0.5, "action_failed")]
+    assert [(e["t"], e["code"]) for e in out.of("rejected")] == [(1.5, "cancel_finished_task")]
+    assert [(e["t"], e["action"], e["ok"]) for e in out.of("action_finished")] == [(0.5, "1t1_a2", False)]
+
+
+def test_r14_a_battery_running_out_as_an_incapable_action_fails_stops_the_robot_then(run_toml):
+    """By hand: 1 Ah drawn at 0.25 Ah/s at rest runs out at exactly t=4, between telemetry ticks (3, 6).
+    The action dispatched at 4 fails there (R14), and the robot, empty, stops at 4 too (§4), not at the
+    next tick (6): the failure's zero-length wait (a completion of the instant) must not hide that instant."""
+    out = run_toml(script(action(4, "A", "A_a1", 1, 1, "unload")).replace(
+        "max_velocity = 1.0", "max_velocity = 1.0\nactions = [\"dummy\"]\n"
+        "[robots.battery]\ncapacity = 1.0\nper_idle_second = 0.25",
+    ).replace("task_timeout = 30.0", "task_timeout = 30.0\ntelemetry_period = 3.0"))
+    assert [(e["t"], e["code"]) for e in out.of("failed")] == [(4.0, "action_not_capable"), (4.0, "battery_empty")]
+    assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(4.0, "action_failed")]
+    assert [e["t"] for e in out.of("battery_empty")] == [4.0]

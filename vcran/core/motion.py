@@ -182,6 +182,8 @@ class LegObserver(Protocol):
 
     def halt(self, robot: int, t: float) -> None: ...
 
+    def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None: ...
+
 
 class FleetKinematics:
     """Every robot's current leg, sampled for the whole fleet at once.
@@ -263,12 +265,20 @@ class FleetKinematics:
         self.legs[i, C["t_end"]] = -np.inf
         return x, y, theta
 
-    def abandon(self, i: int) -> None:
-        """The leg of robot ``i`` did not happen (R14): it rests where the leg began, nothing driven."""
-        leg = self.current.pop(i)
+    def abandon(self, i: int, t: float) -> None:
+        """The leg of robot ``i`` did not happen (R14, at ``t``): it rests where the leg began, nothing driven."""
+        leg = self.current[i]
+        self.place(i, t, (leg.x0, leg.y0, wrap(leg.theta0)))
+
+    def place(self, i: int, t: float, pose: tuple[float, float, float]) -> None:
+        """Robot ``i`` rests at ``pose`` from ``t``, its current leg (if any) not driven: :meth:`abandon`,
+        and the leg log's abandon rows replayed (which come after a zero-length leg's end at a tie)."""
+        self.current.pop(i, None)
         self._changes += 1
-        self.rest[i, :3] = (leg.x0, leg.y0, wrap(leg.theta0))
+        self.rest[i, :3] = pose
         self.legs[i, C["t_end"]] = -np.inf
+        if self.observer is not None:
+            self.observer.abandon(i, t, pose)
 
     def distance(self, i: int, t: float) -> float:
         """Odometer of robot ``i`` at ``t``, including the driven part of its current leg."""

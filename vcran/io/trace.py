@@ -67,6 +67,8 @@ EVENT_KEYS = ("t", "robot", "event", "task", "motion", "action", "from", "to", "
 #: direction of travel) with its speed limits, timed from ``t0`` (``t`` itself, except for a leg resumed
 #: after a hold: the held leg shifted by the hold's length). A halt (pause, breakdown, a stop on its own;
 #: SPEC §4): every column but ``t`` and ``robot`` NaN; the robot rests where its leg had brought it at ``t``.
+#: An abandon (R14: the leg began at the instant of a cancel or deadline, and does not happen): a halt
+#: with ``x0``, ``y0``, ``theta0`` set, where the robot rests (where the leg began).
 LEG_DTYPE = np.dtype([("t", "<f8"), ("robot", "<u4"), ("t0", "<f8"), ("x0", "<f8"), ("y0", "<f8"),
                       ("theta0", "<f8"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
                       ("speed", "<f8"), ("accel", "<f8"), ("decel", "<f8"), ("turn_rate", "<f8")])
@@ -226,6 +228,10 @@ class TraceWriter:
     def halt(self, robot: int, t: float) -> None:
         """Robot ``robot`` halts mid-leg at ``t``: a row of NaN leg columns."""
         self._legs.write(t, robot, _HALT)
+
+    def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None:
+        """Robot ``robot``'s leg is abandoned at ``t`` (R14): a halt row giving the pose it rests at."""
+        self._legs.write(t, robot, (math.nan, *pose, *_HALT[4:]))
 
     def end(self, t: float) -> None:
         """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
@@ -479,7 +485,9 @@ def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarra
                 continue
             r = rows[j]
             i = int(r["robot"])
-            if math.isnan(r["t0"]):  # a halt: the robot rests where its leg had brought it
+            if math.isnan(r["t0"]) and not math.isnan(r["x0"]):  # an abandon: it rests where the leg began
+                fleet.place(i, float(r["t"]), (float(r["x0"]), float(r["y0"]), float(r["theta0"])))
+            elif math.isnan(r["t0"]):  # a halt: the robot rests where its leg had brought it
                 if i in fleet.current:
                     fleet.stop(i, float(r["t"]))
             else:

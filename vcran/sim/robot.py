@@ -299,7 +299,7 @@ class RobotNode:
                     return None
                 cause = self._battery_empty_halt()
             elif cause is ABANDON:
-                self.fleet.abandon(i)
+                self.fleet.abandon(i, env.now)
                 self._segment(REST)
                 self._moved()
                 return cause
@@ -353,7 +353,18 @@ class RobotNode:
                     self._stopped(halt)
                     continue
             outcome = self._precheck(kind)
-            if outcome is None:
+            if outcome is not None:
+                # R14: it fails at once, yet as a completion of this instant like any action's end
+                # (docs/determinism.md), so that a cancel of the same instant finds it running and abandons
+                # it; reported straight away, the failure would reach RanLogic after that cancel had ended
+                # the task. (No hold can come first: faults follow completions.)
+                halt = yield from self._work(after(self.env, 0.0, COMPLETION))
+                if halt is not None:
+                    assert halt is ABANDON or isinstance(halt, Halted)
+                    self._stopped(halt)
+                    continue
+                self.watch_idle()  # a resting battery that ran out meanwhile found the robot working
+            else:
                 duration = self._charge_time() if kind is ActionKind.CHARGE else self.durations[kind.value]
                 halt = yield from self._act(kind, duration)
                 if halt is not None:

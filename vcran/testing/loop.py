@@ -34,6 +34,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import strategies as st
 
 from vcran.core.faults import KINDS, RANDOM_KINDS, FaultSpec

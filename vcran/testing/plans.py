@@ -13,6 +13,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import strategies as st
 
 from vcran.core import build

@@ -29,6 +29,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import strategies as st
 
 from vcran.core import build

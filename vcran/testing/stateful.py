@@ -21,6 +21,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import event
 from hypothesis import strategies as st
 from hypothesis.control import currently_in_test_context

@@ -13,6 +13,10 @@ from collections.abc import Callable
 from functools import cache
 from typing import Any, TypeVar, cast
 
+from vcran.testing._extra import require_hypothesis
+
+require_hypothesis(__name__)
+
 from hypothesis import strategies as st
 
 from vcran.core.ids import Id
