@@ -47,7 +47,11 @@ if kind == "vcran":
     from pathlib import Path
     begin = time.perf_counter()
     scenario = load(sys.argv[2])
-    vcran.runner.run_to(scenario, Path(sys.argv[3]), ScriptedTransport(scenario.messages()))
+    try:  # what `vcran run` does: nothing reads the frames (a baseline checkout may predate the option)
+        transport = ScriptedTransport(scenario.messages(), frames=False)
+    except TypeError:
+        transport = ScriptedTransport(scenario.messages())
+    vcran.runner.run_to(scenario, Path(sys.argv[3]), transport)
     extra = {"in_process": time.perf_counter() - begin}
 elif kind == "cli":
     from vcran.cli import main

@@ -18,6 +18,8 @@ class TraceSink(Protocol):
     def inbound(self, t: float, inbound: Inbound) -> None: ...
     def publish(self, out: Publish) -> None: ...
     def frame(self, frame: Frame) -> None: ...
+    #: False if :meth:`frame` ignores frames (a file trace: the leg log determines them).
+    wants_frames: bool
     def leg(self, robot: int, leg: Leg, t: float) -> None: ...
     def halt(self, robot: int, t: float) -> None: ...
     def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None: ...
@@ -49,6 +51,10 @@ class RecordingTransport(Transport):
         else:
             self.writer.publish(out)
         self.inner.send(out)
+
+    @property
+    def wants_frames(self) -> bool:  # type: ignore[override]
+        return self.inner.wants_frames or self.writer.wants_frames or self._after_frame is not None
 
     @property
     def exhausted(self) -> bool:

@@ -26,6 +26,9 @@ class TraceError(ValueError):
 
 
 class ReplayTransport(Transport):
+    #: Outbound messages are dropped (the replay's own trace records them): no frames to sample.
+    wants_frames = False
+
     def __init__(self, trace: Path) -> None:
         self.trace = trace
         self._exhausted = False

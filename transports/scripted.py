@@ -22,8 +22,11 @@ from vcran.sim.timing import INBOUND, at
 
 
 class ScriptedTransport(Transport):
-    def __init__(self, script: Iterable[ScriptEntry]) -> None:
-        """``script`` must be in time order (``Scenario.messages()`` is); it is consumed lazily."""
+    def __init__(self, script: Iterable[ScriptEntry], *, frames: bool = True) -> None:
+        """``script`` must be in time order (``Scenario.messages()`` is); it is consumed lazily.
+        ``frames=False``: the fleet's ``current_motion`` is not kept (``last_frame`` stays None), so a
+        run that records only a trace does not sample the fleet every tick (:attr:`Transport.wants_frames`)."""
+        self.wants_frames = frames
         self._script: Iterator[ScriptEntry] = iter(script)
         self._exhausted = False
         self.latest: dict[tuple[str, str], Message] = {}

@@ -125,7 +125,7 @@ def run(
     transport: Transport
     loop: ClosedLoop | None = None
     if fleet_manager is None:
-        transport = ScriptedTransport(sc.messages())
+        transport = ScriptedTransport(sc.messages(), frames=False)
         options: dict[str, Any] = {"transport": "scripted"}
     else:
         transport = loop = ClosedLoop(sc, fleet_manager, events.write)
@@ -221,6 +221,8 @@ class EventList:
 class Frames:
     """The trace of an in-memory run: only the telemetry frames are kept (a trace without a file cannot
     be replayed, and the summary and events hold the rest)."""
+
+    wants_frames = True
 
     def __init__(self) -> None:
         self.frames: list[tuple[float, np.ndarray]] = []

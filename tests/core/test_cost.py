@@ -94,3 +94,24 @@ def test_history_is_bounded_by_count_and_by_bytes():
         by_count.remember(id_for(f"T{i}"), small)
     assert list(by_count) == [id_for("T3"), id_for("T4")]
     assert by_count.get(id_for("T2")) is None and by_count.get(id_for("T4")) is not None
+
+
+@given(
+    st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.none() | st.floats(-3, 3)), max_size=4),
+    st.lists(st.sampled_from(["load", "unload", "dummy"]), max_size=3),
+    st.floats(0, 2, allow_subnormal=False), st.floats(0, 1e5),
+)
+def test_repeated_task_is_the_task_built_again_under_its_new_name_and_stamp(path, actions, speed, stamp):
+    from vcran.core import build
+    from vcran.core.messages import ActionAssignment
+
+    if not path and not actions:
+        actions = ["dummy"]
+    first = build.task("c_0_1", path, actions, max_velocity=speed, stamp=3.0)
+    again = build.repeated(first, "c_7_1", stamp)
+    assert again == build.task("c_7_1", path, actions, max_velocity=speed, stamp=stamp)
+    # names too, not only what __eq__ compares (an Id compares by uuid)
+    motions = [m.motion_id.description for m in again if isinstance(m, MotionAssignment)]
+    assert motions == [f"c_7_1_m{i}" for i in range(1, len(path) + 1)]
+    assert [a.action_id.description for a in again if isinstance(a, ActionAssignment)] == \
+        [f"c_7_1_a{j}" for j in range(1, len(actions) + 1)]

@@ -318,3 +318,24 @@ def test_scripted_transport_holds_the_final_entity_state_like_orion(tmp_path):
     assert transport.last_frame is not None and transport.last_frame.t == 57.0
     assert transport.counts["current_motion"] == 58  # one per tick, t = 0 .. 57
     assert transport.counts["robot_description"] == 1
+
+
+def test_a_transport_that_wants_no_frames_gets_none_and_the_files_are_the_same(tmp_path, monkeypatch):
+    """§6: frames are sampled only for a consumer; a folder's files never depended on them."""
+    from transports.scripted import ScriptedTransport
+    from vcran.core.motion import FleetKinematics
+    from vcran.runner import run_to
+
+    scenario = load(ROOT / "scenarios" / "demo.toml")
+    with_frames = ScriptedTransport(scenario.messages())
+    run_to(scenario, tmp_path / "a", with_frames)
+    sampled: list[float] = []
+    original = FleetKinematics.sample
+    monkeypatch.setattr(FleetKinematics, "sample", lambda self, t: sampled.append(t) or original(self, t))
+    without = ScriptedTransport(scenario.messages(), frames=False)
+    run_to(scenario, tmp_path / "b", without)
+    # only the summary's final poses (SPEC §8), once; not the 58 ticks
+    assert sampled == [57.0] and without.last_frame is None and "current_motion" not in without.counts
+    assert without.latest == with_frames.latest  # the statuses published are the same
+    for name in ("trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name

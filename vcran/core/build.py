@@ -180,6 +180,32 @@ def task(
     return out
 
 
+def repeated(
+    messages: list[MotionAssignment | ActionAssignment], name: str, stamp: float
+) -> list[MotionAssignment | ActionAssignment]:
+    """The messages of :func:`task` (built with ``every=0``) as they would be built again for task ``name``
+    stamped ``stamp``: the same as ``task(name, ..., stamp=stamp, checked=False)``, without building
+    the shared parts again (script cycles repeat a checked task thousands of times)."""
+    header = _header(0, Time.from_seconds(stamp), "")
+    task_id = id_for(name)
+    out: list[MotionAssignment | ActionAssignment] = []
+    i = j = 0
+    for m in messages:
+        if isinstance(m, MotionAssignment):
+            i += 1
+            motion_id = id_for(f"{name}_m{i}")
+            out.append(_motion_assignment(
+                header=header, point_id=motion_id, task_id=task_id, motion_id=motion_id, point=m.point,
+                is_waypoint=m.is_waypoint, use_orientation=m.use_orientation, max_velocity=m.max_velocity,
+                max_acceleration=m.max_acceleration, motion_area=m.motion_area, sequence=m.sequence,
+            ))
+        else:
+            j += 1
+            out.append(_action_assignment(action_id=id_for(f"{name}_a{j}"), task_id=task_id, sequence=m.sequence,
+                                          robot_action=m.robot_action))
+    return out
+
+
 def _id(name: str | Id) -> Id:
     return name if isinstance(name, Id) else id_for(name)
 

@@ -117,16 +117,19 @@ class Cycle:
     max_velocity: float = 0.0
 
     def entries(self) -> Iterator[ScriptEntry]:
-        k = 0
-        while True:
-            start = self.t + k * self.every
-            if start >= self.until:
-                return
-            for i, spec in enumerate(self.tasks, start=1):
-                # Repetition k differs from the first, checked one only in names and times.
-                yield from task_entries(start, self.robot, f"{self.prefix}_{k}_{i}", spec, 0.0, self.max_velocity,
-                                        checked=k == 0)
+        if self.t >= self.until:
+            return
+        # The first repetition is built and checked; the others differ from it only in names and times,
+        # so they are its messages renamed and restamped (build.repeated), not built field by field.
+        first = [build.task(f"{self.prefix}_0_{i}", spec.path, spec.actions, max_velocity=self.max_velocity,
+                            stamp=self.t) for i, spec in enumerate(self.tasks, start=1)]
+        robot, k, start = self.robot, 0, self.t
+        while start < self.until:
+            for i, messages in enumerate(first, start=1):
+                for message in messages if k == 0 else build.repeated(messages, f"{self.prefix}_{k}_{i}", start):
+                    yield ScriptEntry(start, robot, _attribute(message), message)
             k += 1
+            start = self.t + k * self.every
 
 
 # --- the closed loop (SPEC §9): jobs, the link, the manager ----------------------------------------------
@@ -309,10 +312,13 @@ def _drop_none(value: Any) -> Any:
 
 
 def task_entries(
-    time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float, *, checked: bool = True
+    time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float
 ) -> Iterator[ScriptEntry]:
     """The messages of one task (:func:`vcran.core.build.task`), the ``k``-th at ``time + (k - 1) * every``."""
-    messages = build.task(task, spec.path, spec.actions, max_velocity=speed, stamp=time, every=every, checked=checked)
+    messages = build.task(task, spec.path, spec.actions, max_velocity=speed, stamp=time, every=every)
     for k, message in enumerate(messages):
-        attribute = "motion_assignment" if isinstance(message, MotionAssignment) else "action_assignment"
-        yield ScriptEntry(time + k * every, robot, attribute, message)
+        yield ScriptEntry(time + k * every, robot, _attribute(message), message)
+
+
+def _attribute(message: Message) -> str:
+    return "motion_assignment" if isinstance(message, MotionAssignment) else "action_assignment"

@@ -69,6 +69,11 @@ class Transport:
     package.
     """
 
+    #: Whether :meth:`send` takes telemetry :class:`Frame` objects. Sampling the whole fleet every tick
+    #: is a good part of a run's cost, so a transport that has no use for them says False and the RAN
+    #: skips them (SPEC §6: the trace's leg log, not the frames, determines the telemetry).
+    wants_frames: bool = True
+
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         """Start delivering inbound messages into ``env`` through ``deliver``."""
         raise NotImplementedError

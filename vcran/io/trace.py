@@ -212,6 +212,9 @@ class TraceWriter:
         head["value"] = value
         self._jsonl.write(dumps(head) + b"\n")
 
+    #: Telemetry ticks are not written: the leg log determines them (module docstring).
+    wants_frames = False
+
     def frame(self, frame: Frame) -> None:
         """Telemetry ticks are not written: the leg log determines them (module docstring)."""
 

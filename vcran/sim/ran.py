@@ -144,7 +144,7 @@ class Ran:
         while True:
             t = k * period
             yield at(self.env, t, TELEMETRY)
-            if fleet is not None:
+            if fleet is not None and self.transport.wants_frames:
                 self.transport.send(Frame(t, self._ids, fleet.sample(t)))
             if k == 0:  # everything is "changed" at start
                 for r in self.robots:

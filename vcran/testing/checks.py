@@ -264,13 +264,13 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
     from vcran.runner import run_to
 
     try:
-        result = run_to(scenario, work / "a", ScriptedTransport(scenario.messages()))
+        result = run_to(scenario, work / "a", ScriptedTransport(scenario.messages(), frames=False))
         idle = all(r.logic.idle for r in result.model.robots)
         problems = check_run(work / "a", scenario.settings.task_timeout, finished=idle)
         problems += overdue(result.model.robots, result.summary["sim_time"])
         if problems or not again:
             return problems
-        run_to(scenario, work / "b", ScriptedTransport(scenario.messages()))
+        run_to(scenario, work / "b", ScriptedTransport(scenario.messages(), frames=False))
         for name in _FILES:
             if (work / "a" / name).read_bytes() != (work / "b" / name).read_bytes():
                 return [f"{name} differs between two runs of the same scenario (§5)"]
