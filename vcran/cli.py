@@ -116,15 +116,26 @@ def main(argv: Sequence[str] | None = None) -> int:
                                    f"{type(exc).__name__}: {exc}", BUG)
 
 
-def console() -> NoReturn:
-    """The ``vcran`` command (and ``python -m vcran``): :func:`main`, then the exit.
+#: Allocations between young garbage collections in a ``vcran`` process (CPython's default: 700); the
+#: same figure :mod:`vcran.runner` uses while a run is under way.
+GC_THRESHOLD = 50_000
 
-    Everything the command writes is closed by the time :func:`main` returns, so the interpreter's
-    final garbage collection, which walks every object still alive (numpy, SimPy, vcran's modules and
-    classes: 40-60 ms of CPU, a tenth of a small ``vcran run``), finds nothing that needs finalising;
-    freezing the heap first lets the process end without that walk (``gc.freeze``: frozen objects are
-    left out of every collection). Only here, never in :func:`main`, which tests call in process.
+
+def console() -> NoReturn:
+    """The ``vcran`` command (and ``python -m vcran``): :func:`main`, then the exit. Only here, never in
+    :func:`main`, which tests call in process, is the process's garbage collector tuned, twice:
+
+    * Start-up (imports, the scenario, the model) creates long-lived objects only: modules, classes,
+      functions. With CPython's default threshold that is ~60 young and 5 middle collections before a
+      small ``vcran run`` starts, each walking objects that are never garbage; one young collection per
+      50,000 allocations makes it a handful (cycles are still collected, in larger batches).
+    * Everything the command writes is closed by the time :func:`main` returns, so the interpreter's
+      final collection, which walks every object still alive (numpy, SimPy, vcran's modules and classes:
+      40-60 ms of CPU, a tenth of a small ``vcran run``), finds nothing that needs finalising; freezing
+      the heap first lets the process end without that walk (frozen objects are left out of every
+      collection).
     """
+    gc.set_threshold(GC_THRESHOLD, *gc.get_threshold()[1:])
     code = main()
     gc.freeze()
     sys.exit(code)
