@@ -128,7 +128,7 @@ def console() -> NoReturn:
     * Start-up (imports, the scenario, the model) creates long-lived objects only: modules, classes,
       functions. With CPython's default threshold that is ~60 young and 5 middle collections before a
       small ``vcran run`` starts, each walking objects that are never garbage; one young collection per
-      50,000 allocations makes it a handful (cycles are still collected, in larger batches).
+      50,000 allocations makes it none (cycles are still collected, in larger batches).
     * Everything the command writes is closed by the time :func:`main` returns, so the interpreter's
       final collection, which walks every object still alive (numpy, SimPy, vcran's modules and classes:
       40-60 ms of CPU, a tenth of a small ``vcran run``), finds nothing that needs finalising; freezing

@@ -104,9 +104,9 @@ class Axes:
 def convex_axes(shape: np.ndarray) -> Axes | None:
     """The separating axes of ``shape`` if it is a valid convex polygon with an area, else None (shapely then).
 
-    Convex, valid and with an area: no edge of zero length, every corner turns the same way or goes
-    straight on (never back), at least one turns, and the boundary goes round exactly once (a pentagram
-    turns one way at every corner, but twice round). Decided in numpy from the corners alone: shapely is
+    Convex, valid and with an area: corner by corner (a corner given twice in a row counts once), the
+    boundary turns the same way or goes straight on (never back), turns at least once, and goes round
+    exactly once (a pentagram turns one way at every corner, but twice round). Decided in numpy from the corners alone: shapely is
     imported (11 ms of a run's start-up) only for the footprints that need it, which most fleets have none
     of, and an area comparison with the convex hull would call a convex polygon concave when the two areas
     round apart in the last bit.
