@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from vcran.core.ids import Id, canonical_uuid, id_for
+from vcran.core.ids import Id, NamedId, canonical_uuid, id_for
 from vcran.core.schema import FieldSpec, specs
 
 Convert = Callable[[Any], Any]
@@ -57,7 +57,18 @@ def _memoised(render: Callable[[Id], Any]) -> Callable[[Id], Any]:
     return rendered
 
 
-ID_STYLES: dict[str, Callable[[Id], Any]] = {"plain": _memoised(_plain_id), "compact": _memoised(_compact_id)}
+_compact_memoised = _memoised(_compact_id)
+
+
+def _compact(ident: Id) -> Any:
+    # An id made by id_for is known to be the stable id of its description without hashing it again
+    # (ids.NamedId): nearly every id of a scripted or generated run. Others go through the memo.
+    if type(ident) is NamedId:
+        return ident.description
+    return _compact_memoised(ident)
+
+
+ID_STYLES: dict[str, Callable[[Id], Any]] = {"plain": _memoised(_plain_id), "compact": _compact}
 _CONVERTERS: dict[tuple[type, str], Convert] = {}
 
 
