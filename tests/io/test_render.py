@@ -75,3 +75,18 @@ def test_delta_converter_writes_exactly_the_changed_fields(data):  # §6 v2: not
     assert full == after
     assert out == {k: v for k, v in after.items() if before[k] != v}
     assert delta_converter(type(first))(first, first, dict(before)) == {}  # the same message: nothing
+
+
+def test_delta_of_a_rebuilt_array():  # §6 v2: an array rebuilt with the same ids is unchanged, a relabelled id is not
+    from vcran.core.messages import RanStatus
+    from vcran.io.render import converter, delta_converter
+
+    a, b = id_for("task_1"), id_for("task_2")
+    first = RanStatus(state="ACTIVE", queue=(a, b), queued=2)
+    full = dict(converter(RanStatus, "compact")(first))
+    delta = delta_converter(RanStatus)
+    assert delta(RanStatus(state="ACTIVE", queue=(a, b), queued=2), first, full) == {}
+    relabelled = Id(b.uuid, "renamed")  # equal to b (same bytes), written differently
+    second = RanStatus(state="ACTIVE", queue=(a, relabelled), queued=2)
+    assert delta(second, first, full) == {"queue": ["task_1", [b.canonical, "renamed"]]}
+    assert delta(RanStatus(state="ACTIVE", queue=(a,), queued=1), second, full) == {"queue": ["task_1"], "queued": 1}
