@@ -99,6 +99,9 @@ class RanLogic:
         self._area_check = area_check
         self.state = State.WAITING
         self.queue: OrderedDict[Id, Task] = OrderedDict()
+        #: The queue's first task, the current one (R6), kept as the queue changes: statuses and every
+        #: input ask for it (about 26 times per task), and an OrderedDict's first value costs an Id hash.
+        self._head: Task | None = None
         self.history = History(history_limit, history_bytes)
         self.recent_completed: deque[Id] = deque(maxlen=RECENT)
         self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
@@ -310,6 +313,8 @@ class RanLogic:
         task = Task(a.task_id, now, self._arrivals, a.sequence.length, now + self.task_timeout)
         task.put(a, None)
         self.queue[task.id] = task
+        if self._head is None:
+            self._head = task
         self.version += 1
         self._emit(TaskQueued(task.id))
         if not task.assembled:
@@ -450,7 +455,7 @@ class RanLogic:
         self._start_next(now)
 
     def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
-        del self.queue[task.id]
+        self._dequeue(task)
         self._remember(task.id, Ended.of(task, reason, now, cancel))
         self.recent_cancelled.append(_task_end(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
@@ -490,7 +495,7 @@ class RanLogic:
                 self._complete(now, task)
 
     def _complete(self, now: float, task: Task) -> None:
-        del self.queue[task.id]
+        self._dequeue(task)
         self._remember(task.id, Ended.of(task, None, now))
         self.recent_completed.append(task.id)
         self.version += 1
@@ -518,7 +523,12 @@ class RanLogic:
         return self.state is State.MOTION and bool(task.route)
 
     def _current(self) -> Task | None:
-        return next(iter(self.queue.values()), None)
+        return self._head
+
+    def _dequeue(self, task: Task) -> None:
+        del self.queue[task.id]
+        if task is self._head:
+            self._head = next(iter(self.queue.values()), None)
 
     def _remember(self, task_id: Id, ended: Ended) -> None:
         """R9: keep the latest ``history_limit`` ended task ids (and no more than ``history_bytes``)."""
