@@ -58,6 +58,9 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
     }
 )
 
+#: TRANSITIONS by member name, for the check on every transition: an Enum's hash is a Python-level call.
+_TRANSITION_NAMES = frozenset((a._name_, b._name_) for a, b in TRANSITIONS)
+
 #: R14: two instants closer than this are the same instant (seconds).
 TOLERANCE = 1e-6
 
@@ -102,6 +105,10 @@ class RanLogic:
         #: The queue's first task, the current one (R6), kept as the queue changes: statuses and every
         #: input ask for it (about 26 times per task), and an OrderedDict's first value costs an Id hash.
         self._head: Task | None = None
+        #: Tasks that left the queue so far; with ``_arrivals`` and the state, what ``ran_status`` shows
+        #: is a function of these three (the last one built is kept in ``_status``).
+        self._ended = 0
+        self._status: tuple[tuple[State, int, int], RanStatus] | None = None
         self.history = History(history_limit, history_bytes)
         self.recent_completed: deque[Id] = deque(maxlen=RECENT)
         self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
@@ -255,14 +262,22 @@ class RanLogic:
         return task.action_at(task.next_action).action_id
 
     def ran_status(self) -> RanStatus:
-        return _ran_status(
-            state=self.state.value,
+        """The status as published. Built again only when what it shows changed: the state, or the
+        queue (a task arrived or ended); telemetry asks for it whenever anything of the robot changed."""
+        key = (self.state, self._arrivals, self._ended)
+        cached = self._status
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        status = _ran_status(
+            state=self.state._value_,
             current_task_id=self.current_task,
             queue=tuple(islice(self.queue, QUEUE_SHOWN)),
             queued=len(self.queue),
             completed=tuple(self.recent_completed),
             cancelled=tuple(self.recent_cancelled),
         )
+        self._status = (key, status)
+        return status
 
     @property
     def idle(self) -> bool:
@@ -510,7 +525,7 @@ class RanLogic:
             self._advance(now)
 
     def _set_state(self, to: State) -> None:
-        if (self.state, to) not in TRANSITIONS:
+        if (self.state._name_, to._name_) not in _TRANSITION_NAMES:
             raise AssertionError(f"{self.robot}: transition {self.state.value} -> {to.value} does not exist (R6)")
         self._emit(StateChanged(self.state, to))
         self.state = to
@@ -527,6 +542,7 @@ class RanLogic:
 
     def _dequeue(self, task: Task) -> None:
         del self.queue[task.id]
+        self._ended += 1
         if task is self._head:
             self._head = next(iter(self.queue.values()), None)
 
