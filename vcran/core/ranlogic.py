@@ -58,6 +58,10 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
     }
 )
 
+#: The states as module constants: a member looked up on its Enum class goes through the metaclass (about
+#: twice the cost of a global), and the state machine compares states several times per input.
+_WAITING, _TASK, _MOTION, _ACTION = State.WAITING, State.TASK, State.MOTION, State.ACTION
+
 #: TRANSITIONS by member name, for the check on every transition: an Enum's hash is a Python-level call.
 _TRANSITION_NAMES = frozenset((a._name_, b._name_) for a, b in TRANSITIONS)
 
@@ -100,7 +104,7 @@ class RanLogic:
         self.history_limit = history_limit
         #: Returns why a motion's target is outside its motion area (R12), or None.
         self._area_check = area_check
-        self.state = State.WAITING
+        self.state = _WAITING
         self.queue: OrderedDict[Id, Task] = OrderedDict()
         #: The queue's first task, the current one (R6), kept as the queue changes: statuses and every
         #: input ask for it (about 26 times per task), and an OrderedDict's first value costs an Id hash.
@@ -281,7 +285,7 @@ class RanLogic:
 
     @property
     def idle(self) -> bool:
-        return self.state is State.WAITING and not self.queue
+        return self.state is _WAITING and not self.queue
 
     # --- assignments (R1, R2, R9, R10) ------------------------------------------------------------------
 
@@ -337,7 +341,7 @@ class RanLogic:
             # to the nanosecond so that the instant reads as the scenario would write it.
             self._emit(StartTimer(task.id, round(task.deadline + TOLERANCE, 9)))
         if len(self.queue) == 1:
-            self._set_state(State.TASK)
+            self._set_state(_TASK)
         self._settle(now, task, a)
 
     def _settle(self, now: float, task: Task, a: Assignment) -> None:
@@ -484,22 +488,22 @@ class RanLogic:
         """Move the current task as far as what has been received allows."""
         task = self._current()
         assert task is not None
-        if self.state is State.TASK:
+        if self.state is _TASK:
             m = task.motion_count()
             if m is None:
                 return
             task.m = m
             task.next_action = m + 1
             task.route.extend(p for p in range(1, m + 1) if p not in task.skipped)
-            self._set_state(State.MOTION)
+            self._set_state(_MOTION)
             if task.route:
                 task.since = now
                 self._emit(DispatchPath(task.id, task.path()))
-        if self.state is State.MOTION:
+        if self.state is _MOTION:
             if task.route or not task.actions_complete():
                 return
-            self._set_state(State.ACTION)
-        if self.state is State.ACTION and not task.action_running:
+            self._set_state(_ACTION)
+        if self.state is _ACTION and not task.action_running:
             task.skip_cancelled_actions()
             if task.next_action <= task.length:
                 task.action_running = True
@@ -518,10 +522,10 @@ class RanLogic:
         self._start_next(now)
 
     def _start_next(self, now: float) -> None:
-        if self.state is not State.WAITING:
-            self._set_state(State.WAITING)
+        if self.state is not _WAITING:
+            self._set_state(_WAITING)
         if self.queue:
-            self._set_state(State.TASK)
+            self._set_state(_TASK)
             self._advance(now)
 
     def _set_state(self, to: State) -> None:
@@ -535,7 +539,7 @@ class RanLogic:
 
     def _driving(self, task: Task) -> bool:
         """The AGV is on a leg of ``task``'s path (``task`` being the current task)."""
-        return self.state is State.MOTION and bool(task.route)
+        return self.state is _MOTION and bool(task.route)
 
     def _current(self) -> Task | None:
         return self._head
