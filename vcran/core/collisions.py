@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from itertools import product
 
 import numpy as np
 
@@ -81,7 +82,10 @@ class Track:
             x, y, _ = self.pose
             return x - r, y - r, x + r, y + r
         leg = self.leg
-        (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
+        if t0 == -math.inf and t1 == math.inf:  # the whole leg: it spans its start and its point
+            xa, ya, xb, yb = leg.x0, leg.y0, leg.x1, leg.y1
+        else:
+            (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
         r += BOX_PAD
         return min(xa, xb) - r, min(ya, yb) - r, max(xa, xb) + r, max(ya, yb) + r
 
@@ -287,8 +291,11 @@ class Grid:
 
     def _keys(self, box: tuple[float, float, float, float]) -> tuple[tuple[int, int], ...]:
         c = self.cell
-        x0, y0, x1, y1 = (math.floor(v / c) for v in box)
-        return tuple((gx, gy) for gx in range(x0, x1 + 1) for gy in range(y0, y1 + 1))
+        x0, y0, x1, y1 = box
+        gx0, gy0, gx1, gy1 = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
+        if gx0 == gx1 and gy0 == gy1:
+            return ((gx0, gy0),)
+        return tuple(product(range(gx0, gx1 + 1), range(gy0, gy1 + 1)))
 
     def file(self, index: int, box: tuple[float, float, float, float]) -> set[int]:
         """File ``index`` under ``box``; return the other robots sharing one of its cells.
@@ -298,23 +305,21 @@ class Grid:
         would double the grid's work.
         """
         keys = self._keys(box)
-        old = self.filed.get(index, ())
-        if not old or not set(keys).issubset(old):
-            for key in old:
-                members = self.cells[key]
+        old = self.filed.get(index)
+        cells = self.cells
+        if keys != old and (old is None or not set(keys).issubset(old)):
+            for key in old or ():
+                members = cells[key]
                 members.discard(index)
                 if not members:
-                    del self.cells[key]
+                    del cells[key]
             self.filed[index] = keys
-            cells = self.cells
             for key in keys:
                 found = cells.get(key)
                 if found is None:
                     cells[key] = {index}
                 else:
                     found.add(index)
-        near: set[int] = set()
-        for key in keys:
-            near |= self.cells[key]
+        near = cells[keys[0]].union(*[cells[key] for key in keys[1:]])
         near.discard(index)
         return near
