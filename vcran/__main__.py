@@ -1,5 +1,3 @@
-import sys
+from vcran.cli import console
 
-from vcran.cli import main
-
-sys.exit(main())
+console()

@@ -14,13 +14,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 
 from transports.scripted import ScriptedTransport
-from vcran.core.jobs import JobRecord
-from vcran.core.manager import FleetManager
 from vcran.core.motion import Leg
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Frame, Inbound, Publish, Transport
@@ -28,11 +26,15 @@ from vcran.io.runfolder import publish, staging
 from vcran.io.scenario_file import ScenarioError, load
 from vcran.io.trace import EVENTS_FILE, event_records, events_beside, long_table, telemetry_table, trace_in
 from vcran.runner import EventLog, run_model, trace_writer, write_summary
-from vcran.sim.loop import ClosedLoop
 from vcran.sim.model import Model
 
+if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager (a scripted run never does)
+    from vcran.core.jobs import JobRecord
+    from vcran.core.manager import FleetManager
+    from vcran.sim.loop import ClosedLoop
+
 #: What names a fleet manager: an instance, a FleetManager subclass, or ``"module:Class"``.
-ManagerLike = FleetManager | type[FleetManager] | str
+ManagerLike: TypeAlias = "FleetManager | type[FleetManager] | str"
 
 
 class ManagerError(ValueError):
@@ -128,6 +130,8 @@ def run(
         transport = ScriptedTransport(sc.messages(), frames=False)
         options: dict[str, Any] = {"transport": "scripted"}
     else:
+        from vcran.sim.loop import ClosedLoop
+
         transport = loop = ClosedLoop(sc, fleet_manager, events.write)
         options = {"transport": "loop", "manager": name, "link": sc.link.as_dict()}
     trace = trace_writer(sc, work, options) if work is not None else Frames()
@@ -170,6 +174,8 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
         manager, options = scenario.manager.path, dict(scenario.manager.options)
     if manager is None:
         return None, ""
+    from vcran.core.manager import FleetManager
+
     if isinstance(manager, FleetManager):
         return manager, _name(type(manager))
     cls = _import(manager) if isinstance(manager, str) else manager

@@ -60,6 +60,9 @@ class ClosingEventSink(EventSink, Protocol):
 
 @dataclass(frozen=True, slots=True)
 class RunResult:
+    """What :func:`run_to` returns: the summary (as written to summary.json), how many events were
+    written, the wall-clock seconds the run took, and the model as it ended."""
+
     summary: dict[str, Any]
     events: int
     wall_seconds: float

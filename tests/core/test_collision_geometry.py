@@ -66,6 +66,36 @@ def test_s4_a_concave_footprint_is_not_tested_by_its_hull():
     assert touch(track(0, ell), track(1, small, pose=(1.6, 1.2, 0.0)))  # reaches below y = 1: in the L's foot
 
 
+def _regular(n, step=1):
+    return tuple((math.cos(2 * math.pi * i * step / n), math.sin(2 * math.pi * i * step / n)) for i in range(n))
+
+
+@pytest.mark.parametrize(
+    ("points", "convex"),
+    [
+        (SQUARE, True),
+        (SQUARE[::-1], True),  # clockwise: every corner turns right
+        # a regular pentagon: convex, though its area and its convex hull's round apart in the last bit
+        (_regular(5), True),
+        # the square with a corner given twice, or a point halfway along its top edge: still the square
+        (SQUARE[:2] + SQUARE[1:], True),
+        ((SQUARE[0], (0.0, 0.5)) + SQUARE[1:], True),
+        # a pentagram: every corner turns the same way, but the boundary goes round twice
+        (_regular(5, step=2), False),
+        # an arrowhead (dart): (1, 2) -> (0, 0) -> (1, 0.5) turns the other way at (1, 0.5)
+        (((0, 0), (1, 0.5), (2, 0), (1, 2)), False),
+        # a spike: the top edge goes out to (1.5, 0.5) and straight back along itself
+        (((0.5, 0.5), (1.5, 0.5), (0.5, 0.5), (-0.5, 0.5), (-0.5, -0.5), (0.5, -0.5)), False),
+        # no area: three corners on one line
+        (((0, 0), (1, 0), (2, 0)), False),
+    ],
+    ids=["square", "clockwise", "pentagon", "repeated-corner", "collinear-corner", "pentagram", "dart", "spike",
+         "flat"],
+)
+def test_s4_separating_axes_are_used_for_exactly_the_convex_footprints(points, convex):
+    assert (convex_axes(shape_of(points)[0]) is not None) is convex
+
+
 @pytest.mark.parametrize("convex", [True, False], ids=["separating-axes", "shapely"])
 def test_s4_contact_instants_are_refined_to_the_time_tolerance(convex):
     # a square drives from (0, 0) to (10, 0) at a constant 2 m/s (no ramps) toward a square at rest at (6, 0):

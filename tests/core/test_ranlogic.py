@@ -246,6 +246,20 @@ def test_r8_cancel_queued_task_removes_it():
     assert list(logic.queue) == [T("A")] and not states(out)
 
 
+def test_r8_ran_status_shows_a_queued_task_cancelled_while_the_state_stays():
+    """§8 ran_status after a cancel that changes neither the state nor the arrivals: B leaves the queue
+    and shows as cancelled (ran_status is rebuilt only when what it shows changed)."""
+    logic = RanLogic("r")
+    two_motion_task(logic, 0, "A")
+    two_motion_task(logic, 3, "B")
+    before = logic.ran_status()
+    assert before.state == "MOTION" and before.queue == (T("A"), T("B")) and before.cancelled == ()
+    logic.on_cancel(10, cancel("B"))
+    after = logic.ran_status()
+    assert after.state == "MOTION" and after.queue == (T("A"),) and after.queued == 1
+    assert [(end.task_id, end.reason) for end in after.cancelled] == [(T("B"), "cancelled")]
+
+
 def test_r8_cancel_current_task_waits_for_running_leg_then_next_starts():
     logic = RanLogic("r")
     logic.on_motion(0, motion("A", "A_m1", 1, 4, 1, 0))

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import pickle
+
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.core.ids import NIL, Id, id_for
+from vcran.core.ids import NIL, Id, NamedId, id_for
 from vcran.core.messages import ATTRIBUTES
 from vcran.core.plain import to_plain
 from vcran.io.render import ID_STYLES, expand, from_compact_id, to_json_value
@@ -40,6 +44,25 @@ def test_compact_ids_by_hand():
         assert back == ident and back.description == ident.description
 
 
+def test_compact_id_of_an_id_not_made_by_id_for():  # docs/ids.md: the rendering depends on bytes and text only
+    compact = ID_STYLES["compact"]
+    decoded = Id.from_octets(list(id_for("task_8").uuid), "task_8")  # as a peer's payload decodes
+    assert type(decoded) is Id and compact(decoded) == "task_8"
+    assert compact(Id(id_for("task_8").uuid, "task_9")) == [id_for("task_8").canonical, "task_9"]
+
+
+def test_named_ids_stay_honest():  # ids.NamedId: the class vouches for its bytes; nothing else may claim it
+    named = id_for("task_10")
+    assert type(named) is NamedId and named == Id(named.uuid) and hash(named) == hash(Id(named.uuid))
+    relabelled = dataclasses.replace(named, description="task_11")
+    assert type(relabelled) is Id and relabelled == named
+    assert ID_STYLES["compact"](relabelled) == [named.canonical, "task_11"]
+    assert type(NamedId(id_for("x").uuid, "y")) is Id
+    for copied in (pickle.loads(pickle.dumps(named)), copy.deepcopy(named), copy.copy(named)):
+        assert type(copied) is NamedId and copied.description == "task_10" and copied.uuid == named.uuid
+    assert repr(named) == f"Id('{named.canonical}', 'task_10')"
+
+
 @given(st.data())
 def test_delta_converter_writes_exactly_the_changed_fields(data):  # §6 v2: nothing repeated
     from vcran.io.render import converter, delta_converter
@@ -52,3 +75,18 @@ def test_delta_converter_writes_exactly_the_changed_fields(data):  # §6 v2: not
     assert full == after
     assert out == {k: v for k, v in after.items() if before[k] != v}
     assert delta_converter(type(first))(first, first, dict(before)) == {}  # the same message: nothing
+
+
+def test_delta_of_a_rebuilt_array():  # §6 v2: an array rebuilt with the same ids is unchanged, a relabelled id is not
+    from vcran.core.messages import RanStatus
+    from vcran.io.render import converter, delta_converter
+
+    a, b = id_for("task_1"), id_for("task_2")
+    first = RanStatus(state="ACTIVE", queue=(a, b), queued=2)
+    full = dict(converter(RanStatus, "compact")(first))
+    delta = delta_converter(RanStatus)
+    assert delta(RanStatus(state="ACTIVE", queue=(a, b), queued=2), first, full) == {}
+    relabelled = Id(b.uuid, "renamed")  # equal to b (same bytes), written differently
+    second = RanStatus(state="ACTIVE", queue=(a, relabelled), queued=2)
+    assert delta(second, first, full) == {"queue": ["task_1", [b.canonical, "renamed"]]}
+    assert delta(RanStatus(state="ACTIVE", queue=(a,), queued=1), second, full) == {"queue": ["task_1"], "queued": 1}

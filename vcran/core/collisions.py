@@ -19,9 +19,9 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from itertools import product
 
 import numpy as np
-import shapely
 
 from vcran.core.motion import Leg, sample_leg
 
@@ -82,7 +82,10 @@ class Track:
             x, y, _ = self.pose
             return x - r, y - r, x + r, y + r
         leg = self.leg
-        (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
+        if t0 == -math.inf and t1 == math.inf:  # the whole leg: it spans its start and its point
+            xa, ya, xb, yb = leg.x0, leg.y0, leg.x1, leg.y1
+        else:
+            (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
         r += BOX_PAD
         return min(xa, xb) - r, min(ya, yb) - r, max(xa, xb) + r, max(ya, yb) + r
 
@@ -103,13 +106,27 @@ class Axes:
 
 
 def convex_axes(shape: np.ndarray) -> Axes | None:
-    """The separating axes of ``shape`` if it is a valid convex polygon with an area, else None (shapely then)."""
+    """The separating axes of ``shape`` if it is a valid convex polygon with an area, else None (shapely then).
+
+    Convex, valid and with an area: corner by corner (a corner given twice in a row counts once), the
+    boundary turns the same way or goes straight on (never back), turns at least once, and goes round
+    exactly once (a pentagram turns one way at every corner, but twice round). Decided in numpy from the corners alone: shapely is
+    imported (11 ms of a run's start-up) only for the footprints that need it, which most fleets have none
+    of, and an area comparison with the convex hull would call a convex polygon concave when the two areas
+    round apart in the last bit.
+    """
     if len(shape) < 3:
         return None
-    polygon = shapely.Polygon(shape)
-    if not polygon.is_valid or polygon.area <= 0.0 or polygon.area != polygon.convex_hull.area:
-        return None
     edges = np.roll(shape, -1, axis=0) - shape
+    sides = edges[(edges != 0.0).any(axis=1)]  # a corner given twice in a row is one corner
+    following = np.roll(sides, -1, axis=0)
+    cross = sides[:, 0] * following[:, 1] - sides[:, 1] * following[:, 0]
+    dot = np.einsum("ij,ij->i", sides, following)
+    one_way = bool(np.all(cross >= 0.0) or np.all(cross <= 0.0)) and bool(np.any(cross != 0.0))
+    if not one_way or np.any((cross == 0.0) & (dot <= 0.0)):
+        return None
+    if round(abs(float(np.arctan2(cross, dot).sum())) / (2.0 * math.pi)) != 1:
+        return None
     normals = np.column_stack((-edges[:, 1], edges[:, 0]))
     own = normals @ shape.T
     return Axes(normals, own.min(axis=1), own.max(axis=1))
@@ -126,6 +143,8 @@ def _corners(track: Track, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def footprints(track: Track, poses: np.ndarray) -> np.ndarray:
     """The footprint polygons at ``poses`` (a shapely array)."""
+    import shapely  # only for concave footprints and contact points (see convex_axes)
+
     return shapely.polygons(np.stack(_corners(track, poses), axis=-1))
 
 
@@ -165,6 +184,8 @@ def touching(a: Track, b: Track, times: np.ndarray) -> np.ndarray:
         if a.axes is not None and b.axes is not None:
             out[near] = _convex_touching(a, b, pa[near], pb[near])
         else:
+            import shapely
+
             out[near] = shapely.intersects(footprints(a, pa[near]), footprints(b, pb[near]))
     return out
 
@@ -250,6 +271,8 @@ def _refine(a: Track, b: Track, lo: float, hi: float, want: bool) -> float:
 def contact_point(a: Track, b: Track, t: float) -> tuple[float, float]:
     """Where the footprints meet at ``t``: the centroid of their intersection (a corner, when they just touch)."""
     times = np.array([t])
+    import shapely
+
     fa, fb = footprints(a, a.poses(times))[0], footprints(b, b.poses(times))[0]
     c = shapely.intersection(fa, fb).centroid
     if c.is_empty:  # not touching after all (the caller asked at a separation): midway between the robots
@@ -268,8 +291,11 @@ class Grid:
 
     def _keys(self, box: tuple[float, float, float, float]) -> tuple[tuple[int, int], ...]:
         c = self.cell
-        x0, y0, x1, y1 = (math.floor(v / c) for v in box)
-        return tuple((gx, gy) for gx in range(x0, x1 + 1) for gy in range(y0, y1 + 1))
+        x0, y0, x1, y1 = box
+        gx0, gy0, gx1, gy1 = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
+        if gx0 == gx1 and gy0 == gy1:
+            return ((gx0, gy0),)
+        return tuple(product(range(gx0, gx1 + 1), range(gy0, gy1 + 1)))
 
     def file(self, index: int, box: tuple[float, float, float, float]) -> set[int]:
         """File ``index`` under ``box``; return the other robots sharing one of its cells.
@@ -279,23 +305,21 @@ class Grid:
         would double the grid's work.
         """
         keys = self._keys(box)
-        old = self.filed.get(index, ())
-        if not old or not set(keys).issubset(old):
-            for key in old:
-                members = self.cells[key]
+        old = self.filed.get(index)
+        cells = self.cells
+        if keys != old and (old is None or not set(keys).issubset(old)):
+            for key in old or ():
+                members = cells[key]
                 members.discard(index)
                 if not members:
-                    del self.cells[key]
+                    del cells[key]
             self.filed[index] = keys
-            cells = self.cells
             for key in keys:
                 found = cells.get(key)
                 if found is None:
                     cells[key] = {index}
                 else:
                     found.add(index)
-        near: set[int] = set()
-        for key in keys:
-            near |= self.cells[key]
+        near = cells[keys[0]].union(*[cells[key] for key in keys[1:]])
         near.discard(index)
         return near

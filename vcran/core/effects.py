@@ -118,7 +118,9 @@ class StateChanged(Event):
     to: State
 
     def fields(self) -> dict[str, Any]:
-        return {"from": self.from_.value, "to": self.to.value}
+        # ``_value_``: the member's value as stored; ``.value`` is a Python-level descriptor, and a run
+        # logs a few state changes per task.
+        return {"from": self.from_._value_, "to": self.to._value_}
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,6 +20,7 @@ import re
 import uuid as _uuid
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 VCRAN_NAMESPACE = _uuid.uuid5(_uuid.NAMESPACE_URL, "https://github.com/vcran/vcran/ids")
 
@@ -111,14 +112,41 @@ def canonical_uuid(octets: bytes) -> str:
 NIL = Id(bytes(16))
 
 
+class NamedId(Id):
+    """An :class:`Id` made by :func:`id_for`: its bytes are the stable id of its description.
+
+    Equal to and hashed like any other Id with the same bytes; the class itself is the only difference. A
+    trace writes such an id as its bare name (:mod:`vcran.io.render`), and finding out whether an arbitrary
+    id is one meant hashing its description again: on a 1000-robot run that uuid5 per rendered id was a
+    tenth of the CPU (the memo of :func:`id_for` cannot hold a big fleet's names).
+
+    Only :func:`id_for` makes them: calling the class (as ``dataclasses.replace`` does) gives a plain Id,
+    since nothing then vouches that the bytes belong to the description; a copy or a pickle is the
+    name's id again.
+    """
+
+    __slots__ = ()
+
+    def __new__(cls, uuid: bytes, description: str = "") -> Id:  # type: ignore[misc]
+        return Id(uuid, description)
+
+    def __reduce__(self) -> tuple[Any, tuple[str]]:
+        return id_for, (self.description,)
+
+
+def _named(uuid: bytes, name: str) -> Id:
+    ident = object.__new__(NamedId)
+    object.__setattr__(ident, "uuid", uuid)
+    object.__setattr__(ident, "description", name)
+    return ident
+
+
 @lru_cache(maxsize=4096)
 def id_for(name: str) -> Id:
     """The stable id of a scenario name (module docstring); the name becomes the description."""
     if not isinstance(name, str) or not name:
         raise IdError(f"an id name must be a non-empty string, got {name!r}")
-    if _CANONICAL.match(name):
-        return Id(_uuid.UUID(name).bytes, name)
-    return Id(uuid5_bytes(name), name)
+    return _named(_uuid.UUID(name).bytes if _CANONICAL.match(name) else uuid5_bytes(name), name)
 
 
 _NAMESPACE_SHA1 = hashlib.sha1(VCRAN_NAMESPACE.bytes, usedforsecurity=False)

@@ -57,6 +57,8 @@ class Time(Message):
 
 @dataclass(frozen=True, slots=True)
 class Header(Message):
+    """A ROS header: sequence number, time stamp and frame of the message it heads."""
+
     ROS_TYPE = "std_msgs.Header"
     seq: UInt32 = 0
     stamp: Time = field(default_factory=Time)
@@ -65,6 +67,8 @@ class Header(Message):
 
 @dataclass(frozen=True, slots=True)
 class Vector3(Message):
+    """A 3-vector: the linear or angular part of a twist or an acceleration."""
+
     ROS_TYPE = "geometry_msgs.Vector3"
     x: Float64 = 0.0
     y: Float64 = 0.0
@@ -73,6 +77,8 @@ class Vector3(Message):
 
 @dataclass(frozen=True, slots=True)
 class Twist(Message):
+    """Linear and angular velocity (a motion's limits, a robot's current velocity)."""
+
     ROS_TYPE = "geometry_msgs.Twist"
     linear: Vector3 = field(default_factory=Vector3)
     angular: Vector3 = field(default_factory=Vector3)
@@ -80,6 +86,8 @@ class Twist(Message):
 
 @dataclass(frozen=True, slots=True)
 class Accel(Message):
+    """Linear and angular acceleration (a motion's limits)."""
+
     ROS_TYPE = "geometry_msgs.Accel"
     linear: Vector3 = field(default_factory=Vector3)
     angular: Vector3 = field(default_factory=Vector3)
@@ -87,6 +95,8 @@ class Accel(Message):
 
 @dataclass(frozen=True, slots=True)
 class Pose2D(Message):
+    """A pose in the plane: position and heading in radians (a motion's target point)."""
+
     ROS_TYPE = "geometry_msgs.Pose2D"
     x: Float64 = 0.0
     y: Float64 = 0.0
@@ -95,6 +105,8 @@ class Pose2D(Message):
 
 @dataclass(frozen=True, slots=True)
 class Point(Message):
+    """A point in space (a pose's position)."""
+
     ROS_TYPE = "geometry_msgs.Point"
     x: Float64 = 0.0
     y: Float64 = 0.0
@@ -103,6 +115,8 @@ class Point(Message):
 
 @dataclass(frozen=True, slots=True)
 class Point32(Message):
+    """A point in space in single precision (a polygon's corner)."""
+
     ROS_TYPE = "geometry_msgs.Point32"
     x: Float32 = 0.0
     y: Float32 = 0.0
@@ -111,6 +125,8 @@ class Point32(Message):
 
 @dataclass(frozen=True, slots=True)
 class Quaternion(Message):
+    """An orientation; vcran's robots only turn about z (heading ``yaw``)."""
+
     ROS_TYPE = "geometry_msgs.Quaternion"
     x: Float64 = 0.0
     y: Float64 = 0.0
@@ -127,6 +143,8 @@ class Quaternion(Message):
 
 @dataclass(frozen=True, slots=True)
 class Pose(Message):
+    """Position and orientation."""
+
     ROS_TYPE = "geometry_msgs.Pose"
     position: Point = field(default_factory=Point)
     orientation: Quaternion = field(default_factory=Quaternion)
@@ -134,6 +152,8 @@ class Pose(Message):
 
 @dataclass(frozen=True, slots=True)
 class PoseStamped(Message):
+    """A pose with its header (a robot's current position)."""
+
     ROS_TYPE = "geometry_msgs.PoseStamped"
     header: Header = field(default_factory=Header)
     pose: Pose = field(default_factory=Pose)
@@ -141,12 +161,16 @@ class PoseStamped(Message):
 
 @dataclass(frozen=True, slots=True)
 class Polygon(Message):
+    """A polygon by its corners (a footprint, a motion area)."""
+
     ROS_TYPE = "geometry_msgs.Polygon"
     points: tuple[Point32, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
 class PolygonStamped(Message):
+    """A polygon with its header (a robot's footprint, a motion's allowed area)."""
+
     ROS_TYPE = "geometry_msgs.PolygonStamped"
     header: Header = field(default_factory=Header)
     polygon: Polygon = field(default_factory=Polygon)
@@ -212,6 +236,8 @@ CATEGORY_UNDEFINED = 0
 
 @dataclass(frozen=True, slots=True)
 class RobotAction(Message):
+    """An action of a task: its category or code, attributes and description (R12 names unknown codes)."""
+
     ROS_TYPE = "mars_agent_physical_robot_msgs.RobotAction"
     category: UInt8 = CATEGORY_UNDEFINED
     action: UInt8 = 0
@@ -285,6 +311,8 @@ class CancelTask(Message):
 
 @dataclass(frozen=True, slots=True)
 class VehicleType(Message):
+    """The kind of vehicle, a ROS enumeration code (vcran's robots: 0)."""
+
     ROS_TYPE = "mars_agent_physical_robot_msgs.VehicleType"
     vehicle_type: UInt8 = 0
 

@@ -58,6 +58,13 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
     }
 )
 
+#: The states as module constants: a member looked up on its Enum class goes through the metaclass (about
+#: twice the cost of a global), and the state machine compares states several times per input.
+_WAITING, _TASK, _MOTION, _ACTION = State.WAITING, State.TASK, State.MOTION, State.ACTION
+
+#: TRANSITIONS by member name, for the check on every transition: an Enum's hash is a Python-level call.
+_TRANSITION_NAMES = frozenset((a._name_, b._name_) for a, b in TRANSITIONS)
+
 #: R14: two instants closer than this are the same instant (seconds).
 TOLERANCE = 1e-6
 
@@ -97,8 +104,15 @@ class RanLogic:
         self.history_limit = history_limit
         #: Returns why a motion's target is outside its motion area (R12), or None.
         self._area_check = area_check
-        self.state = State.WAITING
+        self.state = _WAITING
         self.queue: OrderedDict[Id, Task] = OrderedDict()
+        #: The queue's first task, the current one (R6), kept as the queue changes: statuses and every
+        #: input ask for it (about 26 times per task), and an OrderedDict's first value costs an Id hash.
+        self._head: Task | None = None
+        #: Tasks that left the queue so far; with ``_arrivals`` and the state, what ``ran_status`` shows
+        #: is a function of these three (the last one built is kept in ``_status``).
+        self._ended = 0
+        self._status: tuple[tuple[State, int, int], RanStatus] | None = None
         self.history = History(history_limit, history_bytes)
         self.recent_completed: deque[Id] = deque(maxlen=RECENT)
         self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
@@ -252,18 +266,26 @@ class RanLogic:
         return task.action_at(task.next_action).action_id
 
     def ran_status(self) -> RanStatus:
-        return _ran_status(
-            state=self.state.value,
+        """The status as published. Built again only when what it shows changed: the state, or the
+        queue (a task arrived or ended); telemetry asks for it whenever anything of the robot changed."""
+        key = (self.state, self._arrivals, self._ended)
+        cached = self._status
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        status = _ran_status(
+            state=self.state._value_,
             current_task_id=self.current_task,
             queue=tuple(islice(self.queue, QUEUE_SHOWN)),
             queued=len(self.queue),
             completed=tuple(self.recent_completed),
             cancelled=tuple(self.recent_cancelled),
         )
+        self._status = (key, status)
+        return status
 
     @property
     def idle(self) -> bool:
-        return self.state is State.WAITING and not self.queue
+        return self.state is _WAITING and not self.queue
 
     # --- assignments (R1, R2, R9, R10) ------------------------------------------------------------------
 
@@ -310,6 +332,8 @@ class RanLogic:
         task = Task(a.task_id, now, self._arrivals, a.sequence.length, now + self.task_timeout)
         task.put(a, None)
         self.queue[task.id] = task
+        if self._head is None:
+            self._head = task
         self.version += 1
         self._emit(TaskQueued(task.id))
         if not task.assembled:
@@ -317,7 +341,7 @@ class RanLogic:
             # to the nanosecond so that the instant reads as the scenario would write it.
             self._emit(StartTimer(task.id, round(task.deadline + TOLERANCE, 9)))
         if len(self.queue) == 1:
-            self._set_state(State.TASK)
+            self._set_state(_TASK)
         self._settle(now, task, a)
 
     def _settle(self, now: float, task: Task, a: Assignment) -> None:
@@ -450,7 +474,7 @@ class RanLogic:
         self._start_next(now)
 
     def _cancel_now(self, now: float, task: Task, reason: Reason, cancel: CancelTask | None) -> None:
-        del self.queue[task.id]
+        self._dequeue(task)
         self._remember(task.id, Ended.of(task, reason, now, cancel))
         self.recent_cancelled.append(_task_end(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
@@ -464,22 +488,22 @@ class RanLogic:
         """Move the current task as far as what has been received allows."""
         task = self._current()
         assert task is not None
-        if self.state is State.TASK:
+        if self.state is _TASK:
             m = task.motion_count()
             if m is None:
                 return
             task.m = m
             task.next_action = m + 1
             task.route.extend(p for p in range(1, m + 1) if p not in task.skipped)
-            self._set_state(State.MOTION)
+            self._set_state(_MOTION)
             if task.route:
                 task.since = now
                 self._emit(DispatchPath(task.id, task.path()))
-        if self.state is State.MOTION:
+        if self.state is _MOTION:
             if task.route or not task.actions_complete():
                 return
-            self._set_state(State.ACTION)
-        if self.state is State.ACTION and not task.action_running:
+            self._set_state(_ACTION)
+        if self.state is _ACTION and not task.action_running:
             task.skip_cancelled_actions()
             if task.next_action <= task.length:
                 task.action_running = True
@@ -490,7 +514,7 @@ class RanLogic:
                 self._complete(now, task)
 
     def _complete(self, now: float, task: Task) -> None:
-        del self.queue[task.id]
+        self._dequeue(task)
         self._remember(task.id, Ended.of(task, None, now))
         self.recent_completed.append(task.id)
         self.version += 1
@@ -498,14 +522,14 @@ class RanLogic:
         self._start_next(now)
 
     def _start_next(self, now: float) -> None:
-        if self.state is not State.WAITING:
-            self._set_state(State.WAITING)
+        if self.state is not _WAITING:
+            self._set_state(_WAITING)
         if self.queue:
-            self._set_state(State.TASK)
+            self._set_state(_TASK)
             self._advance(now)
 
     def _set_state(self, to: State) -> None:
-        if (self.state, to) not in TRANSITIONS:
+        if (self.state._name_, to._name_) not in _TRANSITION_NAMES:
             raise AssertionError(f"{self.robot}: transition {self.state.value} -> {to.value} does not exist (R6)")
         self._emit(StateChanged(self.state, to))
         self.state = to
@@ -515,10 +539,16 @@ class RanLogic:
 
     def _driving(self, task: Task) -> bool:
         """The AGV is on a leg of ``task``'s path (``task`` being the current task)."""
-        return self.state is State.MOTION and bool(task.route)
+        return self.state is _MOTION and bool(task.route)
 
     def _current(self) -> Task | None:
-        return next(iter(self.queue.values()), None)
+        return self._head
+
+    def _dequeue(self, task: Task) -> None:
+        del self.queue[task.id]
+        self._ended += 1
+        if task is self._head:
+            self._head = next(iter(self.queue.values()), None)
 
     def _remember(self, task_id: Id, ended: Ended) -> None:
         """R9: keep the latest ``history_limit`` ended task ids (and no more than ``history_bytes``)."""

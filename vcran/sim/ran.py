@@ -172,7 +172,8 @@ class Ran:
 
     def _publish_if_new(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
         key = (robot.index, attribute)
-        if self._published.get(key) != message:
+        last = self._published.get(key)
+        if last is not message and last != message:  # a status kept unchanged is the very same object
             self._published[key] = message
             self.send(Publish(t, robot.id, attribute, message))
 

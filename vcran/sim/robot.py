@@ -152,6 +152,8 @@ class RobotNode:
         self.parts_moved = 0
         self._capable = frozenset(ActionKind(a) for a in config.actions)
         self._timers: dict[Id, simpy.events.Event] = {}
+        #: The last leg limits built, with what the motion asked for (:meth:`_limits`).
+        self._last_limits: tuple[tuple[float, float, float], Limits] | None = None
         #: The points of the dispatched path still to drive. RanLogic's commands edit it: StopAfterLeg
         #: empties it (R8), SkipMotion drops a point (R13). ``agv_commands`` only wakes the AGV up.
         self._route: deque[MotionAssignment] = deque()
@@ -324,19 +326,29 @@ class RobotNode:
             return cause
 
     def _leg(self, m: MotionAssignment) -> Leg:
+        x, y, theta = self.pose
+        goal = m.point.theta if m.use_orientation else None
+        return Leg(self.env.now, x, y, theta, m.point.x, m.point.y, goal, self._limits(m))
+
+    def _limits(self, m: MotionAssignment) -> Limits:
+        """The limits of a leg to ``m``: the robot's, lowered by those ``m`` asks for. The last ones are
+        kept: a fleet manager sends the same limits leg after leg (a script: none at all)."""
+        velocity = m.max_velocity
+        key = (velocity.linear.x, m.max_acceleration.linear.x, velocity.angular.z)
+        last = self._last_limits
+        if last is not None and last[0] == key:
+            return last[1]
+        requested, asked, turn = key
         c = self.config
-        requested = m.max_velocity.linear.x
         speed = min(requested, c.max_velocity) if requested > 0 else c.max_velocity
         accel, decel = c.max_acceleration, c.max_deceleration
-        asked = m.max_acceleration.linear.x
         if asked > 0:
             accel = min(accel, asked) if accel > 0 else asked
             decel = min(decel, asked) if decel > 0 else asked
-        rates = [r for r in (m.max_velocity.angular.z, c.max_angular_velocity) if r > 0]
-        x, y, theta = self.pose
-        goal = m.point.theta if m.use_orientation else None
-        return Leg(self.env.now, x, y, theta, m.point.x, m.point.y, goal,
-                   Limits(speed, accel, decel, min(rates) if rates else 0.0))
+        rates = [r for r in (turn, c.max_angular_velocity) if r > 0]
+        limits = Limits(speed, accel, decel, min(rates) if rates else 0.0)
+        self._last_limits = (key, limits)
+        return limits
 
     # --- AgvAction --------------------------------------------------------------------------------------
 
