@@ -52,50 +52,6 @@ def test_time_from_seconds_still_refuses_what_int32_cannot_hold():
         Time.from_seconds(2.0**31)
 
 
-# --- R9 history: compact records, bounded by count and bytes ---------------------------------------------
-
-
-def _ended(n_assignments: int, reason=None, t=1.5):
-    from vcran.core.build import motion
-    from vcran.core.tasks import Ended, Task
-
-    task = Task(id_for("T"), 0.0, 1, n_assignments, 30.0)
-    for i in range(1, n_assignments + 1):
-        task.put(motion("T", f"T_m{i}", i, n_assignments, float(i), 0.0), None)
-    return Ended.of(task, reason, t)
-
-
-def test_history_record_round_trips_and_keeps_r10_identity():
-    from vcran.core.build import cancel, motion
-    from vcran.core.effects import Reason
-    from vcran.core.tasks import Ended, fingerprint
-
-    ended = _ended(3, Reason.TIMEOUT, 7.25)
-    ended.cancel = fingerprint(cancel("T"))
-    back = Ended.from_record(ended.record())
-    assert (back.reason, back.time, back.received) == (Reason.TIMEOUT, 7.25, ended.received)
-    assert len(ended.record()) == 8 + 1 + 16 + 3 * 16  # fixed part plus one fingerprint per assignment
-    assert back.has_identical(motion("T", "T_m2", 2, 3, 2.0, 0.0, stamp=99.0))  # header ignored (R10)
-    assert not back.has_identical(motion("T", "T_m2", 2, 3, 2.5, 0.0))
-    assert back.same_cancel(cancel("T")) and not back.same_cancel(cancel("U"))
-
-
-def test_history_is_bounded_by_count_and_by_bytes():
-    from vcran.core.tasks import ENTRY_OVERHEAD, History
-
-    small = _ended(1)
-    per_entry = len(small.record()) + ENTRY_OVERHEAD
-    history = History(limit=100, max_bytes=3 * per_entry)
-    for i in range(10):
-        history.remember(id_for(f"T{i}"), small)
-    assert list(history) == [id_for("T7"), id_for("T8"), id_for("T9")]  # the byte bound: three entries
-    by_count = History(limit=2, max_bytes=1 << 30)
-    for i in range(5):
-        by_count.remember(id_for(f"T{i}"), small)
-    assert list(by_count) == [id_for("T3"), id_for("T4")]
-    assert by_count.get(id_for("T2")) is None and by_count.get(id_for("T4")) is not None
-
-
 @given(
     st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.none() | st.floats(-3, 3)), max_size=4),
     st.lists(st.sampled_from(["load", "unload", "dummy"]), max_size=3),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import pickle
 import struct
+from array import array
 from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -76,17 +77,27 @@ def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
     return found
 
 
-def fingerprint(a: Assignment | CancelTask) -> bytes:
-    """A 16-byte digest of what :func:`same_content` compares: the kind and every field but the header.
+#: Bytes of a :func:`fingerprint`.
+FINGERPRINT_SIZE = 8
 
-    Ended tasks keep these instead of their assignments, so the R9 history costs tens of bytes per
+
+def fingerprint(a: Assignment | CancelTask) -> bytes:
+    """An 8-byte digest of what :func:`same_content` compares: the kind and every field but the header.
+
+    Ended tasks keep these instead of their assignments, so the R9 history costs 8 bytes per
     assignment, not a kilobyte. Deterministic (no salted ``hash()``): the schema-ordered primitives are
-    pickled (floats and bytes pickle exactly) and hashed with blake2b. Two assignments that differ
-    collide with probability 2**-128, and even then only a re-read that should have been reported (R9)
-    would go silent: an ended task applies nothing either way.
+    pickled (floats and bytes pickle exactly) and hashed with blake2b, a keyless uniform hash.
+
+    Why 8 bytes are enough: a fingerprint is only ever compared with those of one ended task (its n
+    assignments, or its last cancel), never looked up fleet-wide, so the birthday bound does not apply.
+    An assignment that differs from all n matches one of them with probability n * 2**-64 (5e-19 for a
+    three-assignment task); a million robots re-reading a changed assignment of an ended task every
+    second for a year (3e13 comparisons) would meet one collision with probability below 1e-5. And the
+    cost of one is small: a re-read that should have been reported (R9 ``task_completed``/``task_cancelled``)
+    goes silent; an ended task applies nothing either way.
     """
     content = (type(a).__name__, *_flattener(type(a), "header")(a))  # only MotionAssignment has one
-    return blake2b(pickle.dumps(content, protocol=5), digest_size=16).digest()
+    return blake2b(pickle.dumps(content, protocol=5), digest_size=FINGERPRINT_SIZE).digest()
 
 
 def assignment_id(a: Assignment) -> Id:
@@ -218,11 +229,16 @@ class Task:
 
 
 _REASONS: tuple[Reason | None, ...] = (None, *Reason)
-_FIXED = struct.Struct("<dB16s")  # end time, reason (0: completed), fingerprint of the last cancel or zeros
-_NO_CANCEL = bytes(16)
-#: What one history entry costs besides its record (key bytes object, dict slot, eviction queue slot):
-#: the unit of the memory bound, with the record's own length.
-ENTRY_OVERHEAD = 120
+_NO_CANCEL = b""
+#: A history record's fixed part: task uuid, end time, reason (0: completed), number of fingerprints.
+_HEAD = struct.Struct("<16sdBI")
+#: What one history entry costs besides its record, in the unit of the memory bound (``history_bytes``):
+#: its share of the index (a 4-byte slot at a load between 1/3 and 2/3) and of the log's spare capacity.
+ENTRY_OVERHEAD = 16
+#: Where a key's probe sequence starts in the index (a name of its own so that tests can force collisions).
+_hash = hash
+#: What a remembered cancel costs on top (an entry of a small dict: key and value objects, slot).
+CANCEL_OVERHEAD = 128
 
 
 @dataclass(slots=True, eq=False)
@@ -230,15 +246,16 @@ class Ended:
     """A finished task in the history (R9), or a tombstone left by a cancel for an unknown id (R8).
 
     It keeps only what R9 and R10 still ask of an ended task: the fingerprints of its assignments, so
-    that a re-read of one of them stays silent, and the fingerprint of its last cancel. In the
-    :class:`History` it lives as one ``bytes`` record (fixed 25 bytes plus 16 per assignment), decoded
-    back into this view only when an id of an ended task is seen again.
+    that a re-read of one of them stays silent, and the fingerprint of its last cancel. The
+    :class:`History` stores it as a record in a byte log and decodes this view only when an id of an
+    ended task is seen again.
     """
 
     received: frozenset[bytes]
     reason: Reason | None  # None: completed
     time: float
-    #: Fingerprint of the last cancel received for this id, so that re-reads of it stay silent (R10).
+    #: Fingerprint of the last cancel received for this id, so that re-reads of it stay silent (R10);
+    #: empty if none was.
     cancel: bytes = _NO_CANCEL
 
     @classmethod
@@ -253,62 +270,147 @@ class Ended:
     def same_cancel(self, cancel: CancelTask) -> bool:
         return self.cancel == fingerprint(cancel)
 
-    def record(self) -> bytes:
-        return _FIXED.pack(self.time, _REASONS.index(self.reason), self.cancel) + b"".join(sorted(self.received))
-
-    @classmethod
-    def from_record(cls, record: bytes) -> Ended:
-        time, reason, cancel = _FIXED.unpack_from(record)
-        rest = memoryview(record)[_FIXED.size:]
-        received = frozenset(bytes(rest[i:i + 16]) for i in range(0, len(rest), 16))
-        return cls(received, _REASONS[reason], time, cancel)
-
 
 class History:
     """R9: the ended task ids of one robot, oldest first, bounded by count and by memory.
 
-    One ``bytes`` record per ended task keyed by the task's uuid bytes (an id is its uuid, SPEC §2), so a
-    long run's memory grows by about 0.2 kB per ended task until the bound, not by the task's messages.
+    A long run ends tens of thousands of tasks per robot-hour at fleet scale, and the default bound
+    (10,000 per robot) is hours away, so every byte per entry shows in the run's peak memory. Python
+    objects per entry (a bytes record, a bytes key, a dict slot, a deque slot) cost about 0.2 kB, and
+    spread over the allocator's pools they kept even more resident. Here an entry is one record in a
+    per-robot byte log, in age order: the task's uuid, end time, reason and the 8-byte fingerprints of
+    its assignments (:data:`_HEAD` plus 8 per assignment: 53 bytes for a task of three). Eviction
+    drops records from the front of the log; the dead front is cut off once it is as long as the live
+    part (amortised O(1)). Lookups go through an open-addressing index: a power-of-two array of
+    ``offset + 1`` (0: empty), linear probing from ``hash(uuid)`` (salted per process, which moves
+    only where a slot is, never what a lookup answers). Slots of evicted records (offset before the
+    log's live front) are reused by insertions and dropped when the index is rebuilt, which happens
+    when it grows past 2/3 full or when the log is cut. Cancels of ended tasks are rare and stored in
+    a small dict beside it (a later cancel must update an entry in place, :meth:`replace`).
+
     ``limit`` is R9's count (``history_limit``); ``max_bytes`` bounds the records plus
-    :data:`ENTRY_OVERHEAD` each, so that tasks with very many assignments cannot grow it without end.
+    :data:`ENTRY_OVERHEAD` each (and :data:`CANCEL_OVERHEAD` per remembered cancel), so that tasks
+    with very many assignments cannot grow it without end.
     """
 
-    __slots__ = ("limit", "max_bytes", "_records", "_order", "_bytes")
+    __slots__ = ("limit", "max_bytes", "_log", "_head", "_count", "_bytes", "_index", "_used", "_cancels")
 
     def __init__(self, limit: int, max_bytes: int) -> None:
         self.limit, self.max_bytes = limit, max_bytes
-        self._records: dict[bytes, bytes] = {}
-        self._order: deque[bytes] = deque()
+        self._log = bytearray()
+        self._head = 0  # offset of the oldest live record; before it, evicted ones not yet cut off
+        self._count = 0
         self._bytes = 0
+        #: Index slots hold ``offset + 1`` into the log; 4 bytes each while the log cannot reach 4 GiB.
+        self._index = array("I" if max_bytes < 1 << 31 else "Q", [0]) * 8
+        self._used = 0  # slots not empty (live or stale)
+        self._cancels: dict[bytes, bytes] = {}
 
     def __len__(self) -> int:
-        return len(self._records)
+        return self._count
 
     def __iter__(self) -> Iterator[Id]:
         """The remembered task ids, oldest first (as ids without description: only the uuid is kept)."""
-        return (Id(key) for key in self._order)
+        return (Id(bytes(self._log[offset:offset + 16])) for offset in self._offsets())
 
     def get(self, task_id: Id) -> Ended | None:
-        record = self._records.get(task_id.uuid)
-        return Ended.from_record(record) if record is not None else None
+        offset = self._find(task_id.uuid)
+        if offset < 0:
+            return None
+        _, time, reason, n = _HEAD.unpack_from(self._log, offset)
+        start = offset + _HEAD.size
+        received = frozenset(bytes(self._log[i:i + FINGERPRINT_SIZE])
+                             for i in range(start, start + n * FINGERPRINT_SIZE, FINGERPRINT_SIZE))
+        return Ended(received, _REASONS[reason], time, self._cancels.get(task_id.uuid, _NO_CANCEL))
 
     def remember(self, task_id: Id, ended: Ended) -> None:
+        """Add ``task_id`` as the newest entry; it must not be in the history (RanLogic looks first)."""
         key = task_id.uuid
-        old = self._records.pop(key, None)
-        if old is not None:  # not the case in RanLogic (an id in the history never re-enters it), kept exact anyway
-            self._order.remove(key)
-            self._bytes -= len(old) + ENTRY_OVERHEAD
-        record = ended.record()
-        self._records[key] = record
-        self._order.append(key)
-        self._bytes += len(record) + ENTRY_OVERHEAD
-        while len(self._records) > self.limit or (self._bytes > self.max_bytes and len(self._records) > 1):
-            oldest = self._order.popleft()
-            self._bytes -= len(self._records.pop(oldest)) + ENTRY_OVERHEAD
+        if self._find(key) >= 0:
+            raise ValueError(f"task {task_id.label} is already in the history")
+        offset = len(self._log)
+        self._log += _HEAD.pack(key, ended.time, _REASONS.index(ended.reason), len(ended.received))
+        self._log += b"".join(sorted(ended.received))
+        self._count += 1
+        self._bytes += len(self._log) - offset + ENTRY_OVERHEAD
+        self._set_cancel(key, ended.cancel)
+        self._insert(key, offset)
+        while self._count > self.limit or (self._bytes > self.max_bytes and self._count > 1):
+            self._evict_oldest()
 
     def replace(self, task_id: Id, ended: Ended) -> None:
-        """Update an entry in place (a later cancel of an ended task), keeping its age."""
-        old = self._records[task_id.uuid]
-        record = ended.record()
-        self._records[task_id.uuid] = record
-        self._bytes += len(record) - len(old)
+        """Update an entry in place (a later cancel of an ended task), keeping its age.
+
+        Only the cancel can change: the rest of an ended task is final."""
+        if self._find(task_id.uuid) < 0:
+            raise KeyError(task_id)
+        self._set_cancel(task_id.uuid, ended.cancel)
+
+    # --- the log ----------------------------------------------------------------------------------------
+
+    def _offsets(self) -> Iterator[int]:
+        offset, end = self._head, len(self._log)
+        while offset < end:
+            yield offset
+            offset += self._size_at(offset)
+
+    def _size_at(self, offset: int) -> int:
+        return _HEAD.size + FINGERPRINT_SIZE * _HEAD.unpack_from(self._log, offset)[3]
+
+    def _set_cancel(self, key: bytes, cancel: bytes) -> None:
+        had = key in self._cancels
+        if cancel:
+            self._cancels[key] = cancel
+        else:
+            self._cancels.pop(key, None)
+        self._bytes += ((cancel != _NO_CANCEL) - had) * CANCEL_OVERHEAD
+
+    def _evict_oldest(self) -> None:
+        offset = self._head
+        size = self._size_at(offset)
+        self._set_cancel(bytes(self._log[offset:offset + 16]), _NO_CANCEL)
+        self._head += size
+        self._count -= 1
+        self._bytes -= size + ENTRY_OVERHEAD
+        if self._head >= len(self._log) - self._head:  # the dead front is as long as the live part: cut it
+            del self._log[:self._head]
+            self._head = 0
+            self._rebuild(len(self._index))
+
+    # --- the index --------------------------------------------------------------------------------------
+
+    def _find(self, key: bytes) -> int:
+        """The offset of ``key``'s record, or -1."""
+        index, log, head = self._index, self._log, self._head
+        mask = len(index) - 1
+        i = _hash(key) & mask
+        while slot := index[i]:
+            offset = slot - 1
+            if offset >= head and log[offset:offset + 16] == key:
+                return offset
+            i = (i + 1) & mask
+        return -1
+
+    def _insert(self, key: bytes, offset: int) -> None:
+        """Point a slot at ``offset``: the first empty one or stale one (an evicted record's) on ``key``'s probe
+        sequence; ``key`` is not in the index, so no later slot of the sequence can hold it."""
+        index, head = self._index, self._head
+        mask = len(index) - 1
+        i = _hash(key) & mask
+        while (slot := index[i]) and slot - 1 >= head:
+            i = (i + 1) & mask
+        if not slot:
+            self._used += 1
+        index[i] = offset + 1
+        if 3 * self._used > 2 * len(index):
+            self._rebuild(2 * len(index))
+
+    def _rebuild(self, size: int) -> None:
+        """A fresh index of ``size`` slots (a power of two) holding the live records only."""
+        while 3 * self._count > size:  # at most 1/3 full after a rebuild
+            size *= 2
+        self._index = array(self._index.typecode, [0]) * size
+        self._used = 0
+        log = self._log
+        for offset in self._offsets():
+            self._insert(bytes(log[offset:offset + 16]), offset)
