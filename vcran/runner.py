@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from itertools import islice
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -122,7 +123,17 @@ def trace_writer(scenario: Scenario, out: Path, options: dict[str, Any] | None) 
 
 
 def write_summary(out: Path, summary: dict[str, Any]) -> None:
-    (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    """summary.json: ``json.dumps(summary, indent=2, ensure_ascii=False)`` and a newline, encoded as it is written.
+
+    At fleet scale the summary lists every task id a run ended (320,000 in a 1000-robot, 4-hour run). Built
+    as one text, the encoder's pieces and the joined text cost about 150 bytes per task at once, and that
+    was the run's peak memory (issue 14); written a few thousand pieces at a time, it costs a constant.
+    """
+    pieces = json.JSONEncoder(indent=2, ensure_ascii=False).iterencode(summary)
+    with (out / SUMMARY_FILE).open("w", encoding="utf-8") as f:
+        while batch := list(islice(pieces, 4096)):
+            f.write("".join(batch))
+        f.write("\n")
 
 
 def run_model(

@@ -42,34 +42,53 @@ def default_decode(attribute: str, raw: Any) -> Message:
 
 
 class Labels:
-    """Task labels in order, for the summary: one UTF-8 buffer and an offset per entry, optionally with a
-    second short text each (a cancel's reason). A run ends tens of thousands of tasks per robot-hour at
-    fleet scale; a list of strings (and of dicts) was most of what its memory grew by."""
+    """Task labels in order, for the summary: one UTF-8 buffer holding each label after its length,
+    optionally with a second short text each (a cancel's reason).
 
-    __slots__ = ("_text", "_ends", "_tags", "_tag_names")
+    A run ends tens of thousands of tasks per robot-hour at fleet scale, and every one is listed in
+    summary.json. A list of strings (and of dicts) was most of what a run's memory grew by; an offset
+    per label still cost 8 bytes beside a label of about 10. A length costs one byte below 128 bytes
+    (LEB128 beyond), and the labels are only ever read in order.
+    """
+
+    __slots__ = ("_text", "_count", "_tags", "_tag_names")
 
     def __init__(self) -> None:
         self._text = bytearray()
-        self._ends = array("Q")
+        self._count = 0
         self._tags = array("B")
         self._tag_names: list[str] = []
 
     def append(self, label: str, tag: str | None = None) -> None:
-        self._text += label.encode("utf-8", "surrogatepass")
-        self._ends.append(len(self._text))
+        data = label.encode("utf-8", "surrogatepass")
+        size = len(data)
+        while size >= 0x80:  # LEB128: seven bits a byte, low bits first, the high bit says "more follows"
+            self._text.append(0x80 | size & 0x7F)
+            size >>= 7
+        self._text.append(size)
+        self._text += data
+        self._count += 1
         if tag is not None:
             if tag not in self._tag_names:
                 self._tag_names.append(tag)
             self._tags.append(self._tag_names.index(tag))
 
     def __len__(self) -> int:
-        return len(self._ends)
+        return self._count
 
     def __iter__(self) -> Iterator[str]:
-        start = 0
-        for end in self._ends:
-            yield self._text[start:end].decode("utf-8", "surrogatepass")
-            start = end
+        text, i, end = self._text, 0, len(self._text)
+        while i < end:
+            size = shift = 0
+            while True:
+                byte = text[i]
+                i += 1
+                size |= (byte & 0x7F) << shift
+                if byte < 0x80:
+                    break
+                shift += 7
+            yield text[i:i + size].decode("utf-8", "surrogatepass")
+            i += size
 
     def __eq__(self, other: object) -> bool:
         """Equal to a list of the same labels (what callers compared before it was compact)."""

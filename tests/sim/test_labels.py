@@ -1,0 +1,37 @@
+"""The summary's task lists (vcran.sim.model.Labels): compact, yet exactly the labels appended, in order."""
+
+from __future__ import annotations
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from vcran.sim.model import Labels
+
+
+def test_labels_come_back_in_order_whatever_their_length():
+    # lengths on both sides of each LEB128 boundary: one length byte up to 127, two up to 16383, then three
+    labels = ["", "a", "x" * 127, "y" * 128, "z" * 16383, "w" * 16384, "Förderband ü", "\ud800"]
+    kept = Labels()
+    for label in labels:
+        kept.append(label)
+    assert list(kept) == labels
+    assert len(kept) == 8
+    assert kept == labels and kept == tuple(labels) and kept != labels[:-1]
+    # each label's UTF-8 after its length: 1 + 2 + (1 + 127) + (2 + 128) + (2 + 16383) + (3 + 16384) + (1 + 14)
+    # + (1 + 3) bytes ("Förderband ü" is 14 bytes of UTF-8, a lone surrogate 3)
+    assert len(kept._text) == 33052
+
+
+def test_cancelled_labels_keep_their_reasons():
+    kept = Labels()
+    for label, reason in [("T1", "timeout"), ("T2", "cancelled"), ("T3", "timeout")]:
+        kept.append(label, reason)
+    assert list(kept.pairs()) == [("T1", "timeout"), ("T2", "cancelled"), ("T3", "timeout")]
+
+
+@given(st.lists(st.text(max_size=300)))
+def test_any_labels_round_trip(labels):
+    kept = Labels()
+    for label in labels:
+        kept.append(label)
+    assert list(kept) == labels and len(kept) == len(labels)
