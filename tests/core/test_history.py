@@ -32,11 +32,21 @@ def T(i: int):  # noqa: N802 - reads like the task ids of the other core tests
     return id_for(f"T{i}")
 
 
-@pytest.fixture(params=["hash", "colliding"])
+def small_chunks(monkeypatch) -> None:
+    """Chunks of 64 bytes: one record of up to three assignments each, larger ones in chunks of their own."""
+    monkeypatch.setattr(tasks, "CHUNK_BITS", 6)
+    monkeypatch.setattr(tasks, "CHUNK", 64)
+    monkeypatch.setattr(tasks, "_CHUNK_MASK", 63)
+
+
+@pytest.fixture(params=["hash", "colliding", "small chunks"])
 def hashing(request, monkeypatch):
-    """The real hash, and one sending every key to slot 0, so that every lookup walks a probe chain."""
+    """The real hash; one sending every key to slot 0, so that every lookup walks a probe chain; and the real
+    hash with chunks so small that every record starts a chunk (or is larger than one)."""
     if request.param == "colliding":
         monkeypatch.setattr(tasks, "_hash", lambda key: 0)
+    elif request.param == "small chunks":
+        small_chunks(monkeypatch)
 
 
 def test_entry_round_trips_with_r10_identity(hashing):
@@ -132,12 +142,14 @@ def operations(draw):
 
 
 @settings(max_examples=60, deadline=None)
-@given(operations(), st.booleans())
-def test_agrees_with_an_ordered_dict(case, colliding):
+@given(operations(), st.booleans(), st.booleans())
+def test_agrees_with_an_ordered_dict(case, colliding, small):
     limit, max_bytes, ops = case
-    saved = tasks._hash
+    saved = tasks._hash, tasks.CHUNK_BITS, tasks.CHUNK, tasks._CHUNK_MASK
     if colliding:
         tasks._hash = lambda key: key[0] % 3  # three chains
+    if small:  # 128-byte chunks: three records of one assignment, two of two or three; larger ones alone
+        tasks.CHUNK_BITS, tasks.CHUNK, tasks._CHUNK_MASK = 7, 128, 127
     try:
         history = History(limit, max_bytes)
         model: OrderedDict[bytes, Ended] = OrderedDict()
@@ -167,13 +179,31 @@ def test_agrees_with_an_ordered_dict(case, colliding):
                 assert (got.received, got.reason, got.time, got.cancel) == (want.received, want.reason, want.time, want.cancel)
             assert [i.uuid for i in history] == list(model) and len(history) == len(model)
     finally:
-        tasks._hash = saved
+        tasks._hash, tasks.CHUNK_BITS, tasks.CHUNK, tasks._CHUNK_MASK = saved
 
 
 def test_evictions_do_not_grow_the_log_or_the_index(hashing):
-    """Evicted records are cut from the log and their index slots reused or dropped: memory follows
+    """Evicted records are dropped from the log and their index slots reused or dropped: memory follows
     the live entries, not how many ever ended."""
     history = History(limit=3, max_bytes=1 << 20)
     for i in range(2000):
         history.remember(T(i), ended(1))
-    assert len(history._log) <= 2 * 3 * (29 + 8) and len(history._index) <= 16
+        # three live records span at most three chunks (one each when chunks are small), and the dead
+        # chunks in front are dropped as soon as they are as many as the live ones: at most 2 + 3
+        assert len(history._chunks) <= 5
+    assert len(history._index) <= 16
+
+
+def test_records_larger_than_a_chunk_get_one_of_their_own():
+    # 29 + 8 * 600 bytes: more than a 4096-byte chunk
+    history = History(limit=4, max_bytes=1 << 20)
+    history.remember(T(1), ended(1, t=1.0))
+    history.remember(T(2), ended(600, t=2.0, name="T2"))
+    history.remember(T(3), ended(2, t=3.0))
+    # the first chunk (256 bytes) is cut to its one record when the next does not fit; the third is 1 KiB
+    assert [len(c) for c in history._chunks] == [29 + 8, 29 + 8 * 600, 1024]
+    assert [history.get(T(i)).time for i in (1, 2, 3)] == [1.0, 2.0, 3.0]
+    assert len(history.get(T(2)).received) == 600 and list(history) == [T(1), T(2), T(3)]
+    for i in (4, 5, 6):
+        history.remember(T(i), ended(1, t=float(i)))
+    assert list(history) == [T(3), T(4), T(5), T(6)] and history.get(T(2)) is None

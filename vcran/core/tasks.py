@@ -232,6 +232,10 @@ _REASONS: tuple[Reason | None, ...] = (None, *Reason)
 _NO_CANCEL = b""
 #: A history record's fixed part: task uuid, end time, reason (0: completed), number of fingerprints.
 _HEAD = struct.Struct("<16sdBI")
+#: The history's log is kept in chunks of 2**CHUNK_BITS bytes (:class:`History`).
+CHUNK_BITS = 12
+CHUNK = 1 << CHUNK_BITS
+_CHUNK_MASK = CHUNK - 1
 #: What one history entry costs besides its record, in the unit of the memory bound (``history_bytes``):
 #: its share of the index (a 4-byte slot at a load between 1/3 and 2/3) and of the log's spare capacity.
 ENTRY_OVERHEAD = 16
@@ -279,30 +283,41 @@ class History:
     objects per entry (a bytes record, a bytes key, a dict slot, a deque slot) cost about 0.2 kB, and
     spread over the allocator's pools they kept even more resident. Here an entry is one record in a
     per-robot byte log, in age order: the task's uuid, end time, reason and the 8-byte fingerprints of
-    its assignments (:data:`_HEAD` plus 8 per assignment: 53 bytes for a task of three). Eviction
-    drops records from the front of the log; the dead front is cut off once it is as long as the live
-    part (amortised O(1)). Lookups go through an open-addressing index: a power-of-two array of
-    ``offset + 1`` (0: empty), linear probing from ``hash(uuid)`` (salted per process, which moves
-    only where a slot is, never what a lookup answers). Slots of evicted records (offset before the
-    log's live front) are reused by insertions and dropped when the index is rebuilt, which happens
-    when it grows past 2/3 full or when the log is cut. Cancels of ended tasks are rare and stored in
-    a small dict beside it (a later cancel must update an entry in place, :meth:`replace`).
+    its assignments (:data:`_HEAD` plus 8 per assignment: 53 bytes for a task of three).
+
+    The log is a list of chunks of up to :data:`CHUNK` bytes, each allocated once at its full size: one
+    growing buffer per robot was reallocated and copied as it grew, and across a fleet's buffers the
+    allocator kept about 20 bytes per entry resident beyond the records (a 1000-robot run, issue 14).
+    A record never straddles two chunks (one larger than :data:`CHUNK` gets a chunk of its own), so an
+    offset is a chunk's number times :data:`CHUNK` plus a position in it, and offsets grow with age.
+    Eviction moves the start of the live records; the dead chunks in front are dropped once they are
+    as many as the live ones (amortised O(1)).
+
+    Lookups go through an open-addressing index: a power-of-two array of ``offset + 1`` (0: empty),
+    linear probing from ``hash(uuid)`` (salted per process, which moves only where a slot is, never
+    what a lookup answers). Slots of evicted records (offset before the live start) are reused by
+    insertions and dropped when the index is rebuilt, which happens when it grows past 2/3 full or
+    when chunks are dropped. Cancels of ended tasks are rare and stored in a small dict beside it (a
+    later cancel must update an entry in place, :meth:`replace`).
 
     ``limit`` is R9's count (``history_limit``); ``max_bytes`` bounds the records plus
     :data:`ENTRY_OVERHEAD` each (and :data:`CANCEL_OVERHEAD` per remembered cancel), so that tasks
     with very many assignments cannot grow it without end.
     """
 
-    __slots__ = ("limit", "max_bytes", "_log", "_head", "_count", "_bytes", "_index", "_used", "_cancels")
+    __slots__ = ("limit", "max_bytes", "_chunks", "_fill", "_head", "_count", "_bytes", "_index", "_used",
+                 "_cancels")
 
     def __init__(self, limit: int, max_bytes: int) -> None:
         self.limit, self.max_bytes = limit, max_bytes
-        self._log = bytearray()
-        self._head = 0  # offset of the oldest live record; before it, evicted ones not yet cut off
+        self._chunks: list[bytearray] = []
+        self._fill = 0  # bytes used in the last chunk (a closed chunk is cut to its records' length)
+        self._head = 0  # offset of the oldest live record; before it, evicted ones not yet dropped
         self._count = 0
         self._bytes = 0
-        #: Index slots hold ``offset + 1`` into the log; 4 bytes each while the log cannot reach 4 GiB.
-        self._index = array("I" if max_bytes < 1 << 31 else "Q", [0]) * 8
+        #: Index slots hold ``offset + 1``; 4 bytes each while offsets stay below 4 GiB (the dead front is at
+        #: most as long as the live records, which a memory bound below 1 GiB keeps well under 2 GiB).
+        self._index = array("I" if max_bytes < 1 << 30 else "Q", [0]) * 8
         self._used = 0  # slots not empty (live or stale)
         self._cancels: dict[bytes, bytes] = {}
 
@@ -311,15 +326,16 @@ class History:
 
     def __iter__(self) -> Iterator[Id]:
         """The remembered task ids, oldest first (as ids without description: only the uuid is kept)."""
-        return (Id(bytes(self._log[offset:offset + 16])) for offset in self._offsets())
+        return (Id(self._key_at(offset)) for offset in self._offsets())
 
     def get(self, task_id: Id) -> Ended | None:
         offset = self._find(task_id.uuid)
         if offset < 0:
             return None
-        _, time, reason, n = _HEAD.unpack_from(self._log, offset)
-        start = offset + _HEAD.size
-        received = frozenset(bytes(self._log[i:i + FINGERPRINT_SIZE])
+        chunk, pos = self._chunks[offset >> CHUNK_BITS], offset & _CHUNK_MASK
+        _, time, reason, n = _HEAD.unpack_from(chunk, pos)
+        start = pos + _HEAD.size
+        received = frozenset(bytes(chunk[i:i + FINGERPRINT_SIZE])
                              for i in range(start, start + n * FINGERPRINT_SIZE, FINGERPRINT_SIZE))
         return Ended(received, _REASONS[reason], time, self._cancels.get(task_id.uuid, _NO_CANCEL))
 
@@ -328,11 +344,13 @@ class History:
         key = task_id.uuid
         if self._find(key) >= 0:
             raise ValueError(f"task {task_id.label} is already in the history")
-        offset = len(self._log)
-        self._log += _HEAD.pack(key, ended.time, _REASONS.index(ended.reason), len(ended.received))
-        self._log += b"".join(sorted(ended.received))
+        record = _HEAD.pack(key, ended.time, _REASONS.index(ended.reason), len(ended.received))
+        record += b"".join(sorted(ended.received))
+        offset = self._append(record)
+        if not self._count:
+            self._head = offset
         self._count += 1
-        self._bytes += len(self._log) - offset + ENTRY_OVERHEAD
+        self._bytes += len(record) + ENTRY_OVERHEAD
         self._set_cancel(key, ended.cancel)
         self._insert(key, offset)
         while self._count > self.limit or (self._bytes > self.max_bytes and self._count > 1):
@@ -348,14 +366,42 @@ class History:
 
     # --- the log ----------------------------------------------------------------------------------------
 
-    def _offsets(self) -> Iterator[int]:
-        offset, end = self._head, len(self._log)
-        while offset < end:
-            yield offset
-            offset += self._size_at(offset)
+    def _append(self, record: bytes) -> int:
+        """Write ``record`` after the newest one, in a new chunk if it does not fit; return its offset."""
+        chunk = self._chunks[-1] if self._chunks else None
+        if chunk is None or self._fill + len(record) > len(chunk):
+            if chunk is not None:
+                del chunk[self._fill:]  # closed: its length is its records' (a short cut: not reallocated)
+            # the first chunks are smaller (256 bytes, then twice as many each): a robot that ends few tasks
+            # (a test, a short run, a big fleet's idle robots) does not hold 4 KiB for them
+            chunk = bytearray(max(min(CHUNK, 256 << len(self._chunks)), len(record)))
+            self._chunks.append(chunk)
+            self._fill = 0
+        offset = ((len(self._chunks) - 1) << CHUNK_BITS) + self._fill
+        chunk[self._fill:self._fill + len(record)] = record
+        self._fill += len(record)
+        return offset
+
+    def _key_at(self, offset: int) -> bytes:
+        pos = offset & _CHUNK_MASK
+        return bytes(self._chunks[offset >> CHUNK_BITS][pos:pos + 16])
 
     def _size_at(self, offset: int) -> int:
-        return _HEAD.size + FINGERPRINT_SIZE * _HEAD.unpack_from(self._log, offset)[3]
+        n = _HEAD.unpack_from(self._chunks[offset >> CHUNK_BITS], offset & _CHUNK_MASK)[3]
+        return _HEAD.size + FINGERPRINT_SIZE * n
+
+    def _after(self, offset: int) -> int:
+        """The offset of the record after the one at ``offset``: past a chunk's last record, the next chunk's start."""
+        i = offset >> CHUNK_BITS
+        pos = (offset & _CHUNK_MASK) + self._size_at(offset)
+        end = self._fill if i == len(self._chunks) - 1 else len(self._chunks[i])
+        return (i << CHUNK_BITS) + pos if pos < end else (i + 1) << CHUNK_BITS
+
+    def _offsets(self) -> Iterator[int]:
+        offset = self._head
+        for _ in range(self._count):
+            yield offset
+            offset = self._after(offset)
 
     def _set_cancel(self, key: bytes, cancel: bytes) -> None:
         had = key in self._cancels
@@ -368,26 +414,29 @@ class History:
     def _evict_oldest(self) -> None:
         offset = self._head
         size = self._size_at(offset)
-        self._set_cancel(bytes(self._log[offset:offset + 16]), _NO_CANCEL)
-        self._head += size
+        self._set_cancel(self._key_at(offset), _NO_CANCEL)
+        self._head = self._after(offset)
         self._count -= 1
         self._bytes -= size + ENTRY_OVERHEAD
-        if self._head >= len(self._log) - self._head:  # the dead front is as long as the live part: cut it
-            del self._log[:self._head]
-            self._head = 0
-            self._rebuild(len(self._index))
+        dead = self._head >> CHUNK_BITS
+        if dead and dead >= len(self._chunks) - dead:  # as many dead chunks in front as live ones: drop them
+            del self._chunks[:dead]
+            self._head -= dead << CHUNK_BITS
+            self._rebuild()
 
     # --- the index --------------------------------------------------------------------------------------
 
     def _find(self, key: bytes) -> int:
         """The offset of ``key``'s record, or -1."""
-        index, log, head = self._index, self._log, self._head
+        index, chunks, head = self._index, self._chunks, self._head
         mask = len(index) - 1
         i = _hash(key) & mask
         while slot := index[i]:
             offset = slot - 1
-            if offset >= head and log[offset:offset + 16] == key:
-                return offset
+            if offset >= head:
+                pos = offset & _CHUNK_MASK
+                if chunks[offset >> CHUNK_BITS][pos:pos + 16] == key:
+                    return offset
             i = (i + 1) & mask
         return -1
 
@@ -402,15 +451,16 @@ class History:
         if not slot:
             self._used += 1
         index[i] = offset + 1
-        if 3 * self._used > 2 * len(index):
-            self._rebuild(2 * len(index))
+        if 3 * self._used > 2 * len(index):  # live and stale slots: rebuilt for the live ones
+            self._rebuild()
 
-    def _rebuild(self, size: int) -> None:
-        """A fresh index of ``size`` slots (a power of two) holding the live records only."""
-        while 3 * self._count > size:  # at most 1/3 full after a rebuild
+    def _rebuild(self) -> None:
+        """A fresh index holding the live records only: the smallest power of two (8 at least) that they fill
+        to 1/3 at most. Stale slots do not make it grow: memory follows the live entries."""
+        size = 8
+        while 3 * self._count > size:
             size *= 2
         self._index = array(self._index.typecode, [0]) * size
         self._used = 0
-        log = self._log
         for offset in self._offsets():
-            self._insert(bytes(log[offset:offset + 16]), offset)
+            self._insert(self._key_at(offset), offset)
