@@ -16,8 +16,6 @@ from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
-import numpy as np
-
 from transports.scripted import ScriptedTransport
 from vcran.core.motion import Leg
 from vcran.core.scenario import Scenario
@@ -29,6 +27,8 @@ from vcran.runner import EventLog, run_model, trace_writer, write_summary
 from vcran.sim.model import Model
 
 if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager (a scripted run never does)
+    import numpy as np
+
     from vcran.core.jobs import JobRecord
     from vcran.core.manager import FleetManager
     from vcran.sim.loop import ClosedLoop
@@ -70,6 +70,8 @@ class Result:
         """Every robot's ``current_motion`` at every tick: a numpy structured array with the columns
         ``t``, ``robot``, ``x``, ``y``, ``theta``, ``v``, ``w``, one row per tick and robot (robots in
         fleet order). ``pandas.DataFrame(result.telemetry)`` makes it a table."""
+        import numpy as np
+
         n = len(self.robots)
         if self._frames is None:
             assert self.out is not None

@@ -1,9 +1,11 @@
 """What ``vcran run`` imports (issue 14: start-up counts when a small run takes well under a second).
 
-A scripted run of convex robots that never touch needs neither shapely (convexity is decided in numpy,
-vcran.core.collisions), nor the closed loop, nor the NGSI codec, nor any optional extra. The static half
-of this (no HTTP, plotting, fuzzing or cluster library anywhere on the run path) is an import-linter
-contract in pyproject.toml; this test checks what a real run loads, function-level imports included.
+A scripted run of robots without batteries whose footprints' boxes never meet samples nothing: it needs
+neither numpy (the fleet's sweep, vcran.core.sampling; the exact footprint test, vcran.core.overlap; the
+leg log is written without it), nor shapely, nor the closed loop, nor the NGSI codec, nor any optional
+extra. The static half of this (no HTTP, plotting, fuzzing or cluster library anywhere on the run path)
+is an import-linter contract in pyproject.toml; this test checks what a real run loads, function-level
+imports included.
 """
 
 from __future__ import annotations
@@ -14,9 +16,10 @@ import sys
 
 #: Modules (and their submodules) the demo's run must not load.
 NOT_NEEDED = (
-    "shapely", "httpx", "matplotlib", "hypothesis", "dask", "polars", "pandas",
+    "numpy", "shapely", "httpx", "matplotlib", "hypothesis", "dask", "polars", "pandas",
     "vcran.sim.loop", "vcran.sim.link", "vcran.core.manager", "vcran.core.jobs", "vcran.core.codec",
     "vcran.report", "vcran.broker", "vcran.sweep", "vcran.testing", "transports.orion",
+    "vcran.core.sampling", "vcran.core.overlap", "vcran.sim.power",
 )
 
 

@@ -10,16 +10,15 @@ import math
 import numpy as np
 import pytest
 
-from vcran.core.collisions import TIME_TOL, Track, convex_axes, first_change, shape_of, touching
+from vcran.core.collisions import TIME_TOL, Footprint, Track
 from vcran.core.motion import Leg, Limits
+from vcran.core.overlap import convex_axes, first_change, shape_of, touching
 
 SQUARE = ((0.5, 0.5), (-0.5, 0.5), (-0.5, -0.5), (0.5, -0.5))  # 1 m x 1 m around the robot's origin
 
 
 def track(index, points, pose=(0.0, 0.0, 0.0), leg=None, convex=True):
-    shape, radius = shape_of(points)
-    axes = convex_axes(shape) if convex else None
-    return Track(index, shape, radius, leg, pose, leg.t_end if leg else math.inf, axes)
+    return Track(index, Footprint(points, None if convex else False), leg, pose, leg.t_end if leg else math.inf)
 
 
 def touch(a, b):

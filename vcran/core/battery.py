@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from vcran.core.motion import Leg
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,6 +63,8 @@ class FleetBattery:
     """
 
     def __init__(self, configs: list[BatteryConfig | None]) -> None:
+        import numpy as np  # a fleet with batteries only: a run without any does not import numpy
+
         n = len(configs)
         self.configs = configs
         self.indices = np.flatnonzero(np.array([c is not None for c in configs], dtype=bool))
@@ -95,6 +99,8 @@ class FleetBattery:
     def levels(self, t: float, distances: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Charge of every robot with a battery at ``t``, and its segment kind (as floats), both in
         ``indices`` order."""
+        import numpy as np
+
         m = self._sync()
         if not self._everyone:
             m, distances = m[:, self.indices], distances[self.indices]

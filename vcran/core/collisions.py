@@ -11,7 +11,9 @@ begin and end between two samples are missed; at 0.05 m that is a graze thinner 
 
 Finding *which* pairs to test is :class:`Grid`'s job: a uniform grid over the floor, each robot filed
 under the cells its track's bounding box touches, so a robot meets only its neighbours and the cost grows
-with the fleet, not with its square.
+with the fleet, not with its square. That part is plain Python; the exact test is in
+:mod:`vcran.core.overlap` (numpy, shapely), imported only once two boxes overlap, so a fleet whose robots
+keep apart never loads numpy for it.
 """
 
 from __future__ import annotations
@@ -20,10 +22,14 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from itertools import product
+from typing import TYPE_CHECKING
 
-import numpy as np
+from vcran.core.motion import Leg
 
-from vcran.core.motion import Leg, sample_leg
+if TYPE_CHECKING:
+    import numpy as np
+
+    from vcran.core.overlap import Axes
 
 #: Contact instants are refined to this many seconds.
 TIME_TOL = 1e-9
@@ -31,25 +37,71 @@ TIME_TOL = 1e-9
 BOX_PAD = 1e-6
 #: At most this many refinement rounds (a bracket at instants too large to split to ``TIME_TOL`` stops there).
 MAX_ROUNDS = 16
-#: A scan first compares the robots' origins every this many samples (see :func:`_touching_along`).
+#: A scan first compares the robots' origins every this many samples (see :func:`vcran.core.overlap._touching_along`).
 COARSE = 32
-#: Samples per refinement round (see :func:`_refine`).
+#: Samples per refinement round (see :func:`vcran.core.overlap._refine`).
 REFINE = 64
 #: At most this many samples per pair test (the step grows for very long overlaps of slow pairs).
 MAX_SAMPLES = 100_000
 
 
+class Footprint:
+    """A robot's footprint: its corners in the robot frame and its bounding radius around the origin (plain
+    Python: the grid's boxes need only the radius), with the ``(n, 2)`` array and, for a convex polygon,
+    the separating axes made on first use by the exact test (:mod:`vcran.core.overlap`).
+
+    ``convex=False`` makes the exact test treat the footprint as a general polygon (shapely) even when it
+    is convex. The radius is ``math.hypot``'s: a bound for the broad phase, which the exact test confirms.
+    """
+
+    __slots__ = ("points", "radius", "_convex", "_shape", "_axes")
+
+    def __init__(self, points: Iterable[tuple[float, float]], convex: bool | None = None) -> None:
+        self.points = tuple((float(x), float(y)) for x, y in points)
+        self.radius = max((math.hypot(x, y) for x, y in self.points), default=0.0)
+        self._convex = convex
+        self._shape: np.ndarray | None = None
+        self._axes: Axes | None | bool = False  # False: not decided yet
+
+    @property
+    def shape(self) -> np.ndarray:
+        if self._shape is None:
+            from vcran.core.overlap import shape_of
+
+            self._shape = shape_of(self.points)[0]
+        return self._shape
+
+    @property
+    def axes(self) -> Axes | None:
+        """The separating axes if the footprint is a valid convex polygon (and not declared otherwise)."""
+        if self._axes is False:
+            from vcran.core.overlap import convex_axes
+
+            self._axes = convex_axes(self.shape) if self._convex is not False else None
+        return self._axes  # type: ignore[return-value]
+
+
 @dataclass(frozen=True, slots=True)
 class Track:
-    """Robot ``index``'s footprint (``shape``: points in the robot frame) on ``leg``, or at rest at ``pose``."""
+    """Robot ``index``'s ``footprint`` on ``leg``, or at rest at ``pose``."""
 
     index: int
-    shape: np.ndarray
-    radius: float
+    footprint: Footprint
     leg: Leg | None
     pose: tuple[float, float, float]
     until: float  # the track holds until this instant (a leg's end; inf at rest)
-    axes: Axes | None = None  # ``shape``'s separating axes when it is convex (:func:`convex_axes`)
+
+    @property
+    def radius(self) -> float:
+        return self.footprint.radius
+
+    @property
+    def shape(self) -> np.ndarray:
+        return self.footprint.shape
+
+    @property
+    def axes(self) -> Axes | None:
+        return self.footprint.axes
 
     @property
     def drive(self) -> float:
@@ -63,12 +115,6 @@ class Track:
         if leg is None:
             return 0.0
         return leg.peak + self.radius * max(abs(leg.rate1), abs(leg.rate2))
-
-    def poses(self, times: np.ndarray) -> np.ndarray:
-        """``(len(times), 3)`` poses x, y, theta."""
-        if self.leg is None:
-            return np.broadcast_to(np.asarray(self.pose, dtype=np.float64), (len(times), 3))
-        return sample_leg(self.leg, times)[:, :3]
 
     def box(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, float, float, float]:
         """A bounding box of everything this track covers between ``t0`` and ``t1`` (min x, min y, max x, max y).
@@ -88,197 +134,6 @@ class Track:
             (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
         r += BOX_PAD
         return min(xa, xb) - r, min(ya, yb) - r, max(xa, xb) + r, max(ya, yb) + r
-
-
-def shape_of(points: Iterable[tuple[float, float]]) -> tuple[np.ndarray, float]:
-    """A footprint as an ``(n, 2)`` array and its bounding radius around the robot's origin."""
-    shape = np.asarray(list(points), dtype=np.float64).reshape(-1, 2)
-    return shape, float(np.max(np.hypot(shape[:, 0], shape[:, 1]))) if len(shape) else 0.0
-
-
-@dataclass(frozen=True, slots=True)
-class Axes:
-    """A convex footprint's edge normals ``(n, 2)`` in the robot frame and its own extent along each."""
-
-    normals: np.ndarray
-    low: np.ndarray
-    high: np.ndarray
-
-
-def convex_axes(shape: np.ndarray) -> Axes | None:
-    """The separating axes of ``shape`` if it is a valid convex polygon with an area, else None (shapely then).
-
-    Convex, valid and with an area: corner by corner (a corner given twice in a row counts once), the
-    boundary turns the same way or goes straight on (never back), turns at least once, and goes round
-    exactly once (a pentagram turns one way at every corner, but twice round). Decided in numpy from the corners alone: shapely is
-    imported (11 ms of a run's start-up) only for the footprints that need it, which most fleets have none
-    of, and an area comparison with the convex hull would call a convex polygon concave when the two areas
-    round apart in the last bit.
-    """
-    if len(shape) < 3:
-        return None
-    edges = np.roll(shape, -1, axis=0) - shape
-    sides = edges[(edges != 0.0).any(axis=1)]  # a corner given twice in a row is one corner
-    following = np.roll(sides, -1, axis=0)
-    cross = sides[:, 0] * following[:, 1] - sides[:, 1] * following[:, 0]
-    dot = np.einsum("ij,ij->i", sides, following)
-    one_way = bool(np.all(cross >= 0.0) or np.all(cross <= 0.0)) and bool(np.any(cross != 0.0))
-    if not one_way or np.any((cross == 0.0) & (dot <= 0.0)):
-        return None
-    if round(abs(float(np.arctan2(cross, dot).sum())) / (2.0 * math.pi)) != 1:
-        return None
-    normals = np.column_stack((-edges[:, 1], edges[:, 0]))
-    own = normals @ shape.T
-    return Axes(normals, own.min(axis=1), own.max(axis=1))
-
-
-def _corners(track: Track, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The footprint's corners at ``poses`` in world coordinates: x and y, each ``(len(poses), n)``."""
-    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-    px, py = track.shape[:, 0], track.shape[:, 1]
-    xs = poses[:, :1] + c[:, None] * px - s[:, None] * py
-    ys = poses[:, 1:2] + s[:, None] * px + c[:, None] * py
-    return xs, ys
-
-
-def footprints(track: Track, poses: np.ndarray) -> np.ndarray:
-    """The footprint polygons at ``poses`` (a shapely array)."""
-    import shapely  # only for concave footprints and contact points (see convex_axes)
-
-    return shapely.polygons(np.stack(_corners(track, poses), axis=-1))
-
-
-def _apart_along(axes: Axes, pose: np.ndarray, other: Track, other_pose: np.ndarray) -> np.ndarray:
-    """Whether some edge normal of the footprint with ``axes`` at ``pose`` separates ``other``'s, per sample.
-
-    Works in that robot's frame, where its own extent along each normal is a constant.
-    """
-    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
-    dx, dy = other_pose[:, 0] - pose[:, 0], other_pose[:, 1] - pose[:, 1]
-    rel = np.column_stack((c * dx + s * dy, c * dy - s * dx, other_pose[:, 2] - pose[:, 2]))
-    xs, ys = _corners(other, rel)  # the other's corners in this robot's frame
-    proj = axes.normals[:, 0, None] * xs[:, None, :] + axes.normals[:, 1, None] * ys[:, None, :]
-    return ((proj.max(axis=2) < axes.low) | (proj.min(axis=2) > axes.high)).any(axis=1)
-
-
-def _convex_touching(a: Track, b: Track, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
-    """:func:`touching` for two convex footprints, by the separating axis theorem (numpy, no shapely).
-
-    Two convex polygons are apart exactly when their projections on some edge normal of either are apart;
-    projections that share an end count as touching, as shapely's ``intersects`` does.
-    """
-    assert a.axes is not None and b.axes is not None
-    apart = _apart_along(a.axes, pa, b, pb)
-    rest = ~apart
-    if rest.any():
-        apart[rest] = _apart_along(b.axes, pb[rest], a, pa[rest])
-    return ~apart
-
-
-def touching(a: Track, b: Track, times: np.ndarray) -> np.ndarray:
-    """Whether the footprints of ``a`` and ``b`` intersect (touching counts) at each of ``times``."""
-    pa, pb = a.poses(times), b.poses(times)
-    near = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1]) <= a.radius + b.radius
-    out = np.zeros(len(times), dtype=bool)
-    if near.any():
-        if a.axes is not None and b.axes is not None:
-            out[near] = _convex_touching(a, b, pa[near], pb[near])
-        else:
-            import shapely
-
-            out[near] = shapely.intersects(footprints(a, pa[near]), footprints(b, pb[near]))
-    return out
-
-
-def first_change(
-    a: Track, b: Track, t0: float, t1: float, resolution: float, want: bool, exact: bool = True
-) -> float | None:
-    """The first instant in ``[t0, t1]`` at which "the footprints touch" becomes ``want``, or None.
-
-    With ``exact`` false the first sample at which it holds is returned, at most one sampling step after
-    the change (no refinement): enough where only the order of events matters, not the instant.
-    """
-    if t1 < t0:
-        return None
-    speed = a.speed + b.speed
-    if speed <= 0.0 or t1 == t0:
-        return t0 if bool(touching(a, b, np.array([t0]))[0]) == want else None
-    span = t1 - t0 if math.isfinite(t1) else 0.0
-    if span == 0.0:
-        return t0 if bool(touching(a, b, np.array([t0]))[0]) == want else None
-    step = max(resolution / speed, span / MAX_SAMPLES)
-    times = t0 + step * np.arange(math.ceil(span / step) + 1)
-    times[-1] = t1
-    hits = np.flatnonzero(_touching_along(a, b, times, step) == want)
-    if not len(hits):
-        return None
-    k = int(hits[0])
-    if k == 0:
-        return t0
-    if not exact:
-        return float(times[k])
-    return _refine(a, b, float(times[k - 1]), float(times[k]), want)
-
-
-def _touching_along(a: Track, b: Track, times: np.ndarray, step: float) -> np.ndarray:
-    """:func:`touching` at ``times`` (evenly ``step`` apart), skipping stretches where the robots are far apart.
-
-    The robots' origins are first compared every ``COARSE`` samples: neither moves faster than its leg's
-    peak speed, so where, at one end of a coarse stretch, they are further apart than their bounding
-    radii plus what both can drive in the stretch, no sample inside can touch. Only the other stretches are
-    sampled finely, at the same instants a full scan would use, so the answer is the full scan's.
-    """
-    n = len(times)
-    out = np.zeros(n, dtype=bool)
-    ends = np.arange(0, n - 1 + COARSE, COARSE).clip(max=n - 1)
-    pa, pb = a.poses(times[ends]), b.poses(times[ends])
-    reach = a.radius + b.radius + (a.drive + b.drive) * COARSE * step
-    close = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1]) <= reach * (1.0 + 1e-9) + 1e-9
-    stretches = np.flatnonzero(close[:-1] & close[1:])  # n >= 2, so there are at least two ends
-    if not len(stretches):
-        return out
-    need = np.zeros(n, dtype=bool)
-    for m in stretches.tolist():
-        need[ends[m] : ends[m + 1] + 1] = True
-    out[need] = touching(a, b, times[need])
-    return out
-
-
-def _refine(a: Track, b: Track, lo: float, hi: float, want: bool) -> float:
-    """Narrow ``(lo, hi]`` (not ``want`` at ``lo``, ``want`` at ``hi``) to ``TIME_TOL``; return its end.
-
-    Each round samples ``REFINE - 1`` instants inside the bracket in one vectorised call and keeps the gap
-    before the first that is ``want``: the bracket shrinks ``REFINE``-fold a round, so a sampling step of
-    tens of milliseconds reaches a nanosecond in about five calls (scalar bisection took about 25, each
-    costing nearly as much as a call with 64 samples).
-    """
-    fractions = np.arange(1, REFINE) / REFINE
-    for _ in range(MAX_ROUNDS):
-        if hi - lo <= TIME_TOL:
-            break
-        inner = lo + (hi - lo) * fractions
-        hits = np.flatnonzero(touching(a, b, inner) == want)
-        if not len(hits):
-            lo = float(inner[-1])
-            continue
-        k = int(hits[0])
-        hi = float(inner[k])
-        if k:
-            lo = float(inner[k - 1])
-    return hi
-
-
-def contact_point(a: Track, b: Track, t: float) -> tuple[float, float]:
-    """Where the footprints meet at ``t``: the centroid of their intersection (a corner, when they just touch)."""
-    times = np.array([t])
-    import shapely
-
-    fa, fb = footprints(a, a.poses(times))[0], footprints(b, b.poses(times))[0]
-    c = shapely.intersection(fa, fb).centroid
-    if c.is_empty:  # not touching after all (the caller asked at a separation): midway between the robots
-        pa, pb = a.poses(times)[0], b.poses(times)[0]
-        return float(0.5 * (pa[0] + pb[0])), float(0.5 * (pa[1] + pb[1]))
-    return float(c.x), float(c.y)
 
 
 class Grid:

@@ -6,8 +6,10 @@ to reach cruise speed), and, for a goal with ``use_orientation``, turn in place 
 closed-form, so the cost of a pose does not depend on the leg's length or on how often it is sampled.
 
 :class:`Leg` answers for one robot (the AGV process uses its duration to schedule the arrival);
-:class:`FleetKinematics` holds every robot's current leg in numpy arrays and samples the whole fleet in
-one vectorised sweep, which is how the 1 Hz telemetry of a thousand robots stays cheap.
+:class:`FleetKinematics` holds every robot's current leg and samples the whole fleet in one vectorised
+sweep (:mod:`vcran.core.sampling`), which is how the 1 Hz telemetry of a thousand robots stays cheap.
+numpy is imported only by that sweep: a run whose fleet nobody samples (``vcran run``: every record is
+reproduced from the leg log) does not load it, which was a tenth of a small run's process (issue 14).
 """
 
 from __future__ import annotations
@@ -15,9 +17,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from operator import attrgetter
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 TAU = 2.0 * math.pi
 #: Leg's derived fields, in the order __post_init__ computes them.
@@ -198,19 +201,16 @@ class FleetKinematics:
     """Every robot's current leg, sampled for the whole fleet at once.
 
     A robot at rest has no leg; ``rest`` holds its pose. :meth:`start` (the AGV process, once per leg)
-    and :meth:`finish` keep the arrays current; :meth:`sample` (the telemetry sweep, once per tick)
-    costs a few numpy calls for the whole fleet, or a short Python loop when few robots move.
+    and :meth:`finish` keep the bookkeeping current in plain Python (a leg's start cost a third more
+    when it also wrote its row into numpy arrays); :meth:`sample` (the telemetry sweep, once per tick)
+    builds the moving robots' rows once per change of legs and costs a few numpy calls for the whole
+    fleet, or a short Python loop when few robots move.
     """
 
     def __init__(self, poses: list[tuple[float, float, float]]) -> None:
-        n = len(poses)
-        self.legs = np.zeros((n, len(_COLUMNS)), dtype=np.float64)
-        self.legs[:, C["t_end"]] = -np.inf
-        #: x, y, theta, v, w of every robot at rest (v = w = 0); rows of moving robots are overwritten.
-        self.rest = np.zeros((n, 5), dtype=np.float64)
-        self.rest[:, :3] = np.asarray(poses, dtype=np.float64).reshape(n, 3)
-        self.rest[:, 2] = [wrap(theta) for _, _, theta in poses]
-        self.odometer = np.zeros(n, dtype=np.float64)  # distance of finished legs
+        #: x, y, theta of every robot where it rests (a moving robot's is where it last rested).
+        self.rest = [(float(x), float(y), float(wrap(theta))) for x, y, theta in poses]
+        self.odometer = [0.0] * len(poses)  # distance of finished legs
         self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
         #: robot index -> distance driven on a leg that is held (paused, broken down; SPEC §4)
         self.held: dict[int, float] = {}
@@ -228,7 +228,6 @@ class FleetKinematics:
         if self.observer is not None:
             self.observer.leg(i, leg, leg.t0 if t is None else t)
         self._changes += 1
-        self.legs[i] = _row(leg)
         self.current[i] = leg
 
     def finish(self, i: int) -> None:
@@ -236,8 +235,7 @@ class FleetKinematics:
         leg = self.current.pop(i)
         self._changes += 1
         self.odometer[i] += leg.distance
-        self.rest[i, :3] = (leg.x1, leg.y1, leg.end_theta)
-        self.legs[i, C["t_end"]] = -np.inf
+        self.rest[i] = (leg.x1, leg.y1, leg.end_theta)
 
     def stop(self, i: int, t: float) -> tuple[float, float, float]:
         """Robot ``i`` stops where it is at ``t`` (SPEC §4): its leg ends there, the distance is banked."""
@@ -268,8 +266,7 @@ class FleetKinematics:
     def _rest_at(self, i: int, leg: Leg, t: float) -> tuple[float, float, float]:
         self._changes += 1
         x, y, theta, _, _ = leg.pose_at(t)
-        self.rest[i, :3] = (x, y, theta)
-        self.legs[i, C["t_end"]] = -np.inf
+        self.rest[i] = (x, y, theta)
         return x, y, theta
 
     def abandon(self, i: int, t: float) -> None:
@@ -282,8 +279,7 @@ class FleetKinematics:
         and the leg log's abandon rows replayed (which come after a zero-length leg's end at a tie)."""
         self.current.pop(i, None)
         self._changes += 1
-        self.rest[i, :3] = pose
-        self.legs[i, C["t_end"]] = -np.inf
+        self.rest[i] = (float(pose[0]), float(pose[1]), float(pose[2]))
         if self.observer is not None:
             self.observer.abandon(i, t, pose)
 
@@ -291,97 +287,38 @@ class FleetKinematics:
         """Odometer of robot ``i`` at ``t``, including the driven part of its current leg."""
         leg = self.current.get(i)
         if leg is None:
-            return float(self.odometer[i] + self.held.get(i, 0.0))
-        return float(self.odometer[i] + leg.distance_at(t))
+            return self.odometer[i] + self.held.get(i, 0.0)
+        return self.odometer[i] + leg.distance_at(t)
+
+    def pose(self, i: int, t: float) -> tuple[float, float, float]:
+        """Robot ``i``'s x, y, theta at ``t``: a row of :meth:`sample`, bit for bit, without numpy."""
+        leg = self.current.get(i)
+        return self.rest[i] if leg is None else leg.pose_at(t)[:3]
 
     def distances(self, t: float) -> np.ndarray:
         """Every robot's odometer at ``t`` (the battery's sweep), legs in progress included."""
-        out = self.odometer.copy()
-        for i, d in self.held.items():
-            out[i] += d
-        if len(self.current) < SCALAR_BELOW:
-            for i, leg in self.current.items():
-                out[i] += leg.distance_at(t)
-            return out
-        idx, L = self._moving()
-        out[idx] += _driven(L, np.maximum(t - L[:, C["t0"]], 0.0) - L[:, C["t_turn1"]])
-        return out
+        from vcran.core.sampling import fleet_distances
 
-    def _moving(self) -> tuple[np.ndarray, np.ndarray]:
-        """The moving robots' indices and leg rows, shared by the sweeps of one tick (the legs did not
-        change in between: nothing runs between a tick's telemetry and its battery sweep)."""
-        if self._moving_cache is None or self._moving_cache[0] != self._changes:
-            idx = np.fromiter(self.current, dtype=np.intp, count=len(self.current))
-            self._moving_cache = (self._changes, idx, self.legs[idx])
-        return self._moving_cache[1], self._moving_cache[2]
+        return fleet_distances(self, t)
 
     def sample(self, t: float) -> np.ndarray:
         """A (robots, 5) array of ``x, y, theta, v, w`` at ``t`` (legs not started count as at rest)."""
-        out = self.rest.copy()
-        if len(self.current) < SCALAR_BELOW:
-            for i, leg in self.current.items():
-                out[i] = leg.pose_at(t)
-            return out
-        idx, L = self._moving()
-        out[idx] = _sample_moving(L, t)
-        return out
+        from vcran.core.sampling import fleet_sample
+
+        return fleet_sample(self, t)
+
+    def moving(self) -> tuple[np.ndarray, np.ndarray]:
+        """The moving robots' indices and leg rows (:data:`C` columns), shared by the sweeps of one tick
+        (the legs did not change in between: nothing runs between a tick's telemetry and its battery sweep)."""
+        if self._moving_cache is None or self._moving_cache[0] != self._changes:
+            from vcran.core.sampling import leg_rows
+
+            self._moving_cache = (self._changes, *leg_rows(self.current))
+        return self._moving_cache[1], self._moving_cache[2]
 
 
 def sample_leg(leg: Leg, times: np.ndarray) -> np.ndarray:
     """A ``(len(times), 5)`` array of one leg's ``x, y, theta, v, w`` at each of ``times`` (collision checks)."""
-    row = np.array(_row(leg), dtype=np.float64)
-    return _sample_moving(np.broadcast_to(row, (len(times), len(_COLUMNS))), times)  # type: ignore[arg-type]
+    from vcran.core.sampling import sample_leg as sample
 
-
-def _wrap_array(a: np.ndarray) -> np.ndarray:
-    """:func:`wrap` elementwise, with the same fmod steps (fmod is exact, so results agree)."""
-    r = np.fmod(a + math.pi, TAU)
-    r = np.where(r <= 0.0, r + TAU, r)
-    return np.where((-math.pi < a) & (a <= math.pi), a, r - math.pi)
-
-
-def _driven(L: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Distance covered ``d`` seconds into each leg's drive (``d`` clamped to the drive), vectorised."""
-    col = lambda name: L[:, C[name]]  # noqa: E731
-    td, ta, tdec, peak, dist = col("t_drive"), col("t_acc"), col("t_dec"), col("peak"), col("distance")
-    d = np.minimum(np.maximum(d, 0.0), td)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rest = td - d
-        s = np.where(
-            d < ta, 0.5 * peak * d * d / ta,
-            np.where(d <= td - tdec, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / tdec),
-        )
-    return np.minimum(np.maximum(s, 0.0), dist)  # a NaN of a 0/0 ramp lies in a branch np.where did not pick
-
-
-def _sample_moving(L: np.ndarray, t: float) -> np.ndarray:
-    """Poses of legs that are under way at ``t``; mirrors :meth:`Leg.pose_at` operation by operation."""
-    col = lambda name: L[:, C[name]]  # noqa: E731
-    tau = np.maximum(t - col("t0"), 0.0)
-    t1, td, ta, tdec = col("t_turn1"), col("t_drive"), col("t_acc"), col("t_dec")
-    peak, dist = col("peak"), col("distance")
-    turning1 = tau < t1
-    d = tau - t1
-    driving = ~turning1 & (d < td)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        accelerating = d < ta
-        cruising = ~accelerating & (d <= td - tdec)
-        rest = td - d
-        s = np.where(
-            accelerating, 0.5 * peak * d * d / ta,
-            np.where(cruising, 0.5 * peak * ta + peak * (d - ta), dist - 0.5 * peak * rest * rest / tdec),
-        )
-        v = np.where(accelerating, peak * d / ta, np.where(cruising, peak, peak * rest / tdec))
-    s = np.minimum(np.maximum(s, 0.0), dist)
-    out = np.empty((len(L), 5))
-    out[:, 0] = np.where(turning1, col("x0"), np.where(driving, col("x0") + col("ux") * s, col("x1")))
-    out[:, 1] = np.where(turning1, col("y0"), np.where(driving, col("y0") + col("uy") * s, col("y1")))
-    theta_turn1 = _wrap_array(col("theta0") + col("rate1") * tau)
-    theta_turn2 = _wrap_array(col("heading") + col("rate2") * (d - td))
-    out[:, 2] = np.where(turning1, theta_turn1, np.where(driving, col("heading"), theta_turn2))
-    out[:, 3] = np.where(driving, v, 0.0)
-    out[:, 4] = np.where(turning1, col("rate1"), np.where(driving, 0.0, col("rate2")))
-    ended = t >= col("t_end")
-    if ended.any():  # a leg whose completion has not been processed yet: at its end pose
-        out[ended] = np.column_stack((col("x1"), col("y1"), col("end_theta"), np.zeros(len(L)), np.zeros(len(L))))[ended]
-    return out
+    return sample(leg, times)

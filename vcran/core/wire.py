@@ -12,11 +12,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from vcran.core.messages import Message
 
 if TYPE_CHECKING:
+    import numpy as np
     import simpy
 
 

@@ -12,7 +12,7 @@ Format 2 (docs/outputs.md), what :class:`TraceWriter` and :class:`EventWriter` w
   kept as ``"raw"``. The last line, ``{"t", "dir": "end"}``, says when the run stopped.
 * ``events.jsonl.zst``: one object per event, every line with the same keys in the same order
   (:data:`EVENT_KEYS`, ``null`` where an event has no such field).
-* ``legs.npy``: every leg an AGV drove, one row each (:data:`LEG_DTYPE`); ``current_motion`` at every
+* ``legs.npy``: every leg an AGV drove, one row each (:data:`LEG_COLUMNS`); ``current_motion`` at every
   telemetry tick is a function of the fleet's initial poses and these rows, which :func:`samples`
   evaluates with the very code that produced the published values, so it is reproduced bit for bit.
 
@@ -30,16 +30,19 @@ import json
 import math
 import struct
 from collections.abc import Iterator
+from functools import cache
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
-import numpy as np
 import orjson
 
 from vcran.core.messages import ATTRIBUTES
 from vcran.core.motion import Leg
 from vcran.core.wire import Frame, Inbound, Publish
 from vcran.io.render import converter, delta_converter, expand
+
+if TYPE_CHECKING:
+    import numpy as np
 
 FORMAT = "vcran-trace"
 VERSION = 2
@@ -69,9 +72,26 @@ EVENT_KEYS = ("t", "robot", "event", "task", "motion", "action", "from", "to", "
 #: SPEC §4): every column but ``t`` and ``robot`` NaN; the robot rests where its leg had brought it at ``t``.
 #: An abandon (R14: the leg began at the instant of a cancel or deadline, and does not happen): a halt
 #: with ``x0``, ``y0``, ``theta0`` set, where the robot rests (where the leg began).
-LEG_DTYPE = np.dtype([("t", "<f8"), ("robot", "<u4"), ("t0", "<f8"), ("x0", "<f8"), ("y0", "<f8"),
-                      ("theta0", "<f8"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
-                      ("speed", "<f8"), ("accel", "<f8"), ("decel", "<f8"), ("turn_rate", "<f8")])
+LEG_COLUMNS = (("t", "<f8"), ("robot", "<u4"), ("t0", "<f8"), ("x0", "<f8"), ("y0", "<f8"),
+               ("theta0", "<f8"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"),
+               ("speed", "<f8"), ("accel", "<f8"), ("decel", "<f8"), ("turn_rate", "<f8"))
+
+
+@cache
+def leg_dtype() -> np.dtype:
+    """:data:`LEG_COLUMNS` as a numpy structured dtype (also ``LEG_DTYPE``, made on first use: writing the
+    leg log needs no numpy, so a run that nobody samples does not import it; issue 14)."""
+    import numpy as np
+
+    return np.dtype(list(LEG_COLUMNS))
+
+
+def __getattr__(name: str) -> Any:
+    if name == "LEG_DTYPE":  # the dtype under its historical name, without importing numpy for everyone
+        return leg_dtype()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 _LEG = struct.Struct("<dI" + "d" * 11)
 _HALT = (math.nan,) * 11
 _NPY_HEADER = 512  # bytes reserved for the .npy header, rewritten with the row count at close
@@ -182,7 +202,7 @@ class TraceWriter:
         directory.mkdir(parents=True, exist_ok=True)
         self._jsonl = open_output(directory / TRACE_FILE)
         self._legs = LegLog(directory / LEGS_FILE)
-        legs = {"file": LEGS_FILE, "columns": list(LEG_DTYPE.names or ()), "robots": list(robots)}
+        legs = {"file": LEGS_FILE, "columns": [name for name, _ in LEG_COLUMNS], "robots": list(robots)}
         self._jsonl.write(json_line({"format": FORMAT, "version": VERSION, **header, "legs": legs}))
         self._index = {robot: i for i, robot in enumerate(robots)}
         #: (dir, robot, attr) -> [last message, its full JSON value, the delta converter of its class]: what
@@ -277,7 +297,7 @@ class LegLog:
 
 
 def _npy_header(rows: int) -> bytes:
-    descr = np.lib.format.dtype_to_descr(LEG_DTYPE)
+    descr = list(LEG_COLUMNS)  # what numpy.lib.format.dtype_to_descr gives for the structured dtype
     text = f"{{'descr': {descr!r}, 'fortran_order': False, 'shape': ({rows},), }}"
     head = b"\x93NUMPY\x01\x00" + struct.pack("<H", _NPY_HEADER - 10)
     return head + text.encode("latin1").ljust(_NPY_HEADER - 11) + b"\n"
@@ -438,16 +458,19 @@ def event_records(path: Path, *, cut_off: bool = False) -> Iterator[Any]:
 def legs(path: Path, *, cut_off: bool = False) -> np.ndarray:
     """``legs.npy`` (or the one in a run folder) as a structured array of :data:`LEG_DTYPE` rows.
     ``cut_off``: the run was killed before the row count was written; every whole row is read."""
+    import numpy as np
+
+    dtype = leg_dtype()
     if path.is_dir():
         path = path / LEGS_FILE
     if cut_off:
         data = np.fromfile(path, dtype=np.uint8, offset=_NPY_HEADER)
-        return data[: data.size - data.size % LEG_DTYPE.itemsize].view(LEG_DTYPE)
+        return data[: data.size - data.size % dtype.itemsize].view(dtype)
     try:
         data = np.load(path, allow_pickle=False)
     except (ValueError, EOFError) as exc:
         raise ValueError(f"{path}: not a vcran leg log ({exc})") from None
-    if data.dtype != LEG_DTYPE:
+    if data.dtype != dtype:
         raise ValueError(f"{path}: not a vcran leg log (columns {data.dtype.names})")
     return data
 
@@ -472,6 +495,8 @@ def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarra
     """Drive a :class:`FleetKinematics` through the logged legs and sample it at every tick, exactly as
     the telemetry process did (:meth:`vcran.sim.ran.Ran.telemetry`: tick k at ``k * period``, up to and
     including the end)."""
+    import numpy as np
+
     from vcran.core.motion import FleetKinematics, Limits
 
     fleet_spec = header["fleet"]
@@ -520,6 +545,8 @@ def telemetry(path: Path, robots: int, *, cut_off: bool = False) -> np.ndarray:
     """A format 1 ``telemetry.bin`` (or the one in a run folder) as a (ticks, 1 + robots * 5) float64 array.
 
     ``cut_off``: the recording was killed, so a last partial row is dropped instead of refused."""
+    import numpy as np
+
     if path.is_dir():
         path = path / TELEMETRY_FILE
     data = np.fromfile(path, dtype="<f8")
@@ -543,6 +570,8 @@ def telemetry_table(run: Path | str) -> np.ndarray:
 
 def long_table(rows: np.ndarray, robots: tuple[str, ...]) -> np.ndarray:
     """Telemetry rows ``[t, x0, y0, theta0, v0, w0, x1, ...]`` as one record per tick and robot."""
+    import numpy as np
+
     n, ticks = len(robots), rows.shape[0]
     width = max((len(r) for r in robots), default=1)
     table = np.empty(ticks * n, dtype=[("t", "<f8"), ("robot", f"<U{width}"),

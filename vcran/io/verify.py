@@ -34,11 +34,11 @@ from vcran.core.scenario import Scenario
 from vcran.core.wire import Frame
 from vcran.io.scenario_file import ScenarioError, parse
 from vcran.io.trace import (
-    LEG_DTYPE,
     LEGS_FILE,
     TELEMETRY_FILE,
     event_records,
     events_beside,
+    leg_dtype,
     legs,
     lines,
     open_input,
@@ -205,12 +205,12 @@ def _compare_legs(header: dict[str, Any], expected_dir: Path, got_dir: Path, com
     a, b = legs(expected_dir, cut_off=not complete), legs(got_dir)
     rows = min(len(a), len(b))
     robots = robots_of(header)
-    ka = a[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
-    kb = b[:rows].view(np.uint8).reshape(rows, LEG_DTYPE.itemsize)
+    ka = a[:rows].view(np.uint8).reshape(rows, leg_dtype().itemsize)
+    kb = b[:rows].view(np.uint8).reshape(rows, leg_dtype().itemsize)
     differ = np.flatnonzero(np.any(ka != kb, axis=1))
     if differ.size:
         row = int(differ[0])
-        for name in LEG_DTYPE.names or ():
+        for name in leg_dtype().names or ():
             x, y = a[row][name], b[row][name]
             if np.asarray(x).tobytes() != np.asarray(y).tobytes():
                 robot = robots[int(a[row]["robot"])] if int(a[row]["robot"]) < len(robots) else None

@@ -3,7 +3,7 @@
 Whenever a robot's track changes (a leg starts or ends, a hold, a stop: :attr:`RobotNode.on_move`), it is
 re-filed in the :class:`~vcran.core.collisions.Grid` and tested against the robots sharing a cell: for
 each such pair the first instant their footprints start to touch (or, for a pair already in contact, stop
-touching) before either track ends is computed (:func:`~vcran.core.collisions.first_change`) and an event
+touching) before either track ends is computed (:func:`~vcran.core.overlap.first_change`) and an event
 is scheduled then. Any later change of either robot's track makes that prediction stale (a version check),
 and the change itself predicts anew. A contact is reported once, as one ``collision`` event (on the robot
 first in fleet order, naming the other). In ``"report"`` mode that is all: the robots drive on and
@@ -18,7 +18,7 @@ import math
 
 import simpy
 
-from vcran.core.collisions import Grid, Track, contact_point, convex_axes, first_change, shape_of
+from vcran.core.collisions import Footprint, Grid, Track
 from vcran.core.effects import Reason
 from vcran.core.incidents import Collision
 from vcran.sim.robot import Halted, RobotNode
@@ -32,8 +32,7 @@ class Contacts:
     def __init__(self, env: simpy.Environment, robots: list[RobotNode], mode: str, resolution: float) -> None:
         self.env, self.robots, self.stop, self.resolution = env, robots, mode == "stop", resolution
         self.grid = Grid(CELL)
-        self.shapes = [shape_of(r.config.footprint) for r in robots]
-        self.axes = [convex_axes(shape) for shape, _ in self.shapes]
+        self.footprints = [Footprint(r.config.footprint) for r in robots]
         self.tracks: list[Track] = []
         self.version = [0] * len(robots)
         self.touching: set[tuple[int, int]] = set()
@@ -45,10 +44,9 @@ class Contacts:
             self._check(r.index)
 
     def _track(self, robot: RobotNode) -> Track:
-        shape, radius = self.shapes[robot.index]
         leg = robot.fleet.current.get(robot.index)
         until = leg.t_end if leg is not None else math.inf
-        return Track(robot.index, shape, radius, leg, robot.pose, until, self.axes[robot.index])
+        return Track(robot.index, self.footprints[robot.index], leg, robot.pose, until)
 
     def moved(self, robot: RobotNode) -> None:
         i = robot.index
@@ -75,6 +73,8 @@ class Contacts:
             return
         # A contact's end is reported nowhere: it only says from when the pair can collide again, so the
         # first sample apart does (a re-contact within that step would be a graze below the resolution).
+        from vcran.core.overlap import first_change  # the exact test: only for pairs whose boxes overlap
+
         t = first_change(a, b, now, until, self.resolution, want=not in_contact, exact=not in_contact)
         if t is None:
             return
@@ -92,6 +92,8 @@ class Contacts:
             return
         self.touching.add(pair)
         a, b = self.tracks[i], self.tracks[j]
+        from vcran.core.overlap import contact_point
+
         x, y = contact_point(a, b, self.env.now)
         ra, rb = self.robots[i], self.robots[j]
         self.count[i] += 1

@@ -25,7 +25,6 @@ from vcran.core.stations import Station, StationMap, motion_area_problem
 from vcran.core.wire import Inbound, Transport
 from vcran.sim.contacts import Contacts
 from vcran.sim.faults import Faults
-from vcran.sim.power import Power
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
 from vcran.sim.timing import END, PRODUCTION, at
@@ -146,6 +145,8 @@ class Model:
             self.robots.append(robot)
         self.ran = Ran(self.env, self.robots, transport, decode, self._unknown_entity)
         if self.battery is not None:
+            from vcran.sim.power import Power  # numpy's sweep of the fleet's batteries: only a fleet with some
+
             self.ran.after_statuses = Power(self.robots, self.battery, s.telemetry_period, self.ran.publish).tick
         self._start_faults()
         self.contacts = (Contacts(self.env, self.robots, s.collisions, s.collision_resolution)
@@ -261,14 +262,13 @@ class Model:
     def summary(self) -> dict[str, Any]:
         """summary.json (SPEC §8): deterministic, no wall-clock figures."""
         t = self.env.now
-        poses = self.fleet.sample(t)
         robots = {}
         for r in self.robots:
             robots[r.id] = {
                 "completed": list(self.completed[r.id]),
                 "cancelled": [{"task": task, "reason": reason} for task, reason in self.cancelled[r.id].pairs()],
                 "distance": self.fleet.distance(r.index, t),
-                "final_pose": dict(zip(("x", "y", "theta"), map(float, poses[r.index, :3]))),
+                "final_pose": dict(zip(("x", "y", "theta"), map(float, self.fleet.pose(r.index, t)))),
                 "carrying": r.carrying,
                 "parts_moved": r.parts_moved,
                 "errors": r.logic.error_count,
