@@ -1,8 +1,8 @@
 """R9's history (vcran.core.tasks.History): a byte log in age order with an open-addressing index.
 
 Expectations are derived by hand from R9/R10 (the latest ``limit`` ids, oldest evicted first, a cancel
-updating an entry without changing its age) and from the documented record size (29 bytes plus 8 per
-assignment, :data:`ENTRY_OVERHEAD` each, :data:`CANCEL_OVERHEAD` per remembered cancel); a stateful
+updating an entry without changing its age) and from the documented record size (25 bytes plus 8 per
+assignment, 29 for 31 assignments or more, :data:`ENTRY_OVERHEAD` each, :data:`CANCEL_OVERHEAD` per remembered cancel); a stateful
 comparison with an ordered dict covers long mixed sequences, with the index's hash forced to collide.
 """
 
@@ -80,7 +80,7 @@ def test_bounded_by_count_oldest_first(hashing):
 
 
 def test_bounded_by_bytes(hashing):
-    per_entry = 16 + 8 + 1 + 4 + 8 + ENTRY_OVERHEAD  # uuid, time, reason, count, one fingerprint
+    per_entry = 16 + 8 + 1 + 8 + ENTRY_OVERHEAD  # uuid, time, reason and count in one byte, one fingerprint
     history = History(limit=100, max_bytes=3 * per_entry)
     for i in range(10):
         history.remember(T(i), ended(1))
@@ -89,8 +89,8 @@ def test_bounded_by_bytes(hashing):
     history.replace(T(9), Ended(frozenset(), None, 0.0, fingerprint(cancel("T9"))))
     assert list(history) == [T(7), T(8), T(9)]  # replace never evicts
     history.remember(T(10), ended(1))
-    # 3 * 53 + 128 = 287 bytes, over the bound but replace never evicts; T10 makes it 340: T7 and T8
-    # go (234), then T9 with its cancel (181 bytes, alone above the bound of 159)
+    # 3 * 49 + 128 = 275 bytes, over the bound but replace never evicts; T10 makes it 324: T7 and T8
+    # go (226), then T9 with its cancel (177 bytes, alone above the bound of 147)
     assert list(history) == [T(10)]
 
 
@@ -155,7 +155,7 @@ def test_agrees_with_an_ordered_dict(case, colliding, small):
         model: OrderedDict[bytes, Ended] = OrderedDict()
 
         def cost(e: Ended) -> int:
-            return 29 + 8 * len(e.received) + ENTRY_OVERHEAD + (CANCEL_OVERHEAD if e.cancel else 0)
+            return 25 + 8 * len(e.received) + ENTRY_OVERHEAD + (CANCEL_OVERHEAD if e.cancel else 0)
 
         for k, (op, i, n, with_cancel) in enumerate(ops):
             key = T(i)
@@ -195,15 +195,28 @@ def test_evictions_do_not_grow_the_log_or_the_index(hashing):
 
 
 def test_records_larger_than_a_chunk_get_one_of_their_own():
-    # 29 + 8 * 600 bytes: more than a 4096-byte chunk
+    # 25 + 4 + 8 * 600 bytes (a count of 31 or more takes 4 bytes more): more than a 4096-byte chunk
     history = History(limit=4, max_bytes=1 << 20)
     history.remember(T(1), ended(1, t=1.0))
     history.remember(T(2), ended(600, t=2.0, name="T2"))
     history.remember(T(3), ended(2, t=3.0))
     # the first chunk (256 bytes) is cut to its one record when the next does not fit; the third is 1 KiB
-    assert [len(c) for c in history._chunks] == [29 + 8, 29 + 8 * 600, 1024]
+    assert [len(c) for c in history._chunks] == [25 + 8, 29 + 8 * 600, 1024]
     assert [history.get(T(i)).time for i in (1, 2, 3)] == [1.0, 2.0, 3.0]
     assert len(history.get(T(2)).received) == 600 and list(history) == [T(1), T(2), T(3)]
     for i in (4, 5, 6):
         history.remember(T(i), ended(1, t=float(i)))
     assert list(history) == [T(3), T(4), T(5), T(6)] and history.get(T(2)) is None
+
+
+@pytest.mark.parametrize("n", [0, 1, 30, 31, 32, 300])
+def test_any_number_of_fingerprints_round_trips(n, hashing):
+    # 30 fit the record's one byte beside the reason; from 31 on a 4-byte count follows it
+    history = History(limit=10, max_bytes=1 << 20)
+    e = ended(n, Reason.COLLISION, 4.5, name="N")
+    history.remember(id_for("N"), e)
+    history.remember(T(1), ended(2, Reason.CANCELLED, 5.0))
+    back, after = history.get(id_for("N")), history.get(T(1))
+    assert (back.received, back.reason, back.time) == (e.received, Reason.COLLISION, 4.5) and len(back.received) == n
+    assert (after.reason, after.time, len(after.received)) == (Reason.CANCELLED, 5.0, 2)
+    assert history._bytes == (25 + (4 if n >= 31 else 0) + 8 * n) + (25 + 16) + 2 * ENTRY_OVERHEAD

@@ -230,8 +230,12 @@ class Task:
 
 _REASONS: tuple[Reason | None, ...] = (None, *Reason)
 _NO_CANCEL = b""
-#: A history record's fixed part: task uuid, end time, reason (0: completed), number of fingerprints.
-_HEAD = struct.Struct("<16sdBI")
+#: A history record's fixed part: task uuid, end time, and one byte holding the reason (0: completed) in its
+#: low three bits and the number of fingerprints in its high five; ``_MANY`` there says a 4-byte count
+#: follows (a task of 31 assignments or more).
+_HEAD = struct.Struct("<16sdB")
+_MANY = 31
+_COUNT = struct.Struct("<I")
 #: The history's log is kept in chunks of 2**CHUNK_BITS bytes (:class:`History`).
 CHUNK_BITS = 12
 CHUNK = 1 << CHUNK_BITS
@@ -283,7 +287,7 @@ class History:
     objects per entry (a bytes record, a bytes key, a dict slot, a deque slot) cost about 0.2 kB, and
     spread over the allocator's pools they kept even more resident. Here an entry is one record in a
     per-robot byte log, in age order: the task's uuid, end time, reason and the 8-byte fingerprints of
-    its assignments (:data:`_HEAD` plus 8 per assignment: 53 bytes for a task of three).
+    its assignments (:data:`_HEAD` plus 8 per assignment: 49 bytes for a task of three).
 
     The log is a list of chunks of up to :data:`CHUNK` bytes, each allocated once at its full size: one
     growing buffer per robot was reallocated and copied as it grew, and across a fleet's buffers the
@@ -332,9 +336,8 @@ class History:
         offset = self._find(task_id.uuid)
         if offset < 0:
             return None
-        chunk, pos = self._chunks[offset >> CHUNK_BITS], offset & _CHUNK_MASK
-        _, time, reason, n = _HEAD.unpack_from(chunk, pos)
-        start = pos + _HEAD.size
+        chunk = self._chunks[offset >> CHUNK_BITS]
+        time, reason, n, start = _read_head(chunk, offset & _CHUNK_MASK)
         received = frozenset(bytes(chunk[i:i + FINGERPRINT_SIZE])
                              for i in range(start, start + n * FINGERPRINT_SIZE, FINGERPRINT_SIZE))
         return Ended(received, _REASONS[reason], time, self._cancels.get(task_id.uuid, _NO_CANCEL))
@@ -344,7 +347,7 @@ class History:
         key = task_id.uuid
         if self._find(key) >= 0:
             raise ValueError(f"task {task_id.label} is already in the history")
-        record = _HEAD.pack(key, ended.time, _REASONS.index(ended.reason), len(ended.received))
+        record = _record_head(key, ended.time, _REASONS.index(ended.reason), len(ended.received))
         record += b"".join(sorted(ended.received))
         offset = self._append(record)
         if not self._count:
@@ -387,8 +390,9 @@ class History:
         return bytes(self._chunks[offset >> CHUNK_BITS][pos:pos + 16])
 
     def _size_at(self, offset: int) -> int:
-        n = _HEAD.unpack_from(self._chunks[offset >> CHUNK_BITS], offset & _CHUNK_MASK)[3]
-        return _HEAD.size + FINGERPRINT_SIZE * n
+        pos = offset & _CHUNK_MASK
+        _, _, n, start = _read_head(self._chunks[offset >> CHUNK_BITS], pos)
+        return start - pos + FINGERPRINT_SIZE * n
 
     def _after(self, offset: int) -> int:
         """The offset of the record after the one at ``offset``: past a chunk's last record, the next chunk's start."""
@@ -464,3 +468,19 @@ class History:
         self._used = 0
         for offset in self._offsets():
             self._insert(self._key_at(offset), offset)
+
+
+def _record_head(key: bytes, time: float, reason: int, n: int) -> bytes:
+    if n < _MANY:
+        return _HEAD.pack(key, time, reason | n << 3)
+    return _HEAD.pack(key, time, reason | _MANY << 3) + _COUNT.pack(n)
+
+
+def _read_head(buf: bytearray, pos: int) -> tuple[float, int, int, int]:
+    """The end time, reason index and number of fingerprints of the record at ``pos``, and where they start."""
+    _, time, meta = _HEAD.unpack_from(buf, pos)
+    n, start = meta >> 3, pos + _HEAD.size
+    if n == _MANY:
+        n = _COUNT.unpack_from(buf, start)[0]
+        start += _COUNT.size
+    return time, meta & 7, n, start

@@ -40,32 +40,57 @@ def default_decode(attribute: str, raw: Any) -> Message:
     return decode_attribute(attribute, raw)
 
 
+def _put_size(buf: bytearray, size: int) -> None:
+    """Append ``size`` in LEB128: seven bits a byte, low bits first, the high bit saying "more follows"."""
+    while size >= 0x80:
+        buf.append(0x80 | size & 0x7F)
+        size >>= 7
+    buf.append(size)
+
+
+def _get_size(buf: bytearray, i: int) -> tuple[int, int]:
+    """The LEB128 number at ``buf[i]`` and the position after it."""
+    size = shift = 0
+    while True:
+        byte = buf[i]
+        i += 1
+        size |= (byte & 0x7F) << shift
+        if byte < 0x80:
+            return size, i
+        shift += 7
+
+
 class Labels:
-    """Task labels in order, for the summary: one UTF-8 buffer holding each label after its length,
-    optionally with a second short text each (a cancel's reason).
+    """Task labels in order, for the summary, front-coded in one buffer, optionally with a second short
+    text each (a cancel's reason).
 
     A run ends tens of thousands of tasks per robot-hour at fleet scale, and every one is listed in
     summary.json. A list of strings (and of dicts) was most of what a run's memory grew by; an offset
-    per label still cost 8 bytes beside a label of about 10. A length costs one byte below 128 bytes
-    (LEB128 beyond), and the labels are only ever read in order.
+    per label still cost 8 bytes beside a label of about 10. A robot's task ids mostly differ from the
+    previous one in their last characters (``r7_41_2`` after ``r7_41_1``), so each label is kept as how
+    many UTF-8 bytes it shares with the previous one, then the rest (both lengths in LEB128: one byte
+    each below 128): about 3 bytes a task. The labels are only ever read in order.
     """
 
-    __slots__ = ("_text", "_count", "_tags", "_tag_names")
+    __slots__ = ("_text", "_last", "_count", "_tags", "_tag_names")
 
     def __init__(self) -> None:
         self._text = bytearray()
+        self._last = b""
         self._count = 0
         self._tags = array("B")
         self._tag_names: list[str] = []
 
     def append(self, label: str, tag: str | None = None) -> None:
         data = label.encode("utf-8", "surrogatepass")
-        size = len(data)
-        while size >= 0x80:  # LEB128: seven bits a byte, low bits first, the high bit says "more follows"
-            self._text.append(0x80 | size & 0x7F)
-            size >>= 7
-        self._text.append(size)
-        self._text += data
+        last = self._last
+        shared, most = 0, min(len(data), len(last))
+        while shared < most and data[shared] == last[shared]:
+            shared += 1
+        _put_size(self._text, shared)
+        _put_size(self._text, len(data) - shared)
+        self._text += data[shared:]
+        self._last = data
         self._count += 1
         if tag is not None:
             if tag not in self._tag_names:
@@ -76,18 +101,13 @@ class Labels:
         return self._count
 
     def __iter__(self) -> Iterator[str]:
-        text, i, end = self._text, 0, len(self._text)
+        text, i, end, last = self._text, 0, len(self._text), b""
         while i < end:
-            size = shift = 0
-            while True:
-                byte = text[i]
-                i += 1
-                size |= (byte & 0x7F) << shift
-                if byte < 0x80:
-                    break
-                shift += 7
-            yield text[i:i + size].decode("utf-8", "surrogatepass")
-            i += size
+            shared, i = _get_size(text, i)
+            rest, i = _get_size(text, i)
+            last = last[:shared] + text[i:i + rest]
+            i += rest
+            yield last.decode("utf-8", "surrogatepass")
 
     def __eq__(self, other: object) -> bool:
         """Equal to a list of the same labels (what callers compared before it was compact)."""
