@@ -149,42 +149,34 @@ def open_output(path: Path) -> IO[bytes]:
 
 class _Batched(io.RawIOBase):
     """Lines gathered into 256 kB batches before they cross into the compressor: a call into zstandard
-    per record cost more than compressing it. A batch is a list of the lines, joined once when it is
-    handed on (appending each line to one growing buffer cost twice as much per line)."""
+    per record cost more than compressing it."""
 
     def __init__(self, inner: Any) -> None:
         super().__init__()
-        self._inner, self._size = inner, 0
-        self._parts: list[bytes] = []
+        self._inner, self._buf = inner, bytearray()
 
     def writable(self) -> bool:
         return True
 
     def write(self, data: Any) -> int:
-        if type(data) is not bytes:  # a buffer its writer may reuse: keep a copy
-            data = bytes(data)
-        self._parts.append(data)
-        self._size += len(data)
-        if self._size >= 1 << 18:
-            self._hand_on()
+        self._buf += data
+        if len(self._buf) >= 1 << 18:
+            self._inner.write(self._buf)
+            self._buf.clear()
         return len(data)
-
-    def _hand_on(self) -> None:
-        self._inner.write(b"".join(self._parts))
-        self._parts.clear()
-        self._size = 0
 
     def flush(self) -> None:
         """Compress what is gathered and end the zstd block: a reader of the file gets every line so far."""
         if not self.closed and self._inner is not None:
-            if self._parts:
-                self._hand_on()
+            if self._buf:
+                self._inner.write(self._buf)
+                self._buf.clear()
             self._inner.flush()
 
     def close(self) -> None:
         if not self.closed:
-            if self._parts:
-                self._hand_on()
+            if self._buf:
+                self._inner.write(self._buf)
             self._inner.close()
             self._inner = None
         super().close()
