@@ -149,6 +149,15 @@ def id_for(name: str) -> Id:
     return _named(_uuid.UUID(name).bytes if _CANONICAL.match(name) else uuid5_bytes(name), name)
 
 
+def fresh_id(name: str) -> Id:
+    """:func:`id_for` of a name vcran composed itself and will not ask for again (a script cycle's
+    ``{prefix}_{k}_{i}_m{j}``), without the memo, which such names could only miss and, worse, fill,
+    evicting the names a run does look up again (a third of expanding a 1000-robot script was id_for's
+    checks and memo on these names). A name with ``_`` is never a canonical uuid; any other goes through
+    :func:`id_for`, so the result is always the same."""
+    return _named(uuid5_bytes(name), name) if "_" in name else id_for(name)
+
+
 _NAMESPACE_SHA1 = hashlib.sha1(VCRAN_NAMESPACE.bytes, usedforsecurity=False)
 
 
