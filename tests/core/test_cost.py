@@ -86,3 +86,31 @@ def test_repeated_task_is_the_task_built_again_under_its_new_name_and_stamp(path
     assert motions == [f"c_7_1_m{i}" for i in range(1, len(path) + 1)]
     assert [a.action_id.description for a in again if isinstance(a, ActionAssignment)] == \
         [f"c_7_1_a{j}" for j in range(1, len(actions) + 1)]
+
+
+def test_slot_init_keeps_the_dataclass_constructor_behaviour():  # issue 14 item 5: faster __init__, same record
+    from vcran.core.schema import slot_init
+
+    def record(fast):
+        @dataclasses.dataclass(frozen=True, slots=True)
+        class Record:
+            t: float
+            tags: list = dataclasses.field(default_factory=list)
+            note: str = "n"
+
+            def __post_init__(self):
+                if self.t < 0:
+                    raise ValueError("t")
+        return slot_init(Record) if fast else Record
+
+    fast, plain = record(True), record(False)
+    assert fast.__init__ is not plain.__init__
+    a, b = fast(1.0), plain(1.0)
+    assert (a.t, a.tags, a.note) == (b.t, b.tags, b.note) == (1.0, [], "n")
+    assert fast(2.0).tags is not fast(2.0).tags  # a fresh default per instance, as the dataclass makes
+    assert fast(1.0, note="x") == fast(1.0, note="x")
+    assert repr(fast(1.0)).endswith("Record(t=1.0, tags=[], note='n')")
+    with pytest.raises(ValueError):  # __post_init__ still runs
+        fast(-1.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        a.t = 3.0
