@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.core.ids import VCRAN_NAMESPACE, id_for, uuid5_bytes
+from vcran.core.ids import VCRAN_NAMESPACE, NamedId, fresh_id, id_for, uuid5_bytes
 from vcran.core.messages import Header, MotionAssignment, RanStatus, Sequence, Time
 from vcran.core.schema import MessageError, unchecked
 from vcran.testing.strategies import attribute_messages
@@ -25,13 +25,28 @@ def test_id_for_known_value():  # pinned by hand: python -c "uuid.uuid5(uuid.uui
     assert id_for("robot_1").uuid == expected.bytes
 
 
+@given(st.one_of(st.text(min_size=1), st.uuids().map(str), st.uuids().map(lambda u: str(u).upper())))
+def test_fresh_id_is_id_for(name):  # docs/ids.md: skipping the memo must not change the mapping
+    fresh = fresh_id(name)
+    assert fresh == id_for(name) and type(fresh) is type(id_for(name))
+    assert fresh.description == id_for(name).description
+
+
+def test_fresh_id_of_a_composed_name_is_a_named_id_without_touching_the_memo():
+    id_for.cache_clear()
+    assert isinstance(fresh_id("cycle_3_1_m2"), NamedId)
+    assert id_for.cache_info().currsize == 0
+
+
 @given(attribute_messages())
 def test_unchecked_constructor_builds_the_same_message(pair):
     _, message = pair
     values = {f.name: getattr(message, f.name) for f in dataclasses.fields(message)}
     copy = unchecked(type(message))(**values)
     assert type(copy) is type(message)
-    assert copy == message
+    assert copy == message and hash(copy) == hash(message) and repr(copy) == repr(message)
+    with pytest.raises(dataclasses.FrozenInstanceError):  # the slot setters bypass frozen only while building
+        setattr(copy, dataclasses.fields(copy)[0].name, None)
 
 
 def test_unchecked_defaults_match_the_dataclass():
@@ -71,3 +86,31 @@ def test_repeated_task_is_the_task_built_again_under_its_new_name_and_stamp(path
     assert motions == [f"c_7_1_m{i}" for i in range(1, len(path) + 1)]
     assert [a.action_id.description for a in again if isinstance(a, ActionAssignment)] == \
         [f"c_7_1_a{j}" for j in range(1, len(actions) + 1)]
+
+
+def test_slot_init_keeps_the_dataclass_constructor_behaviour():  # issue 14 item 5: faster __init__, same record
+    from vcran.core.schema import slot_init
+
+    def record(fast):
+        @dataclasses.dataclass(frozen=True, slots=True)
+        class Record:
+            t: float
+            tags: list = dataclasses.field(default_factory=list)
+            note: str = "n"
+
+            def __post_init__(self):
+                if self.t < 0:
+                    raise ValueError("t")
+        return slot_init(Record) if fast else Record
+
+    fast, plain = record(True), record(False)
+    assert fast.__init__ is not plain.__init__
+    a, b = fast(1.0), plain(1.0)
+    assert (a.t, a.tags, a.note) == (b.t, b.tags, b.note) == (1.0, [], "n")
+    assert fast(2.0).tags is not fast(2.0).tags  # a fresh default per instance, as the dataclass makes
+    assert fast(1.0, note="x") == fast(1.0, note="x")
+    assert repr(fast(1.0)).endswith("Record(t=1.0, tags=[], note='n')")
+    with pytest.raises(ValueError):  # __post_init__ still runs
+        fast(-1.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        a.t = 3.0

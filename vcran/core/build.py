@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence as Seq
 from functools import lru_cache
 
-from vcran.core.ids import NIL, NOT_SUPPORTED, Id, id_for
+from vcran.core.ids import NIL, NOT_SUPPORTED, Id, fresh_id, id_for
 from vcran.core.messages import (
     Accel,
     ActionAssignment,
@@ -187,13 +187,13 @@ def repeated(
     stamped ``stamp``: the same as ``task(name, ..., stamp=stamp, checked=False)``, without building
     the shared parts again (script cycles repeat a checked task thousands of times)."""
     header = _header(0, Time.from_seconds(stamp), "")
-    task_id = id_for(name)
+    task_id = fresh_id(name)
     out: list[MotionAssignment | ActionAssignment] = []
     i = j = 0
     for m in messages:
         if isinstance(m, MotionAssignment):
             i += 1
-            motion_id = id_for(f"{name}_m{i}")
+            motion_id = fresh_id(f"{name}_m{i}")
             out.append(_motion_assignment(
                 header=header, point_id=motion_id, task_id=task_id, motion_id=motion_id, point=m.point,
                 is_waypoint=m.is_waypoint, use_orientation=m.use_orientation, max_velocity=m.max_velocity,
@@ -201,7 +201,7 @@ def repeated(
             ))
         else:
             j += 1
-            out.append(_action_assignment(action_id=id_for(f"{name}_a{j}"), task_id=task_id, sequence=m.sequence,
+            out.append(_action_assignment(action_id=fresh_id(f"{name}_a{j}"), task_id=task_id, sequence=m.sequence,
                                           robot_action=m.robot_action))
     return out
 

@@ -149,6 +149,15 @@ def id_for(name: str) -> Id:
     return _named(_uuid.UUID(name).bytes if _CANONICAL.match(name) else uuid5_bytes(name), name)
 
 
+def fresh_id(name: str) -> Id:
+    """:func:`id_for` of a name vcran composed itself and will not ask for again (a script cycle's
+    ``{prefix}_{k}_{i}_m{j}``), without the memo, which such names could only miss and, worse, fill,
+    evicting the names a run does look up again (id_for on these names, uuid5 included, was a third of
+    expanding a 1000-robot script; this removes the checks and the memo around the uuid5). A name with ``_`` is never a canonical uuid; any other goes through
+    :func:`id_for`, so the result is always the same."""
+    return _named(uuid5_bytes(name), name) if "_" in name else id_for(name)
+
+
 _NAMESPACE_SHA1 = hashlib.sha1(VCRAN_NAMESPACE.bytes, usedforsecurity=False)
 
 
@@ -156,11 +165,15 @@ def uuid5_bytes(name: str) -> bytes:
     """``uuid5(VCRAN_NAMESPACE, name).bytes`` from the namespace's pre-hashed SHA-1 state.
 
     A generated fleet names every task, motion and action of every cycle: hashing the namespace again
-    for each, and building a ``uuid.UUID`` object to take its bytes, was most of what an id cost.
+    for each, and building a ``uuid.UUID`` object to take its bytes, was most of what an id cost. The
+    version and variant bits are set with one integer mask, not byte by byte in a bytearray (0.26 ->
+    0.17 s per 300k names, micro-benchmark).
     """
     h = _NAMESPACE_SHA1.copy()
     h.update(name.encode("utf-8"))
-    digest = bytearray(h.digest()[:16])
-    digest[6] = (digest[6] & 0x0F) | 0x50  # version 5
-    digest[8] = (digest[8] & 0x3F) | 0x80  # RFC 4122 variant
-    return bytes(digest)
+    return ((int.from_bytes(h.digest()[:16]) & _UUID5_KEEP) | _UUID5_SET).to_bytes(16)
+
+
+# RFC 4122: octet 6's high nibble is the version (5), octet 8's two high bits the variant (10).
+_UUID5_KEEP = int.from_bytes(b"\xff" * 6 + b"\x0f\xff\x3f" + b"\xff" * 7)
+_UUID5_SET = int.from_bytes(bytes(6) + b"\x50\x00\x80" + bytes(7))

@@ -21,6 +21,7 @@ from vcran.core import build
 from vcran.core.battery import BatteryConfig
 from vcran.core.faults import FaultSpec, RandomFaults
 from vcran.core.messages import ActionKind, Message, MotionAssignment
+from vcran.core.schema import slot_init
 
 #: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
 #: is not among them: a robot can charge exactly when it has a battery.
@@ -80,6 +81,7 @@ class StationConfig:
     dock: tuple[float, float, float | None] | None = None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class ScriptEntry:
     """One message of the script: at ``t``, ``attribute`` of ``robot`` becomes ``message`` (or ``raw``)."""

@@ -13,12 +13,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from vcran.core.messages import Message
+from vcran.core.schema import slot_init
 
 if TYPE_CHECKING:
     import numpy as np
     import simpy
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Inbound:
     """``attribute`` of entity ``entity`` was written with ``message`` (decoded) or ``raw`` (NGSI JSON)."""
@@ -29,6 +31,7 @@ class Inbound:
     raw: Any = None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Publish:
     """Write ``attribute`` of robot ``robot`` at simulated time ``t``."""
