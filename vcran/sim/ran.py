@@ -56,8 +56,9 @@ class Ran:
         self._decode = decode
         self._reject_unknown = reject_unknown
         self._ids = tuple(r.id for r in robots)
-        self._dirty: list[RobotNode] = []
-        self._dirty_set: set[int] = set()
+        #: Indices of the robots whose status may have changed since the last tick. Only the set: each
+        #: tick sorts plain ints (fleet order, robot i is ``robots[i]``) instead of robots by a key lambda.
+        self._dirty: set[int] = set()
         self._published: dict[tuple[int, str], Message] = {}
         #: SPEC §4 link_down: robots whose link is down -> what they missed (latest value per inbound
         #: attribute, as Orion holds it) and what they could not publish (latest per attribute, every ran_error).
@@ -91,9 +92,7 @@ class Ran:
     # --- outbound ---------------------------------------------------------------------------------------
 
     def changed(self, robot: RobotNode) -> None:
-        if robot.index not in self._dirty_set:
-            self._dirty_set.add(robot.index)
-            self._dirty.append(robot)
+        self._dirty.add(robot.index)
 
     def publish_error(self, robot: RobotNode, error: ErrorReport) -> None:
         message = _ran_error(
@@ -149,8 +148,9 @@ class Ran:
             if k == 0:  # everything is "changed" at start
                 for r in self.robots:
                     self.changed(r)
-            dirty, self._dirty, self._dirty_set = sorted(self._dirty, key=lambda r: r.index), [], set()
-            for robot in dirty:
+            dirty, self._dirty = sorted(self._dirty), set()
+            for i in dirty:
+                robot = self.robots[i]
                 self._publish_if_new(t, robot, "assignment_status", self.assignment_status(robot))
                 self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status())
             if self.after_statuses is not None:
