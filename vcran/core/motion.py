@@ -117,8 +117,8 @@ class Leg:
     def pose_at(self, t: float) -> tuple[float, float, float, float, float]:
         """``(x, y, theta, linear speed, angular speed)`` at ``t``, clamped to the leg.
 
-        The same operations, in the same order, as :func:`_sample_moving`, so that the scalar and the
-        vectorised paths agree to the last bit.
+        The same operations, in the same order, as :func:`vcran.core.sampling.sample_moving`, so that the
+        scalar and the vectorised paths agree to the last bit.
         """
         if t >= self.t_end:
             return self.x1, self.y1, self.end_theta, 0.0, 0.0
@@ -315,10 +315,3 @@ class FleetKinematics:
 
             self._moving_cache = (self._changes, *leg_rows(self.current))
         return self._moving_cache[1], self._moving_cache[2]
-
-
-def sample_leg(leg: Leg, times: np.ndarray) -> np.ndarray:
-    """A ``(len(times), 5)`` array of one leg's ``x, y, theta, v, w`` at each of ``times`` (collision checks)."""
-    from vcran.core.sampling import sample_leg as sample
-
-    return sample(leg, times)
