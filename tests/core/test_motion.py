@@ -67,9 +67,9 @@ def test_scalar_and_vector_paths_are_bit_identical(leg_list, t):
     for i, leg in enumerate(leg_list):
         fleet.start(i, leg)
     vector = fleet.sample(t) if len(leg_list) >= SCALAR_BELOW else None
-    from vcran.core.sampling import leg_rows, sample_moving
+    from vcran.core.sampling import sample_moving
 
-    vec = sample_moving(leg_rows(fleet.current)[1], t)
+    vec = sample_moving(fleet.moving()[1], t)
     for i, leg in enumerate(leg_list):
         scalar = np.array(leg.pose_at(t))
         assert np.array_equal(vec[i], scalar), (i, t, vec[i], scalar)

@@ -216,6 +216,10 @@ class FleetKinematics:
         self.held: dict[int, float] = {}
         self._changes = 0  # bumped whenever a leg starts or ends, so the sweeps' cache knows
         self._moving_cache: tuple[int, np.ndarray, np.ndarray] | None = None
+        #: Every robot's current leg as a row (:data:`C` columns), made on the first sweep and then kept up
+        #: to date from ``_started``: the robots that started a leg since the last sweep.
+        self._table: np.ndarray | None = None
+        self._started: set[int] = set()
         #: Told of every leg as it starts and of every halt mid-leg (the run's leg log, from which its
         #: telemetry is reproduced).
         self.observer: LegObserver | None = None
@@ -229,6 +233,7 @@ class FleetKinematics:
             self.observer.leg(i, leg, leg.t0 if t is None else t)
         self._changes += 1
         self.current[i] = leg
+        self._started.add(i)
 
     def finish(self, i: int) -> None:
         """The leg of robot ``i`` is over: bank its distance and rest at its end pose."""
@@ -311,7 +316,9 @@ class FleetKinematics:
         """The moving robots' indices and leg rows (:data:`C` columns), shared by the sweeps of one tick
         (the legs did not change in between: nothing runs between a tick's telemetry and its battery sweep)."""
         if self._moving_cache is None or self._moving_cache[0] != self._changes:
-            from vcran.core.sampling import leg_rows
+            from vcran.core.sampling import moving_rows
 
-            self._moving_cache = (self._changes, *leg_rows(self.current))
+            self._table, idx, rows = moving_rows(self._table, len(self), self.current, self._started)
+            self._started.clear()
+            self._moving_cache = (self._changes, idx, rows)
         return self._moving_cache[1], self._moving_cache[2]

@@ -20,11 +20,21 @@ if TYPE_CHECKING:
     from vcran.core.motion import FleetKinematics
 
 
-def leg_rows(current: dict[int, Leg]) -> tuple[np.ndarray, np.ndarray]:
-    """The robot indices of ``current`` and their legs' parameters, one row each (:data:`C` columns)."""
+def moving_rows(
+    table: np.ndarray | None, robots: int, current: dict[int, Leg], started: set[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every robot's leg as a row (:data:`C` columns) brought up to date, the moving robots' indices, and
+    their rows. ``table`` is the last sweep's (None: the first sweep fills it from ``current``); only
+    the robots in ``started`` (a leg began since) are written again: a few rows a tick, not the fleet."""
+    if table is None:
+        table = np.zeros((robots, len(_COLUMNS)), dtype=np.float64)
+        started = set(current)
+    for i in started:
+        leg = current.get(i)
+        if leg is not None:
+            table[i] = _row(leg)
     idx = np.fromiter(current, dtype=np.intp, count=len(current))
-    rows = np.array([_row(leg) for leg in current.values()], dtype=np.float64).reshape(len(current), len(_COLUMNS))
-    return idx, rows
+    return table, idx, table[idx]
 
 
 def fleet_sample(fleet: FleetKinematics, t: float) -> np.ndarray:
