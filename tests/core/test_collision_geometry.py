@@ -59,7 +59,7 @@ def test_s4_a_concave_footprint_is_not_tested_by_its_hull():
     # an L (2 m x 2 m with the upper right 1 m x 1 m cut away); a 0.5 m square at (1.6, 1.6) sits in the cut,
     # inside the L's convex hull but clear of the L itself
     ell = ((0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2))
-    assert convex_axes(shape_of(ell)[0]) is None
+    assert convex_axes(shape_of(ell)) is None
     small = ((0.25, 0.25), (-0.25, 0.25), (-0.25, -0.25), (0.25, -0.25))
     assert not touch(track(0, ell), track(1, small, pose=(1.6, 1.6, 0.0)))
     assert touch(track(0, ell), track(1, small, pose=(1.6, 1.2, 0.0)))  # reaches below y = 1: in the L's foot
@@ -92,7 +92,7 @@ def _regular(n, step=1):
          "flat"],
 )
 def test_s4_separating_axes_are_used_for_exactly_the_convex_footprints(points, convex):
-    assert (convex_axes(shape_of(points)[0]) is not None) is convex
+    assert (convex_axes(shape_of(points)) is not None) is convex
 
 
 @pytest.mark.parametrize("convex", [True, False], ids=["separating-axes", "shapely"])

@@ -68,7 +68,7 @@ class Footprint:
         if self._shape is None:
             from vcran.core.overlap import shape_of
 
-            self._shape = shape_of(self.points)[0]
+            self._shape = shape_of(self.points)
         return self._shape
 
     @property

@@ -179,11 +179,11 @@ def _along(d: float, distance: float, peak: float, t_acc: float, t_dec: float, t
 #: would dominate. Both paths give bit-identical results (tests/core/test_motion.py).
 SCALAR_BELOW = 24
 
-# Columns of FleetKinematics.legs, one row per robot: the parameters of its current leg.
+# Columns of the fleet's leg table (vcran.core.sampling), one row per robot: the parameters of its current leg.
 _COLUMNS = "t0 x0 y0 theta0 x1 y1 end_theta distance heading ux uy rate1 t_turn1 peak t_acc t_dec t_drive rate2 t_end".split()
 C = {name: i for i, name in enumerate(_COLUMNS)}
-#: A leg's row of FleetKinematics.legs, read in one C call (a Python loop of 19 getattrs and numpy
-#: item writes was a third of what starting a leg cost).
+#: A leg's row of that table, read in one C call (a Python loop of 19 getattrs was most of what writing a
+#: row cost).
 _row = attrgetter(*_COLUMNS)
 
 

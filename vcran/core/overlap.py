@@ -25,10 +25,10 @@ def poses(track: Track, times: np.ndarray) -> np.ndarray:
     return sample_leg(track.leg, times)[:, :3]
 
 
-def shape_of(points: Iterable[tuple[float, float]]) -> tuple[np.ndarray, float]:
-    """A footprint as an ``(n, 2)`` array and its bounding radius around the robot's origin."""
-    shape = np.asarray(list(points), dtype=np.float64).reshape(-1, 2)
-    return shape, float(np.max(np.hypot(shape[:, 0], shape[:, 1]))) if len(shape) else 0.0
+def shape_of(points: Iterable[tuple[float, float]]) -> np.ndarray:
+    """A footprint as an ``(n, 2)`` array (its bounding radius is :attr:`Footprint.radius
+    <vcran.core.collisions.Footprint.radius>`)."""
+    return np.asarray(list(points), dtype=np.float64).reshape(-1, 2)
 
 
 @dataclass(frozen=True, slots=True)

@@ -202,7 +202,8 @@ class RobotNode:
         for effect in effects:
             command = commands.get(type(effect))
             if command is None:
-                self._log(self, effect)  # type: ignore[arg-type]  # every effect not a command is an Event
+                assert isinstance(effect, Event), effect  # every effect not a command is an Event
+                self._log(self, effect)
             else:
                 command(self, effect)
 
