@@ -239,3 +239,17 @@ def test_trace_repeats_nothing_a_reader_can_take_from_an_earlier_record(tmp_path
             last[key] = {**before, **r["value"]}
     motion = next(r for r in records if r["attr"] == "motion_assignment")
     assert isinstance(motion["value"]["task_id"], str)  # compact: the name, not a 75-byte object
+
+
+def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
+    """§8 summary.json: encoded piece by piece as it is written (issue 14: a fleet's summary lists every
+    task), yet byte for byte ``json.dumps(indent=2, ensure_ascii=False)`` and a newline, across batches."""
+    import json
+
+    from vcran.runner import write_summary
+
+    summary = {"scenario": "Förderband", "sim_time": 3600.0, "errors": 0, "robots": {
+        f"robot_{i}": {"completed": [f"r{i}_{k}_1" for k in range(300)], "cancelled": [{"task": "T", "reason": "timeout"}],
+                       "final_pose": {"x": 0.1, "y": -2.5, "theta": 3.141592653589793}} for i in range(20)}}
+    write_summary(tmp_path, summary)
+    assert (tmp_path / "summary.json").read_bytes() == (json.dumps(summary, indent=2, ensure_ascii=False) + "\n").encode()
