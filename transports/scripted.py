@@ -10,19 +10,15 @@ reads the final entity state from here.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 
 import simpy
 
 from transports.base import Deliver, Transport
 from vcran.core.messages import Message
-from vcran.core.scenario import ScriptEntry
-from vcran.core.schema import unchecked
-from vcran.core.wire import Frame, Inbound, Outbound, Publish
+from vcran.core.scenario import Script, ScriptEntry
+from vcran.core.wire import Frame, Outbound, Publish
 from vcran.sim.timing import INBOUND, at
-
-#: An inbound record per script entry, built without the class call (Inbound checks nothing anyway).
-_inbound = unchecked(Inbound)
 
 
 class ScriptedTransport(Transport):
@@ -31,7 +27,7 @@ class ScriptedTransport(Transport):
         ``frames=False``: the fleet's ``current_motion`` is not kept (``last_frame`` stays None), so a
         run that records only a trace does not sample the fleet every tick (:attr:`Transport.wants_frames`)."""
         self.wants_frames = frames
-        self._script: Iterator[ScriptEntry] = iter(script)
+        self._instants = (script if isinstance(script, Script) else Script.of(script)).instants()
         self._exhausted = False
         self.latest: dict[tuple[str, str], Message] = {}
         self.last_frame: Frame | None = None
@@ -41,14 +37,13 @@ class ScriptedTransport(Transport):
         env.process(self._play(env, deliver))
 
     def _play(self, env: simpy.Environment, deliver: Deliver):  # type: ignore[no-untyped-def]
-        # ``now`` is the time this process last woke at (an ``at`` event lands exactly on its time): the
-        # clock read per entry was a property call for every message of the script.
-        now = env.now
-        for entry in self._script:
-            if entry.t > now:
-                now = entry.t
-                yield at(env, now, INBOUND)
-            deliver(_inbound(entry.robot, entry.attribute, entry.message, entry.raw))
+        now = env.now  # the time this process last woke at: an ``at`` event lands exactly on its time
+        for t, instant in self._instants:
+            if t > now:
+                now = t
+                yield at(env, t, INBOUND)
+            for inbound in instant:
+                deliver(inbound)
         self._exhausted = True
 
     @property
@@ -63,3 +58,4 @@ class ScriptedTransport(Transport):
             assert isinstance(out, Publish)
             self.latest[(out.robot, out.attribute)] = out.message
             self.counts[out.attribute] += 1
+

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import heapq
 import random
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from itertools import chain, groupby
+from itertools import groupby
 from typing import Any
 
 from vcran.core import build
@@ -22,6 +22,7 @@ from vcran.core.battery import BatteryConfig
 from vcran.core.faults import FaultSpec, RandomFaults
 from vcran.core.messages import ActionKind, Message, MotionAssignment
 from vcran.core.schema import slot_init, unchecked
+from vcran.core.wire import Inbound
 
 #: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
 #: is not among them: a robot can charge exactly when it has a battery.
@@ -126,7 +127,7 @@ class Cycle:
         plan = _Repetitions(self)
         k, start = 0, plan.time(0)
         while start is not None:
-            yield plan.entries(k, start)
+            yield [_entry(start, i.entity, i.attribute, i.message, i.raw) for i in plan.inbound(k, start)]
             k, start = k + 1, plan.time(k + 1)
 
 
@@ -154,8 +155,8 @@ class _Repetitions:
         start = c.t + k * c.every if k else c.t  # c.t exactly (-0.0 + 0.0 is 0.0)
         return start if start < c.until else None
 
-    def entries(self, k: int, start: float) -> list[ScriptEntry]:
-        """Repetition ``k``'s entries, all at its time ``start``."""
+    def inbound(self, k: int, start: float) -> list[Inbound]:
+        """Repetition ``k``'s messages as the inbound records delivered at its time ``start``."""
         c = self.cycle
         if k == 0:
             messages = self._first
@@ -163,11 +164,44 @@ class _Repetitions:
             names = [f"{c.prefix}_{k}_{i}" for i in range(1, len(c.tasks) + 1)]
             messages = self._again.build(names, build.header_at(start))
         robot = c.robot
-        return [_entry(start, robot, attribute, message) for attribute, message in zip(self._attributes, messages)]
+        return [_inbound(robot, attribute, message) for attribute, message in zip(self._attributes, messages)]
 
 
-#: Script entries a cycle builds from checked parts: the dataclass constructor without the class call.
+class Script(Iterator[ScriptEntry]):
+    """What :meth:`Scenario.messages` returns: the script's entries in time order and, for a transport,
+    the same script in runs of one time as the inbound records it delivers (:meth:`instants`).
+
+    A scripted run turns every entry into an :class:`Inbound`; built as those directly, a cycle's
+    messages are one small object each, not an entry and then a record copied from it (and the
+    transport compares one time per run, not per message). Read a script one way or the other,
+    not both: the two share one lazy expansion.
+    """
+
+    __slots__ = ("_instants", "_entries")
+
+    def __init__(self, instants: Iterator[tuple[float, Iterable[Inbound]]]) -> None:
+        self._instants = instants
+        self._entries = (_entry(t, i.entity, i.attribute, i.message, i.raw) for t, run in instants for i in run)
+
+    @classmethod
+    def of(cls, entries: Iterable[ScriptEntry]) -> Script:
+        """Any entries in time order as a script; an entry is pulled from ``entries`` once the one before
+        it was delivered, as a transport consumes a script lazily."""
+        return cls((t, (_inbound(e.robot, e.attribute, e.message, e.raw) for e in run))
+                   for t, run in groupby(entries, key=_time))
+
+    def __next__(self) -> ScriptEntry:
+        return next(self._entries)
+
+    def instants(self) -> Iterator[tuple[float, Iterable[Inbound]]]:
+        """The script's runs of entries of one time, as ``(time, inbound records)`` in order (runs in
+        a row may share a time: the script's and each cycle's are separate)."""
+        return self._instants
+
+
+#: Entries and inbound records built from checked parts: the dataclass constructors without the class call.
 _entry = unchecked(ScriptEntry)
+_inbound = unchecked(Inbound)
 
 
 # --- the closed loop (SPEC §9): jobs, the link, the manager ----------------------------------------------
@@ -273,11 +307,9 @@ class Scenario:
     link: LinkSettings = field(default_factory=LinkSettings)
     manager: ManagerSpec | None = None
 
-    def messages(self) -> Iterator[ScriptEntry]:
+    def messages(self) -> Script:
         """The whole script in time order, cycles expanded lazily; equal times keep file order."""
-        if not self.cycles:
-            return iter(self.script)
-        return chain.from_iterable(_merged(self.script, self.cycles))
+        return Script(_merged(self.script, self.cycles))
 
     @property
     def has_workload(self) -> bool:
@@ -357,9 +389,9 @@ def task_entries(
         yield ScriptEntry(time + k * every, robot, _attribute(message), message)
 
 
-def _merged(script: tuple[ScriptEntry, ...], cycles: tuple[Cycle, ...]) -> Iterator[list[ScriptEntry]]:
-    """The script's runs of equal times and the cycles' repetitions, in time order; at equal times the
-    script first, then the cycles in file order.
+def _merged(script: tuple[ScriptEntry, ...], cycles: tuple[Cycle, ...]) -> Iterator[tuple[float, Iterable[Inbound]]]:
+    """The script's runs of equal times and the cycles' repetitions, in time order, as inbound records;
+    at equal times the script first, then the cycles in file order.
 
     One heap entry per stream, ``(time, stream, run number)``, the run built when it is popped: what
     ``heapq.merge`` over a generator per cycle did with a key call, a generator resumption and a
@@ -376,11 +408,11 @@ def _merged(script: tuple[ScriptEntry, ...], cycles: tuple[Cycle, ...]) -> Itera
         t, n, k = heap[0]
         following: float | None
         if n == 0:
-            yield runs[k]
+            yield t, [_inbound(e.robot, e.attribute, e.message, e.raw) for e in runs[k]]
             following = runs[k + 1][0].t if k + 1 < len(runs) else None
         else:
             plan = plans[n - 1]
-            yield plan.entries(k, t)
+            yield t, plan.inbound(k, t)
             following = plan.time(k + 1)
         if following is None:
             heapq.heappop(heap)
