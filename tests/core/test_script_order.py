@@ -43,8 +43,8 @@ def test_time_order_and_file_order_at_equal_times(script_times, cycles):
 
 def test_a_cycle_starting_at_minus_zero_keeps_that_time():  # §5: entries at exactly the written time
     cycle = Cycle(t=-0.0, robot=ROBOT, every=10.0, until=15.0, prefix="c", tasks=(SPEC,))
-    times = [e.t for e in scenario((), (cycle,)).messages()]
-    assert [math.copysign(1.0, t) for t in times[:3]] == [-1.0] * 3 and times[3:] == [10.0] * 3
+    for times in ([e.t for e in scenario((), (cycle,)).messages()], [e.t for r in cycle.repetitions() for e in r]):
+        assert [math.copysign(1.0, t) for t in times[:3]] == [-1.0] * 3 and times[3:] == [10.0] * 3
 
 
 def test_the_script_run_by_run_is_its_entries_in_runs_of_one_time():  # issue 14 item 5: Script.instants

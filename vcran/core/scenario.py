@@ -122,13 +122,8 @@ class Cycle:
 
     def repetitions(self) -> Iterator[list[ScriptEntry]]:
         """The entries of each repetition in turn, as one list: they all have the repetition's time."""
-        if self.t >= self.until:
-            return
-        plan = _Repetitions(self)
-        k, start = 0, plan.time(0)
-        while start is not None:
-            yield [_entry(start, i.entity, i.attribute, i.message, i.raw) for i in plan.inbound(k, start)]
-            k, start = k + 1, plan.time(k + 1)
+        for t, run in _merged((), (self,)):
+            yield [_entry(t, i.entity, i.attribute, i.message, i.raw) for i in run]
 
 
 class _Repetitions:
@@ -150,9 +145,10 @@ class _Repetitions:
         self._attributes = [_attribute(message) for message in self._first]
 
     def time(self, k: int) -> float | None:
-        """When repetition ``k`` is due, None if not before the cycle's end."""
+        """When repetition ``k`` (from 1: the first is due at the cycle's very ``t``) is due, None if
+        not before the cycle's end."""
         c = self.cycle
-        start = c.t + k * c.every if k else c.t  # c.t exactly (-0.0 + 0.0 is 0.0)
+        start = c.t + k * c.every
         return start if start < c.until else None
 
     def inbound(self, k: int, start: float) -> list[Inbound]:
