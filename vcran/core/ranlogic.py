@@ -62,8 +62,10 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
 #: twice the cost of a global), and the state machine compares states several times per input.
 _WAITING, _TASK, _MOTION, _ACTION = State.WAITING, State.TASK, State.MOTION, State.ACTION
 
-#: TRANSITIONS by member name, for the check on every transition: an Enum's hash is a Python-level call.
-_TRANSITION_NAMES = frozenset((a._name_, b._name_) for a, b in TRANSITIONS)
+#: The one StateChanged event of each of the TRANSITIONS, by member names (an Enum's hash is a Python-level
+#: call): a transition is checked and its event found in one lookup. Events are values; building one per
+#: transition (four per task, a frozen dataclass's setattr per field) cost more than the lookup.
+_STATE_CHANGES = {(a._name_, b._name_): StateChanged(a, b) for a, b in TRANSITIONS}
 
 #: R14: two instants closer than this are the same instant (seconds).
 TOLERANCE = 1e-6
@@ -529,9 +531,10 @@ class RanLogic:
             self._advance(now)
 
     def _set_state(self, to: State) -> None:
-        if (self.state._name_, to._name_) not in _TRANSITION_NAMES:
+        change = _STATE_CHANGES.get((self.state._name_, to._name_))
+        if change is None:
             raise AssertionError(f"{self.robot}: transition {self.state.value} -> {to.value} does not exist (R6)")
-        self._emit(StateChanged(self.state, to))
+        self._emit(change)
         self.state = to
         self.version += 1
 
