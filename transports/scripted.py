@@ -27,7 +27,7 @@ class ScriptedTransport(Transport):
         ``frames=False``: the fleet's ``current_motion`` is not kept (``last_frame`` stays None), so a
         run that records only a trace does not sample the fleet every tick (:attr:`Transport.wants_frames`)."""
         self.wants_frames = frames
-        self._instants = (script if isinstance(script, Script) else Script.of(script)).instants()
+        self._runs = (script if isinstance(script, Script) else Script.of(script)).runs()
         self._exhausted = False
         self.latest: dict[tuple[str, str], Message] = {}
         self.last_frame: Frame | None = None
@@ -38,11 +38,11 @@ class ScriptedTransport(Transport):
 
     def _play(self, env: simpy.Environment, deliver: Deliver):  # type: ignore[no-untyped-def]
         now = env.now  # the time this process last woke at: an ``at`` event lands exactly on its time
-        for t, instant in self._instants:
+        for t, run in self._runs:
             if t > now:
                 now = t
                 yield at(env, t, INBOUND)
-            for inbound in instant:
+            for inbound in run:
                 deliver(inbound)
         self._exhausted = True
 
@@ -58,4 +58,3 @@ class ScriptedTransport(Transport):
             assert isinstance(out, Publish)
             self.latest[(out.robot, out.attribute)] = out.message
             self.counts[out.attribute] += 1
-

@@ -47,15 +47,15 @@ def test_a_cycle_starting_at_minus_zero_keeps_that_time():  # §5: entries at ex
         assert [math.copysign(1.0, t) for t in times[:3]] == [-1.0] * 3 and times[3:] == [10.0] * 3
 
 
-def test_the_script_run_by_run_is_its_entries_in_runs_of_one_time():  # issue 14 item 5: Script.instants
+def test_the_script_run_by_run_is_its_entries_in_runs_of_one_time():  # issue 14 item 5: Script.runs
     script = (ScriptEntry(0.0, ROBOT, "cancel_task", raw=1), ScriptEntry(10.0, ROBOT, "cancel_task", raw=2))
     cycle = Cycle(t=0.0, robot=ROBOT, every=10.0, until=15.0, prefix="c", tasks=(SPEC,))
     entries = list(scenario(script, (cycle,)).messages())
-    instants = [(t, list(run)) for t, run in scenario(script, (cycle,)).messages().instants()]
+    runs = [(t, list(run)) for t, run in scenario(script, (cycle,)).messages().runs()]
     # by hand: at 0 the script's entry then the cycle's three messages (a run each); at 10 likewise
-    assert [(t, [i.raw if i.message is None else i.message.task_id.description for i in run]) for t, run in instants] \
+    assert [(t, [i.raw if i.message is None else i.message.task_id.description for i in run]) for t, run in runs] \
         == [(0.0, [1]), (0.0, ["c_0_1"] * 3), (10.0, [2]), (10.0, ["c_1_1"] * 3)]
-    assert [(t, i.entity, i.attribute, i.message, i.raw) for t, run in instants for i in run] \
+    assert [(t, i.entity, i.attribute, i.message, i.raw) for t, run in runs for i in run] \
         == [(e.t, e.robot, e.attribute, e.message, e.raw) for e in entries]
 
 
@@ -68,7 +68,7 @@ def test_a_script_of_any_entries_pulls_each_entry_only_after_the_one_before():  
             yield ScriptEntry(t, ROBOT, "cancel_task", raw=n)
 
     delivered = []
-    for t, run in Script.of(entries()).instants():
+    for t, run in Script.of(entries()).runs():
         for inbound in run:
             delivered.append((t, inbound.raw, list(pulled)))
     assert delivered == [(1.0, 0, [0]), (1.0, 1, [0, 1]), (2.0, 2, [0, 1, 2]), (0.5, 3, [0, 1, 2, 3])]

@@ -165,7 +165,7 @@ class _Repetitions:
 
 class Script(Iterator[ScriptEntry]):
     """What :meth:`Scenario.messages` returns: the script's entries in time order and, for a transport,
-    the same script in runs of one time as the inbound records it delivers (:meth:`instants`).
+    the same script in runs of one time as the inbound records it delivers (:meth:`runs`).
 
     A scripted run turns every entry into an :class:`Inbound`; built as those directly, a cycle's
     messages are one small object each, not an entry and then a record copied from it (and the
@@ -173,11 +173,11 @@ class Script(Iterator[ScriptEntry]):
     not both: the two share one lazy expansion.
     """
 
-    __slots__ = ("_instants", "_entries")
+    __slots__ = ("_runs", "_entries")
 
-    def __init__(self, instants: Iterator[tuple[float, Iterable[Inbound]]]) -> None:
-        self._instants = instants
-        self._entries = (_entry(t, i.entity, i.attribute, i.message, i.raw) for t, run in instants for i in run)
+    def __init__(self, runs: Iterator[tuple[float, Iterable[Inbound]]]) -> None:
+        self._runs = runs
+        self._entries = (_entry(t, i.entity, i.attribute, i.message, i.raw) for t, run in runs for i in run)
 
     @classmethod
     def of(cls, entries: Iterable[ScriptEntry]) -> Script:
@@ -189,10 +189,10 @@ class Script(Iterator[ScriptEntry]):
     def __next__(self) -> ScriptEntry:
         return next(self._entries)
 
-    def instants(self) -> Iterator[tuple[float, Iterable[Inbound]]]:
+    def runs(self) -> Iterator[tuple[float, Iterable[Inbound]]]:
         """The script's runs of entries of one time, as ``(time, inbound records)`` in order (runs in
         a row may share a time: the script's and each cycle's are separate)."""
-        return self._instants
+        return self._runs
 
 
 #: Entries and inbound records built from checked parts: the dataclass constructors without the class call.
