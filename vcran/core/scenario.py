@@ -394,18 +394,21 @@ def _merged(script: tuple[ScriptEntry, ...], cycles: tuple[Cycle, ...]) -> Itera
     lookahead run per step (merge was a sixth of expanding a 1000-robot script). The stream number is
     unique, so ties never compare further.
     """
-    runs = [list(run) for _, run in groupby(script, key=_time)]
+    runs = groupby(script, key=_time)  # lazily: a long script is not copied
+    run = next(runs, None)
     plans = [_Repetitions(c) for c in cycles if c.t < c.until]
     heap = [(plan.cycle.t, n, 0) for n, plan in enumerate(plans, start=1)]
-    if runs:
-        heap.append((runs[0][0].t, 0, 0))
+    if run is not None:
+        heap.append((run[0], 0, 0))
     heapq.heapify(heap)
     while heap:
         t, n, k = heap[0]
         following: float | None
         if n == 0:
-            yield t, [_inbound(e.robot, e.attribute, e.message, e.raw) for e in runs[k]]
-            following = runs[k + 1][0].t if k + 1 < len(runs) else None
+            assert run is not None
+            yield t, [_inbound(e.robot, e.attribute, e.message, e.raw) for e in run[1]]
+            run = next(runs, None)
+            following = None if run is None else run[0]
         else:
             plan = plans[n - 1]
             yield t, plan.inbound(k, t)
