@@ -10,14 +10,14 @@ reads the final entity state from here.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 
 import simpy
 
 from transports.base import Deliver, Transport
 from vcran.core.messages import Message
-from vcran.core.scenario import ScriptEntry
-from vcran.core.wire import Frame, Inbound, Outbound, Publish
+from vcran.core.scenario import Script, ScriptEntry
+from vcran.core.wire import Frame, Outbound, Publish
 from vcran.sim.timing import INBOUND, at
 
 
@@ -27,7 +27,7 @@ class ScriptedTransport(Transport):
         ``frames=False``: the fleet's ``current_motion`` is not kept (``last_frame`` stays None), so a
         run that records only a trace does not sample the fleet every tick (:attr:`Transport.wants_frames`)."""
         self.wants_frames = frames
-        self._script: Iterator[ScriptEntry] = iter(script)
+        self._runs = (script if isinstance(script, Script) else Script.of(script)).runs()
         self._exhausted = False
         self.latest: dict[tuple[str, str], Message] = {}
         self.last_frame: Frame | None = None
@@ -37,10 +37,13 @@ class ScriptedTransport(Transport):
         env.process(self._play(env, deliver))
 
     def _play(self, env: simpy.Environment, deliver: Deliver):  # type: ignore[no-untyped-def]
-        for entry in self._script:
-            if entry.t > env.now:
-                yield at(env, entry.t, INBOUND)
-            deliver(Inbound(entry.robot, entry.attribute, entry.message, entry.raw))
+        now = env.now  # the time this process last woke at: an ``at`` event lands exactly on its time
+        for t, run in self._runs:
+            if t > now:
+                now = t
+                yield at(env, t, INBOUND)
+            for inbound in run:
+                deliver(inbound)
         self._exhausted = True
 
     @property

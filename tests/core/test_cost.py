@@ -114,3 +114,20 @@ def test_slot_init_keeps_the_dataclass_constructor_behaviour():  # issue 14 item
         fast(-1.0)
     with pytest.raises(dataclasses.FrozenInstanceError):
         a.t = 3.0
+
+
+def test_repeated_tasks_are_built_again_under_their_names_with_one_header():  # issue 14 item 5
+    from vcran.core import build
+
+    a = build.task("c_0_1", [(1.0, 2.0), (3.0, 4.0, 0.5)], ["load"], max_velocity=1.5, stamp=2.0)
+    b = build.task("c_0_2", [(5.0, 6.0)], ["unload", "dummy"], stamp=2.0)
+    again = build.RepeatedTasks([a, b]).build(["c_3_1", "c_3_2"], build.header_at(9.5))
+    assert again == [*build.task("c_3_1", [(1.0, 2.0), (3.0, 4.0, 0.5)], ["load"], max_velocity=1.5, stamp=9.5),
+                     *build.task("c_3_2", [(5.0, 6.0)], ["unload", "dummy"], stamp=9.5)]
+    names = [(m.task_id.description, (m.motion_id if isinstance(m, MotionAssignment) else m.action_id).description)
+             for m in again]
+    assert names == [("c_3_1", "c_3_1_m1"), ("c_3_1", "c_3_1_m2"), ("c_3_1", "c_3_1_a1"),
+                     ("c_3_2", "c_3_2_m1"), ("c_3_2", "c_3_2_a1"), ("c_3_2", "c_3_2_a2")]
+    assert again[0].header is again[3].header  # one header per repetition
+    with pytest.raises(ValueError):
+        build.RepeatedTasks([a, b]).build(["c_3_1"], build.header_at(9.5))  # a name per task

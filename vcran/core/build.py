@@ -9,7 +9,9 @@ task planner sends, and ``"charge"``, vcran's extension (category 0, action 3; S
 from __future__ import annotations
 
 from collections.abc import Sequence as Seq
+from dataclasses import fields
 from functools import lru_cache
+from typing import Any
 
 from vcran.core.ids import NIL, NOT_SUPPORTED, Id, fresh_id, id_for
 from vcran.core.messages import (
@@ -18,6 +20,7 @@ from vcran.core.messages import (
     ActionKind,
     CancelTask,
     Header,
+    Message,
     Motion,
     MotionAssignment,
     Point,
@@ -63,7 +66,7 @@ def motion(
     explicitly for the last motion of a task that has actions: only the caller knows it is last).
     ``checked=False`` skips validation: for repetitions of values already checked once (script cycles)."""
     return (MotionAssignment if checked else _motion_assignment)(
-        header=_header(0, Time.from_seconds(stamp), ""),
+        header=header_at(stamp),
         point_id=_id(name),
         task_id=_id(task),
         motion_id=_id(name),
@@ -180,30 +183,79 @@ def task(
     return out
 
 
+class RepeatedTasks:
+    """The messages of some tasks built with :func:`task` (checked once, with ``every=0``), ready to be
+    built again under other names and one stamp: what a script cycle does for each of its repetitions.
+
+    A repetition differs from the first only in its ids and its header; its points, limits, areas,
+    sequence numbers and actions are the first's very objects (messages are immutable). So the fields
+    kept are taken from the first once, here, and each message is made again from them, the new ids and
+    the header in one positional unchecked constructor call: the ids are the only new work. Rebuilding
+    each message by reading seven fields back and passing eleven keywords, a task at a time, was a third
+    of expanding a 1000-robot script.
+    """
+
+    __slots__ = ("_tasks",)
+
+    def __init__(self, tasks: Seq[Seq[MotionAssignment | ActionAssignment]]) -> None:
+        #: per task, per message: the suffix of its id's name, whether it is a motion, the fields kept
+        self._tasks: list[list[tuple[str, bool, tuple[Any, ...]]]] = []
+        for messages in tasks:
+            parts = []
+            i = j = 0
+            for m in messages:
+                if isinstance(m, MotionAssignment):
+                    i += 1
+                    parts.append((f"_m{i}", True, _kept(m, _MOTION_RENAMED)))
+                else:
+                    j += 1
+                    parts.append((f"_a{j}", False, _kept(m, _ACTION_RENAMED)))
+            self._tasks.append(parts)
+
+    def build(self, names: Seq[str], header: Header) -> list[MotionAssignment | ActionAssignment]:
+        """Every task's messages in turn, as :func:`task` would build them for the task named ``names[i]``
+        with ``header`` (see :func:`header_at`), unchecked: the same as ``task(name, ..., checked=False)``."""
+        out: list[MotionAssignment | ActionAssignment] = []
+        for name, parts in zip(names, self._tasks, strict=True):
+            task_id = fresh_id(name)
+            for suffix, is_motion, kept in parts:
+                own = fresh_id(name + suffix)
+                out.append(_motion_assignment(header, own, task_id, own, *kept) if is_motion
+                           else _action_assignment(own, task_id, *kept))
+        return out
+
+
+#: The leading fields of each assignment, the ones a repetition renames or restamps (in field order: the
+#: template passes them positionally, followed by the kept ones).
+_MOTION_RENAMED = ("header", "point_id", "task_id", "motion_id")
+_ACTION_RENAMED = ("action_id", "task_id")
+
+
+def _kept(message: Message, renamed: tuple[str, ...]) -> tuple[Any, ...]:
+    """The fields of ``message`` after ``renamed``, which must be its first ones (checked once per class)."""
+    names = _KEPT.get(type(message))
+    if names is None:
+        every = tuple(f.name for f in fields(message))  # type: ignore[arg-type]
+        if every[:len(renamed)] != renamed:
+            raise TypeError(f"{type(message).__name__} fields begin {list(every[:len(renamed)])}, not {list(renamed)}")
+        names = _KEPT[type(message)] = every[len(renamed):]
+    return tuple(getattr(message, name) for name in names)
+
+
+_KEPT: dict[type, tuple[str, ...]] = {}
+
+
+def header_at(stamp: float) -> Header:
+    """The header of an assignment stamped ``stamp``, as :func:`motion` builds it (unchecked)."""
+    return _header(0, Time.from_seconds(stamp), "")
+
+
 def repeated(
     messages: list[MotionAssignment | ActionAssignment], name: str, stamp: float
 ) -> list[MotionAssignment | ActionAssignment]:
     """The messages of :func:`task` (built with ``every=0``) as they would be built again for task ``name``
-    stamped ``stamp``: the same as ``task(name, ..., stamp=stamp, checked=False)``, without building
-    the shared parts again (script cycles repeat a checked task thousands of times)."""
-    header = _header(0, Time.from_seconds(stamp), "")
-    task_id = fresh_id(name)
-    out: list[MotionAssignment | ActionAssignment] = []
-    i = j = 0
-    for m in messages:
-        if isinstance(m, MotionAssignment):
-            i += 1
-            motion_id = fresh_id(f"{name}_m{i}")
-            out.append(_motion_assignment(
-                header=header, point_id=motion_id, task_id=task_id, motion_id=motion_id, point=m.point,
-                is_waypoint=m.is_waypoint, use_orientation=m.use_orientation, max_velocity=m.max_velocity,
-                max_acceleration=m.max_acceleration, motion_area=m.motion_area, sequence=m.sequence,
-            ))
-        else:
-            j += 1
-            out.append(_action_assignment(action_id=fresh_id(f"{name}_a{j}"), task_id=task_id, sequence=m.sequence,
-                                          robot_action=m.robot_action))
-    return out
+    stamped ``stamp`` (a cycle keeps its :class:`RepeatedTasks` for all its repetitions)."""
+    return RepeatedTasks([messages]).build([name], header_at(stamp))
 
 
 def _id(name: str | Id) -> Id:

