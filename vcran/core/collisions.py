@@ -90,9 +90,14 @@ class Footprint:
         return self._axes  # type: ignore[return-value]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Track:
-    """Robot ``index``'s ``footprint`` on ``leg``, or at rest at ``pose``."""
+    """Robot ``index``'s ``footprint`` on ``leg``, or at rest at ``pose``.
+
+    Treat it as immutable. It is not a frozen dataclass because one is made on every leg start and stop,
+    and a frozen dataclass's ``__init__`` (a ``object.__setattr__`` call per field) costs four times a
+    plain one's (issue 14).
+    """
 
     index: int
     footprint: Footprint
@@ -132,69 +137,76 @@ class Track:
         two instants lies between the positions at those instants (padded by :data:`BOX_PAD` against
         rounding).
         """
-        r = self.radius
-        if self.leg is None:
+        r = self.footprint.radius
+        leg = self.leg
+        if leg is None:
             x, y, _ = self.pose
             return x - r, y - r, x + r, y + r
-        leg = self.leg
         if t0 == -math.inf and t1 == math.inf:  # the whole leg: it spans its start and its point
             xa, ya, xb, yb = leg.x0, leg.y0, leg.x1, leg.y1
         else:
             (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
+        if xb < xa:  # ordered by hand: min() and max() were a third of this method's cost (issue 14)
+            xa, xb = xb, xa
+        if yb < ya:
+            ya, yb = yb, ya
         r += BOX_PAD
-        return min(xa, xb) - r, min(ya, yb) - r, max(xa, xb) + r, max(ya, yb) + r
+        return xa - r, ya - r, xb + r, yb + r
 
 
 class Grid:
     """Robots filed by the grid cells their track's box touches (see the module docstring).
 
     A robot is filed under a :data:`Span` of cells; the grid maps each cell's key (:data:`STRIDE`) to the
-    robots filed under it.
+    robots filed under it, and keeps with each robot's span those cells' sets of robots.
     """
 
     def __init__(self, cell: float) -> None:
         self.cell = cell
         self.cells: dict[int, set[int]] = {}
-        self.filed: dict[int, Span] = {}
+        self.filed: dict[int, tuple[Span, list[set[int]]]] = {}
 
     def file(self, index: int, box: Box) -> list[int]:
         """File ``index`` under ``box``; return the other robots sharing one of its cells, in index order.
 
         When ``box`` lies in cells the robot is already filed under (a robot coming to rest at the end of its
-        leg), the filing is kept: a superset only costs a box test later, and re-filing on every leg end
-        would double the grid's work. A robot alone in its cells (two calls in three at 1000 robots) is
-        answered without building a set of neighbours.
+        leg), the filing is kept, and so are the neighbours it gives: a superset only costs a box test
+        later, and re-filing on every leg end would double the grid's work. A robot alone in its cells (two
+        calls in three at 1000 robots) is answered without building a set of neighbours.
         """
         c = self.cell
         x0, y0, x1, y1 = box
         span = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
         old = self.filed.get(index)
-        if old is None or not _within(span, old):
-            self._refile(index, old, span)
-        cells = self.cells
-        shared = [members for members in map(cells.__getitem__, _keys(span)) if len(members) > 1]
+        if old is None or not _within(span, old[0]):
+            members = self._refile(index, old[0] if old is not None else None, span)
+        else:
+            members = old[1]
+        shared = [m for m in members if len(m) > 1]
         if not shared:
             return []
         near = set().union(*shared)
         near.discard(index)
         return sorted(near)
 
-    def _refile(self, index: int, old: Span | None, span: Span) -> None:
-        """Move ``index`` from the cells of ``old`` to those of ``span``.
+    def _refile(self, index: int, old: Span | None, span: Span) -> list[set[int]]:
+        """Move ``index`` from the cells of ``old`` to those of ``span``; return the sets of the latter.
 
         The cells in both are left as they are: a robot starting a leg from where it rests usually keeps
         its own cell, which re-filing from scratch would empty, drop and make anew.
         """
         cells = self.cells
+        filed = []
         for key in _keys(span):
             members = cells.get(key)
             if members is None:
-                cells[key] = {index}
+                members = cells[key] = {index}
             else:
                 members.add(index)
-        self.filed[index] = span
+            filed.append(members)
+        self.filed[index] = span, filed
         if old is None:
-            return
+            return filed
         gx0, gy0, gx1, gy1 = span
         for gx in range(old[0], old[2] + 1):
             for gy in range(old[1], old[3] + 1):
@@ -205,6 +217,7 @@ class Grid:
                 members.discard(index)
                 if not members:
                     del cells[key]
+        return filed
 
 
 def _keys(span: Span) -> list[int]:
