@@ -26,7 +26,9 @@ Two floors run in the same sweep, also as child processes over the same simulate
   ``action_finished`` events), plus one fleet-wide 1 Hz tick. This is the honest floor for vcran.
 
 ``--baseline DIR`` runs the same vcran child with another checkout (its own ``.venv``, e.g. a
-``git worktree`` of the commit before a change), so that ratios come from one run on one machine. The
+``git worktree`` of the commit before a change), so that ratios come from one run on one machine: the
+two checkouts' in-process runs alternate (``--pairs``, order swapped every pair), and the CPU ratio shown
+is the median of the pairs' ratios. The
 machine is usually shared and noisy: compare ratios within one run, never absolute figures across runs.
 """
 
@@ -172,7 +174,7 @@ def vcran_run(python: str, cwd: Path, scenario: Path, out: Path, robots: int, ho
             "sim_time": summary["sim_time"]}
 
 
-def bench(robots: int, hours: float, work: Path, baseline: Path | None, repeat: int) -> dict:
+def bench(robots: int, hours: float, work: Path, baseline: Path | None, repeat: int, pairs: int) -> dict:
     from vcran.io.gen import generate
 
     scenario = work / f"fleet-{robots}-{hours}.toml"
@@ -180,13 +182,13 @@ def bench(robots: int, hours: float, work: Path, baseline: Path | None, repeat: 
     row: dict = {"robots": robots, "hours": hours}
     # the whole process first: its warm-up run caches the bytecode the in-process child then reads
     whole = whole_process(ROOT, scenario, work / f"cli-{robots}-{hours}", repeat)
-    row["vcran"] = vcran_run(sys.executable, ROOT, scenario, work / f"out-{robots}-{hours}", robots, hours)
-    row["vcran"]["whole"] = whole
     if baseline is not None:
-        whole = whole_process(baseline, scenario, work / f"base-cli-{robots}-{hours}", repeat)
-        row["baseline"] = vcran_run(str(baseline / ".venv" / "bin" / "python"), baseline, scenario,
-                                    work / f"base-{robots}-{hours}", robots, hours)
-        row["baseline"]["whole"] = whole
+        base_whole = whole_process(baseline, scenario, work / f"base-cli-{robots}-{hours}", repeat)
+        row.update(paired(robots, hours, scenario, work, baseline, pairs))
+        row["baseline"]["whole"] = base_whole
+    else:
+        row["vcran"] = vcran_run(sys.executable, ROOT, scenario, work / f"out-{robots}-{hours}", robots, hours)
+    row["vcran"]["whole"] = whole
     sim = row["vcran"]["sim_time"]
     floor, floor_wall = child(sys.executable, ROOT, "floor", str(robots), str(sim))
     plan = work / f"plan-{robots}-{hours}.json"
@@ -194,6 +196,24 @@ def bench(robots: int, hours: float, work: Path, baseline: Path | None, repeat: 
     event_floor, _ = child(sys.executable, ROOT, "event", str(plan))
     row["floor_cpu"], row["event_floor_cpu"] = floor["cpu"], event_floor["cpu"]
     return row
+
+
+def paired(robots: int, hours: float, scenario: Path, work: Path, baseline: Path, pairs: int) -> dict:
+    """The in-process run of this checkout and of the baseline, ``pairs`` times, back to back, the order
+    swapped every pair: on a shared machine the load drifts over minutes, and a ratio of two runs made
+    far apart measures the drift too (a baseline run first under load once came out 40% slower than in
+    quiet). Each checkout's row is its run of median CPU; ``cpu_ratios`` holds every pair's ratio."""
+    checkouts = {"vcran": (sys.executable, ROOT, work / f"out-{robots}-{hours}"),
+                 "baseline": (str(baseline / ".venv" / "bin" / "python"), baseline, work / f"base-{robots}-{hours}")}
+    runs: dict[str, list[dict]] = {"vcran": [], "baseline": []}
+    for k in range(pairs):
+        for name in (("baseline", "vcran") if k % 2 == 0 else ("vcran", "baseline")):
+            python, cwd, out = checkouts[name]
+            shutil.rmtree(out, ignore_errors=True)
+            runs[name].append(vcran_run(python, cwd, scenario, out, robots, hours))
+    ratios = [v["cpu"] / b["cpu"] for v, b in zip(runs["vcran"], runs["baseline"])]
+    median = {name: sorted(r, key=lambda v: v["cpu"])[(len(r) - 1) // 2] for name, r in runs.items()}
+    return {**median, "cpu_ratios": ratios}
 
 
 def table(rows: list[dict]) -> str:
@@ -214,7 +234,9 @@ def table(rows: list[dict]) -> str:
     for r in rows:
         if "baseline" in r:
             b, v = r["baseline"], r["vcran"]
-            out.append(f"\n{r['robots']} robots: CPU {v['cpu'] / b['cpu']:.2f}x of the baseline, "
+            pairs = ", ".join(f"{x:.2f}" for x in r["cpu_ratios"])
+            out.append(f"\n{r['robots']} robots: CPU {statistics.median(r['cpu_ratios']):.2f}x of the baseline "
+                       f"(median of {len(r['cpu_ratios'])} interleaved pairs: {pairs}), "
                        f"in-process {v['in_process'] / b['in_process']:.2f}x, "
                        f"whole process {v['whole']['wall'] / b['whole']['wall']:.2f}x, "
                        f"output {v['total_per_robot_hour'] / b['total_per_robot_hour']:.3f}x")
@@ -246,6 +268,8 @@ def main() -> None:
     parser.add_argument("--flat", type=int, metavar="ROBOTS", help="peak memory at 1, 2 and 4 h for this fleet size")
     parser.add_argument("--keep", type=Path, help="keep outputs in this folder")
     parser.add_argument("--repeat", type=int, default=5, help="whole-process runs per size (the median is shown)")
+    parser.add_argument("--pairs", type=int, default=3,
+                        help="with --baseline: in-process runs of both checkouts, interleaved (median shown)")
     args = parser.parse_args()
     sys.path.insert(0, str(ROOT))
     global PYCACHE
@@ -256,7 +280,7 @@ def main() -> None:
         if args.flat:
             print(flat(args.flat, work))
             return
-        rows = [bench(n, args.hours, work, args.baseline, args.repeat) for n in args.sizes]
+        rows = [bench(n, args.hours, work, args.baseline, args.repeat, args.pairs) for n in args.sizes]
     print(table(rows))
     results = ROOT / "benchmarks" / "results"
     results.mkdir(exist_ok=True)

@@ -494,3 +494,14 @@ def _restamped(a):
     from vcran.core.messages import Header, MotionAssignment, Time
 
     return replace(a, header=Header((a.header.seq + 1) % 2**32, Time(7, 0), "x")) if isinstance(a, MotionAssignment) else a
+
+
+def test_a_transition_outside_the_state_machine_is_refused_and_emits_nothing():  # R6
+    """RanLogic checks every transition against TRANSITIONS (the check and the event share one lookup)."""
+    logic = RanLogic("r")
+    assert logic.state is State.WAITING and (State.WAITING, State.ACTION) not in TRANSITIONS
+    with pytest.raises(AssertionError, match=r"WAITING -> ACTION does not exist \(R6\)"):
+        logic._set_state(State.ACTION)
+    assert logic.state is State.WAITING and logic._end() == []
+    logic._set_state(State.TASK)
+    assert logic._end() == [StateChanged(State.WAITING, State.TASK)]

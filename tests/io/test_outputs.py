@@ -253,3 +253,28 @@ def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
                        "final_pose": {"x": 0.1, "y": -2.5, "theta": 3.141592653589793}} for i in range(20)}}
     write_summary(tmp_path, summary)
     assert (tmp_path / "summary.json").read_bytes() == (json.dumps(summary, indent=2, ensure_ascii=False) + "\n").encode()
+
+
+def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_than_a_batch(tmp_path):  # §6
+    """A ``.zst`` output is batched (vcran.io.trace._Batched): ``flush`` must make every line written so far
+    readable from the file as it stands (live mode flushes each tick, a killed run keeps its recording),
+    and a line longer than a batch must come through whole, in its place."""
+    import zstandard
+
+    from vcran.io.trace import BATCH, open_input, open_output
+
+    path = tmp_path / "lines.jsonl.zst"
+    lines = [b'{"n":%d}\n' % i for i in range(1000)]
+    long = b'{"long":"' + b"x" * (BATCH + 123) + b'"}\n'
+    f = open_output(path)
+    for line in lines:
+        f.write(line)
+    f.flush()
+    partial = zstandard.ZstdDecompressor().decompressobj().decompress(path.read_bytes())  # the frame has no end yet
+    assert partial == b"".join(lines)
+    f.write(long)
+    f.write(lines[0])
+    f.close()
+    f.flush()  # a closed run's writer may still be flushed: nothing happens
+    with open_input(path) as g:
+        assert g.read() == b"".join(lines) + long + lines[0]

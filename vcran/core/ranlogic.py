@@ -62,8 +62,10 @@ TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
 #: twice the cost of a global), and the state machine compares states several times per input.
 _WAITING, _TASK, _MOTION, _ACTION = State.WAITING, State.TASK, State.MOTION, State.ACTION
 
-#: TRANSITIONS by member name, for the check on every transition: an Enum's hash is a Python-level call.
-_TRANSITION_NAMES = frozenset((a._name_, b._name_) for a, b in TRANSITIONS)
+#: The one StateChanged event of each of the TRANSITIONS, by member names (an Enum's hash is a Python-level
+#: call): a transition is checked and its event found in one lookup. Events are values; building one per
+#: transition (four per task, a frozen dataclass's setattr per field) cost more than the lookup.
+_STATE_CHANGES = {(a._name_, b._name_): StateChanged(a, b) for a, b in TRANSITIONS}
 
 #: R14: two instants closer than this are the same instant (seconds).
 TOLERANCE = 1e-6
@@ -264,6 +266,18 @@ class RanLogic:
         if task is None or not task.action_running:
             return NIL
         return task.action_at(task.next_action).action_id
+
+    def assignment_ids(self) -> tuple[Id, Id, Id, Id, Id]:
+        """What ``assignment_status`` shows, in its field order: :attr:`current_task`, :attr:`current_motion`,
+        :attr:`current_action`, the last finished motion and action. One call where the five reads took
+        about a dozen (the properties and their helpers): telemetry asks for it whenever the robot changed,
+        and a status was a few percent of a run's CPU (issue 14)."""
+        task = self._head
+        if task is None:
+            return NIL, NIL, NIL, self.last_finished_motion, self.last_finished_action
+        motion = assignment_id(task.slots[task.route[0]]) if self.state is _MOTION and task.route else NIL
+        action = task.action_at(task.next_action).action_id if task.action_running else NIL
+        return task.id, motion, action, self.last_finished_motion, self.last_finished_action
 
     def ran_status(self) -> RanStatus:
         """The status as published. Built again only when what it shows changed: the state, or the
@@ -529,9 +543,10 @@ class RanLogic:
             self._advance(now)
 
     def _set_state(self, to: State) -> None:
-        if (self.state._name_, to._name_) not in _TRANSITION_NAMES:
+        change = _STATE_CHANGES.get((self.state._name_, to._name_))
+        if change is None:
             raise AssertionError(f"{self.robot}: transition {self.state.value} -> {to.value} does not exist (R6)")
-        self._emit(StateChanged(self.state, to))
+        self._emit(change)
         self.state = to
         self.version += 1
 
