@@ -69,3 +69,21 @@ def test_s4_unknown_collision_mode_fails_to_load():
     text = CROSSING.read_text().replace('collisions = "stop"', 'collisions = "bounce"')
     with pytest.raises(ScenarioError, match="collisions.*'bounce'"):
         parse(tomllib.loads(text), "<crossing>")
+
+
+def test_s4_a_robot_is_hit_after_it_comes_to_rest_and_far_along_a_long_leg(tmp_path):
+    # robot_1 drives (-10, 0) -> (0, 0) and rests there from t = 11; robot_2 drives (0, -30) -> (0, 70), a
+    # 100 m leg whose box spans six grid rows. When robot_2 starts, the pair can only be predicted until
+    # robot_1's leg ends (t = 11, no contact yet); the contact must be found when robot_1 comes to rest (its
+    # filing kept: its rest box lies inside its leg's cells) and shares one cell of robot_2's long box.
+    # robot_2's front edge (y + 0.5) meets robot_1's back edge (-0.5) with its centre at -1: 29 m from -30
+    # at 1 m/s from t = 1 -> t = 30, somewhere along robot_1's back edge (y = -0.5, -0.5 <= x <= 0.5).
+    text = CROSSING.read_text()
+    text = text.replace("pose = [0.0, -10.0, 1.5707963267948966]", "pose = [0.0, -30.0, 1.5707963267948966]")
+    text = text.replace("path = [[10.0, 0.0]]", "path = [[0.0, 0.0]]").replace("path = [[0.0, 10.0]]", "path = [[0.0, 70.0]]")
+    out = run_scenario(parse(tomllib.loads(text), "<rest-then-hit>"), tmp_path)
+    (hit,) = out.of("collision")
+    assert (hit["robot"], hit["other"]) == ("robot_1", "robot_2")
+    assert hit["t"] == pytest.approx(30.0, abs=1e-6)
+    assert -0.5 <= hit["x"] <= 0.5 and hit["y"] == pytest.approx(-0.5, abs=1e-6)
+    assert [(e["robot"], e["task"]) for e in out.of("task_completed")] == [("robot_1", "east")]

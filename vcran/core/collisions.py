@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from itertools import product
 from typing import TYPE_CHECKING
 
 from vcran.core.motion import Leg
@@ -43,6 +42,16 @@ COARSE = 32
 REFINE = 64
 #: At most this many samples per pair test (the step grows for very long overlaps of slow pairs).
 MAX_SAMPLES = 100_000
+
+#: A box: min x, min y, max x, max y.
+Box = tuple[float, float, float, float]
+#: The cells a box touches, ``(gx0, gy0, gx1, gy1)``: grid columns ``gx0..gx1``, rows ``gy0..gy1``.
+Span = tuple[int, int, int, int]
+#: A cell's key is ``gx * STRIDE + gy``, one int: cheaper to make and hash than the tuple ``(gx, gy)`` on a
+#: path taken for every leg a robot starts (issue 14). Rows more than ``STRIDE / 2`` cells from the origin
+#: (4e10 m at 20 m cells) would share keys with others: that only makes robots neighbours that are not (the
+#: box test sets them apart), never hides one.
+STRIDE = 1 << 32
 
 
 class Footprint:
@@ -81,9 +90,14 @@ class Footprint:
         return self._axes  # type: ignore[return-value]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Track:
-    """Robot ``index``'s ``footprint`` on ``leg``, or at rest at ``pose``."""
+    """Robot ``index``'s ``footprint`` on ``leg``, or at rest at ``pose``.
+
+    Treat it as immutable. It is not a frozen dataclass because one is made on every leg start and stop,
+    and a frozen dataclass's ``__init__`` (a ``object.__setattr__`` call per field) costs four times a
+    plain one's (issue 14).
+    """
 
     index: int
     footprint: Footprint
@@ -116,65 +130,105 @@ class Track:
             return 0.0
         return leg.peak + self.radius * max(abs(leg.rate1), abs(leg.rate2))
 
-    def box(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, float, float, float]:
+    def box(self, t0: float = -math.inf, t1: float = math.inf) -> Box:
         """A bounding box of everything this track covers between ``t0`` and ``t1`` (min x, min y, max x, max y).
 
         A leg drives along one straight segment, never back, and turns in place, so the part of it between
         two instants lies between the positions at those instants (padded by :data:`BOX_PAD` against
         rounding).
         """
-        r = self.radius
-        if self.leg is None:
+        r = self.footprint.radius
+        leg = self.leg
+        if leg is None:
             x, y, _ = self.pose
             return x - r, y - r, x + r, y + r
-        leg = self.leg
         if t0 == -math.inf and t1 == math.inf:  # the whole leg: it spans its start and its point
             xa, ya, xb, yb = leg.x0, leg.y0, leg.x1, leg.y1
         else:
             (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
+        if xb < xa:  # ordered by hand: min() and max() were a third of this method's cost (issue 14)
+            xa, xb = xb, xa
+        if yb < ya:
+            ya, yb = yb, ya
         r += BOX_PAD
-        return min(xa, xb) - r, min(ya, yb) - r, max(xa, xb) + r, max(ya, yb) + r
+        return xa - r, ya - r, xb + r, yb + r
 
 
 class Grid:
-    """Robots filed by the grid cells their track's box touches (see the module docstring)."""
+    """Robots filed by the grid cells their track's box touches (see the module docstring).
+
+    A robot is filed under a :data:`Span` of cells; the grid maps each cell's key (:data:`STRIDE`) to the
+    robots filed under it, and keeps with each robot's span those cells' sets of robots.
+    """
 
     def __init__(self, cell: float) -> None:
         self.cell = cell
-        self.cells: dict[tuple[int, int], set[int]] = {}
-        self.filed: dict[int, tuple[tuple[int, int], ...]] = {}
+        self.cells: dict[int, set[int]] = {}
+        self.filed: dict[int, tuple[Span, list[set[int]]]] = {}
 
-    def _keys(self, box: tuple[float, float, float, float]) -> tuple[tuple[int, int], ...]:
-        c = self.cell
-        x0, y0, x1, y1 = box
-        gx0, gy0, gx1, gy1 = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
-        if gx0 == gx1 and gy0 == gy1:
-            return ((gx0, gy0),)
-        return tuple(product(range(gx0, gx1 + 1), range(gy0, gy1 + 1)))
-
-    def file(self, index: int, box: tuple[float, float, float, float]) -> set[int]:
-        """File ``index`` under ``box``; return the other robots sharing one of its cells.
+    def file(self, index: int, box: Box) -> list[int]:
+        """File ``index`` under ``box``; return the other robots sharing one of its cells, in index order.
 
         When ``box`` lies in cells the robot is already filed under (a robot coming to rest at the end of its
-        leg), the filing is kept: a superset only costs a box test later, and re-filing on every leg end
-        would double the grid's work.
+        leg), the filing is kept, and so are the neighbours it gives: a superset only costs a box test
+        later, and re-filing on every leg end would double the grid's work. A robot alone in its cells (two
+        calls in three at 1000 robots) is answered without building a set of neighbours.
         """
-        keys = self._keys(box)
+        c = self.cell
+        x0, y0, x1, y1 = box
+        span = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
         old = self.filed.get(index)
+        if old is None or not _within(span, old[0]):
+            members = self._refile(index, old[0] if old is not None else None, span)
+        else:
+            members = old[1]
+        shared = [m for m in members if len(m) > 1]
+        if not shared:
+            return []
+        near = set().union(*shared)
+        near.discard(index)
+        return sorted(near)
+
+    def _refile(self, index: int, old: Span | None, span: Span) -> list[set[int]]:
+        """Move ``index`` from the cells of ``old`` to those of ``span``; return the sets of the latter.
+
+        The cells in both are left as they are: a robot starting a leg from where it rests usually keeps
+        its own cell, which re-filing from scratch would empty, drop and make anew.
+        """
         cells = self.cells
-        if keys != old and (old is None or not set(keys).issubset(old)):
-            for key in old or ():
+        filed = []
+        for key in _keys(span):
+            members = cells.get(key)
+            if members is None:
+                members = cells[key] = {index}
+            else:
+                members.add(index)
+            filed.append(members)
+        self.filed[index] = span, filed
+        if old is None:
+            return filed
+        gx0, gy0, gx1, gy1 = span
+        for gx in range(old[0], old[2] + 1):
+            for gy in range(old[1], old[3] + 1):
+                if gx0 <= gx <= gx1 and gy0 <= gy <= gy1:
+                    continue
+                key = gx * STRIDE + gy
                 members = cells[key]
                 members.discard(index)
                 if not members:
                     del cells[key]
-            self.filed[index] = keys
-            for key in keys:
-                found = cells.get(key)
-                if found is None:
-                    cells[key] = {index}
-                else:
-                    found.add(index)
-        near = cells[keys[0]].union(*[cells[key] for key in keys[1:]])
-        near.discard(index)
-        return near
+        return filed
+
+
+def _keys(span: Span) -> list[int]:
+    gx0, gy0, gx1, gy1 = span
+    return [gx * STRIDE + gy for gx in range(gx0, gx1 + 1) for gy in range(gy0, gy1 + 1)]
+
+
+def _within(span: Span, outer: Span) -> bool:
+    return outer[0] <= span[0] and outer[1] <= span[1] and span[2] <= outer[2] and span[3] <= outer[3]
+
+
+def apart(a: Box, b: Box) -> bool:
+    """Whether two boxes are apart (boxes that share an edge or a corner are not)."""
+    return a[2] < b[0] or b[2] < a[0] or a[3] < b[1] or b[3] < a[1]
