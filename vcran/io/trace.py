@@ -144,41 +144,57 @@ def open_output(path: Path) -> IO[bytes]:
 
     params = zstandard.ZstdCompressionParameters.from_level(
         ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, write_checksum=True)
-    writer = zstandard.ZstdCompressor(compression_params=params).stream_writer(
-        raw, write_size=1 << 20, write_return_read=True)  # BufferedWriter needs the bytes consumed
-    return _Batched(writer)  # type: ignore[return-value]
+    return _Batched(zstandard.ZstdCompressor(compression_params=params).stream_writer(raw, write_size=1 << 20))  # type: ignore[return-value]
 
 
 #: Bytes gathered before they cross into the compressor.
 BATCH = 1 << 18
 
 
-class _Batched(io.BufferedWriter):
+class _Batched(io.RawIOBase):
     """Lines gathered into 256 kB batches before they cross into the compressor: a call into zstandard
     per record cost more than compressing it.
 
-    The standard library's buffered writer, whose ``write`` is C: the same batching written in Python (one
-    buffer allocated once and filled in place) was 3.3% of a 1000-robot run (py-spy), for a call, a length
-    check and a slice copy per line. A list of lines joined per batch raised the run's peak memory by
-    14 MiB instead (the allocator kept what thousands of line objects a batch had used).
-
-    ``flush`` also ends the zstd block, so that a reader of the file gets every line so far (live mode);
-    ``close`` does not, so the frame's end follows the last batch as it always has."""
-
-    _ending = False
+    The batch is one buffer allocated once and filled in place: a buffer grown line by line was
+    reallocated (and, among a large run's other allocations, copied) dozens of times a batch, 5% of a
+    1000-robot run (py-spy); a list of the lines joined per batch raised the run's peak memory by
+    14 MiB instead (the allocator kept what thousands of line objects a batch had used)."""
 
     def __init__(self, inner: Any) -> None:
-        super().__init__(inner, buffer_size=BATCH)
+        super().__init__()
+        self._inner, self._buf, self._fill = inner, bytearray(BATCH), 0
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: Any) -> int:
+        size, fill = len(data), self._fill
+        if fill + size > BATCH:
+            self._hand_on()
+            fill = 0
+            if size > BATCH:  # a line longer than a batch goes on its own
+                self._inner.write(data)
+                return size
+        self._buf[fill:fill + size] = data
+        self._fill = fill + size
+        return size
+
+    def _hand_on(self) -> None:
+        if self._fill:
+            self._inner.write(memoryview(self._buf)[:self._fill])
+            self._fill = 0
 
     def flush(self) -> None:
-        if self.closed:  # as a closed run's writers are: nothing left to hand on
-            return
-        super().flush()
-        if not self._ending:
-            self.raw.flush()
+        """Compress what is gathered and end the zstd block: a reader of the file gets every line so far."""
+        if not self.closed and self._inner is not None:
+            self._hand_on()
+            self._inner.flush()
 
     def close(self) -> None:
-        self._ending = True  # io's close flushes through self.flush; the compressor's own close ends the frame
+        if not self.closed:
+            self._hand_on()
+            self._inner.close()
+            self._inner = None
         super().close()
 
 
