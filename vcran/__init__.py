@@ -31,6 +31,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "RobotConfig": ("vcran.core.scenario", "RobotConfig"),
     "StationConfig": ("vcran.core.scenario", "StationConfig"),
     "ScriptEntry": ("vcran.core.scenario", "ScriptEntry"),
+    "Script": ("vcran.core.scenario", "Script"),
     "load_scenario": ("vcran.io.scenario_file", "load"),
     "parse_scenario": ("vcran.io.scenario_file", "parse"),
     "ScenarioError": ("vcran.io.scenario_file", "ScenarioError"),
@@ -74,7 +75,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
 #: Literal, so that type checkers and linters read it; a test checks it names exactly _EXPORTS.
 __all__ = [
     "__version__",
-    "Scenario", "Settings", "RobotConfig", "StationConfig", "ScriptEntry",
+    "Scenario", "Settings", "RobotConfig", "StationConfig", "ScriptEntry", "Script",
     "load_scenario", "parse_scenario", "ScenarioError",
     "Id", "id_for", "MotionAssignment", "ActionAssignment", "CancelTask",
     "Transport", "Inbound", "Publish", "Frame",
@@ -111,6 +112,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
         LinkSettings,
         RobotConfig,
         Scenario,
+        Script,
         ScriptEntry,
         Settings,
         StationConfig,
