@@ -79,7 +79,7 @@ def test_repeated_task_is_the_task_built_again_under_its_new_name_and_stamp(path
     if not path and not actions:
         actions = ["dummy"]
     first = build.task("c_0_1", path, actions, max_velocity=speed, stamp=3.0)
-    again = build.repeated(first, "c_7_1", stamp)
+    again = build.RepeatedTasks([first]).build(["c_7_1"], build.header_at(stamp))
     assert again == build.task("c_7_1", path, actions, max_velocity=speed, stamp=stamp)
     # names too, not only what __eq__ compares (an Id compares by uuid)
     motions = [m.motion_id.description for m in again if isinstance(m, MotionAssignment)]

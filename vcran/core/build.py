@@ -250,14 +250,6 @@ def header_at(stamp: float) -> Header:
     return _header(0, Time.from_seconds(stamp), "")
 
 
-def repeated(
-    messages: list[MotionAssignment | ActionAssignment], name: str, stamp: float
-) -> list[MotionAssignment | ActionAssignment]:
-    """The messages of :func:`task` (built with ``every=0``) as they would be built again for task ``name``
-    stamped ``stamp`` (a cycle keeps its :class:`RepeatedTasks` for all its repetitions)."""
-    return RepeatedTasks([messages]).build([name], header_at(stamp))
-
-
 def _id(name: str | Id) -> Id:
     return name if isinstance(name, Id) else id_for(name)
 

@@ -120,11 +120,6 @@ class Cycle:
     tasks: tuple[TaskSpec, ...]
     max_velocity: float = 0.0
 
-    def repetitions(self) -> Iterator[list[ScriptEntry]]:
-        """The entries of each repetition in turn, as one list: they all have the repetition's time."""
-        for t, run in _merged((), (self,)):
-            yield [_entry(t, i.entity, i.attribute, i.message, i.raw) for i in run]
-
 
 class _Repetitions:
     """One cycle's repetitions, each built when it is due.
