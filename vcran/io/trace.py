@@ -226,16 +226,14 @@ class TraceWriter:
         self._last: dict[tuple[str, str, str], list[Any]] = {}
 
     def inbound(self, t: float, inbound: Inbound) -> None:
-        # The record's dict is built once, whole (a script's every message comes through here).
-        entity, attribute, message = inbound.entity, inbound.attribute, inbound.message
-        if message is None:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
-            head = json_line({"t": t, "dir": "in", "robot": entity, "attr": attribute})
-            self._jsonl.write(head[:-2] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
+        head = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
+        if inbound.message is None:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
+            self._jsonl.write(json_line(head)[:-2] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
             return
-        value = self._value(("in", entity, attribute), message)
+        value = self._value(("in", inbound.entity, inbound.attribute), inbound.message)
         # an inbound message is always written, even one equal to the last: the RAN reacted to it
-        self._jsonl.write(json_line({"t": t, "dir": "in", "robot": entity, "attr": attribute,
-                                     "value": {} if value is None else value}))
+        head["value"] = {} if value is None else value
+        self._jsonl.write(json_line(head))
 
     def publish(self, out: Publish) -> None:
         value = self._value(("out", out.robot, out.attribute), out.message)
