@@ -267,18 +267,6 @@ class RanLogic:
             return NIL
         return task.action_at(task.next_action).action_id
 
-    def assignment_ids(self) -> tuple[Id, Id, Id, Id, Id]:
-        """What ``assignment_status`` shows, in its field order: :attr:`current_task`, :attr:`current_motion`,
-        :attr:`current_action`, the last finished motion and action. One call where the five reads took
-        about a dozen (the properties and their helpers): telemetry asks for it whenever the robot changed,
-        and a status was a few percent of a run's CPU (issue 14)."""
-        task = self._head
-        if task is None:
-            return NIL, NIL, NIL, self.last_finished_motion, self.last_finished_action
-        motion = assignment_id(task.slots[task.route[0]]) if self.state is _MOTION and task.route else NIL
-        action = task.action_at(task.next_action).action_id if task.action_running else NIL
-        return task.id, motion, action, self.last_finished_motion, self.last_finished_action
-
     def ran_status(self) -> RanStatus:
         """The status as published. Built again only when what it shows changed: the state, or the
         queue (a task arrived or ended); telemetry asks for it whenever anything of the robot changed."""

@@ -182,7 +182,15 @@ class Ran:
 
     @staticmethod
     def assignment_status(robot: RobotNode) -> AssignmentStatus:
-        return _assignment_status(*robot.logic.assignment_ids(), robot.footprint)
+        logic = robot.logic
+        return _assignment_status(
+            current_task_id=logic.current_task,
+            current_motion_id=logic.current_motion,
+            current_action_id=logic.current_action,
+            last_finished_motion=logic.last_finished_motion,
+            last_finished_action=logic.last_finished_action,
+            footprint=robot.footprint,
+        )
 
 
 def description(config: RobotConfig, footprint: PolygonStamped) -> RobotAgentProperties:
