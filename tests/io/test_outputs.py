@@ -278,3 +278,22 @@ def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_t
     f.flush()  # a closed run's writer may still be flushed: nothing happens
     with open_input(path) as g:
         assert g.read() == b"".join(lines) + long + lines[0]
+
+
+def test_compressed_output_keeps_what_was_written_when_the_caller_reuses_its_buffer(tmp_path):  # §6
+    """Lines are gathered in a batch before they reach the compressor (vcran.io.trace._Batched): a
+    ``bytearray`` or ``memoryview`` written and then changed by the caller, as ``write`` allows, must be
+    kept as written."""
+    from vcran.io.trace import open_input, open_output
+
+    lines = 100
+    path = tmp_path / "reused.jsonl.zst"
+    buffer = bytearray(b'{"n":0}\n')
+    f = open_output(path)
+    for i in range(lines):
+        buffer[5:6] = b"%d" % (i % 10)
+        f.write(buffer if i % 2 else memoryview(buffer))
+    buffer[:] = b"gone\n"
+    f.close()
+    with open_input(path) as g:
+        assert g.read() == b"".join(b'{"n":%d}\n' % (i % 10) for i in range(lines))
