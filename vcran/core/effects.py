@@ -15,6 +15,7 @@ from typing import Any
 
 from vcran.core.ids import NIL, Id
 from vcran.core.messages import ActionAssignment, MotionAssignment
+from vcran.core.schema import slot_init
 
 
 class State(enum.Enum):
@@ -41,6 +42,7 @@ class Reason(enum.Enum):
 # --- commands -------------------------------------------------------------------------------------------
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class DispatchPath:
     """Send every motion of the task to the AGV at once, as one path (R6 MOTION)."""
@@ -73,6 +75,7 @@ class Abandon:
     task: Id
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class DispatchAction:
     """Send one action to AgvAction (R6 ACTION: one at a time, in sequence order)."""
@@ -81,6 +84,7 @@ class DispatchAction:
     action: ActionAssignment
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class StartTimer:
     """Call :meth:`RanLogic.on_timer` for ``task`` at simulated time ``at`` (R7)."""
@@ -89,6 +93,7 @@ class StartTimer:
     at: float
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class ClearTimer:
     """The R7 timer of ``task`` no longer matters (assembled or ended)."""
@@ -123,6 +128,7 @@ class StateChanged(Event):
         return {"from": self.from_._value_, "to": self.to._value_}
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class TaskQueued(Event):
     NAME = "task_queued"
@@ -132,6 +138,7 @@ class TaskQueued(Event):
         return {"task": self.task.label}
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class TaskCompleted(Event):
     NAME = "task_completed"
@@ -151,6 +158,7 @@ class TaskCancelled(Event):
         return {"task": self.task.label, "reason": self.reason.value}
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class MotionFinished(Event):
     NAME = "motion_finished"
@@ -161,6 +169,7 @@ class MotionFinished(Event):
         return {"task": self.task.label, "motion": self.motion.label}
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class ActionFinished(Event):
     NAME = "action_finished"
