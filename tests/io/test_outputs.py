@@ -297,3 +297,20 @@ def test_compressed_output_keeps_what_was_written_when_the_caller_reuses_its_buf
     f.close()
     with open_input(path) as g:
         assert g.read() == b"".join(b'{"n":%d}\n' % (i % 10) for i in range(lines))
+
+
+def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # §6, issue 14 (flat memory)
+    """A line several batches long (a raw payload near Orion's 1 MB limit) goes through whole, and the
+    batch buffer it grew is not kept for the rest of the run."""
+    from vcran.io.trace import BATCH, open_input, open_output
+
+    path = tmp_path / "long.jsonl.zst"
+    long = b'{"long":"' + b"x" * (3 * BATCH) + b'"}\n'
+    f = open_output(path)
+    f.write(long)
+    f.write(b'{"n":1}\n')
+    f.flush()
+    assert len(f._batch.getvalue()) < BATCH  # what the batch holds now: the short line's buffer only
+    f.close()
+    with open_input(path) as g:
+        assert g.read() == long + b'{"n":1}\n'

@@ -158,11 +158,11 @@ class _Batched(io.RawIOBase):
     The batch is an ``io.BytesIO`` rewound after each hand-on: its buffer grows to a batch's size once
     and is then refilled in place, lines copied into it by C code. A buffer emptied after each batch
     was reallocated (and, among a large run's other allocations, copied) dozens of times a batch, 5% of
-    a 1000-robot run (py-spy); a
-    list of the lines joined per batch raised the run's peak memory by 14 MiB (the allocator kept what
-    thousands of line objects a batch had used), and lines joined 64 at a time by 3 MiB at 4 h; a
-    ``bytearray`` filled by slice assignment cost 0.5 µs a line, an eighth of what writing a 10-robot
-    run's outputs costs (issue 14)."""
+    a 1000-robot run (py-spy); a list of the lines joined per batch raised the run's peak memory by
+    14 MiB (the allocator kept what thousands of line objects a batch had used), and lines joined 64 at a
+    time by 3 MiB at 4 h; a ``bytearray`` filled by slice assignment cost 0.5 µs a line, an eighth of
+    what writing a 10-robot run's outputs costs (issue 14). A line longer than a batch (a raw payload
+    near Orion's 1 MB limit) makes one batch that long; the buffer it grew is dropped after it."""
 
     def __init__(self, inner: Any) -> None:
         super().__init__()
@@ -184,7 +184,10 @@ class _Batched(io.RawIOBase):
         if size:
             with batch.getbuffer() as view:
                 self._inner.write(view[:size])
-            batch.seek(0)
+            if size > 2 * BATCH:  # grown by a long line: not kept for the batches after it
+                self._batch = io.BytesIO()
+            else:
+                batch.seek(0)
 
     def flush(self) -> None:
         """Compress what is gathered and end the zstd block: a reader of the file gets every line so far."""
