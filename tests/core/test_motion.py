@@ -131,3 +131,37 @@ def test_poses_during_the_final_turn():
         assert (x, y, v, w) == (0, -2, 0.0, -0.5)
         assert theta == pytest.approx(-3 * math.pi / 4, abs=1e-12)
     assert leg.pose_at(leg.t_end) == (0, -2, math.pi, 0.0, 0.0)
+
+
+def _phase_instants(leg: Leg) -> list[float]:
+    """The instants where a leg changes phase, and the floats either side of each."""
+    marks = [leg.t0, leg.t0 + leg.t_turn1, leg.t0 + leg.t_turn1 + leg.t_acc,
+             leg.t0 + leg.t_turn1 + leg.t_drive - leg.t_dec, leg.t0 + leg.t_turn1 + leg.t_drive, leg.t_end]
+    return [x for m in marks for x in (math.nextafter(m, -math.inf), m, math.nextafter(m, math.inf))]
+
+
+@settings(max_examples=300, deadline=None)
+@given(legs(), st.lists(st.floats(-10, 250), max_size=70), st.booleans())
+def test_one_leg_sampled_phase_by_phase_is_bit_identical(leg, extra, ordered):
+    """Collision checks sample one leg at many instants (vcran.core.sampling.leg_poses): the poses are
+    those of the fleet sweep and of Leg.pose_at to the last bit, phase boundaries included; unordered
+    instants give the same."""
+    from vcran.core.sampling import leg_poses, sample_leg
+
+    times = np.array(_phase_instants(leg) + extra + [leg.t0 + leg.duration * k / 7 for k in range(8)])
+    if ordered:
+        times.sort()
+    got = leg_poses(leg, times)
+    assert got.shape == (len(times), 3)
+    assert np.array_equal(got, sample_leg(leg, times)[:, :3])
+    for t, row in zip(times.tolist(), got):
+        assert np.array_equal(row, np.array(leg.pose_at(t)[:3])), (t, row, leg.pose_at(t))
+
+
+def test_one_leg_sampled_at_no_instant_and_at_repeated_instants():
+    from vcran.core.sampling import leg_poses
+
+    leg = Leg(2.0, 0, 0, 0, 0, 3, math.pi, Limits(1.0, 0.5, 0.5, 1.0))  # turn, trapezoid, turn
+    assert leg_poses(leg, np.array([])).shape == (0, 3)
+    same = leg_poses(leg, np.full(5, leg.t0 + leg.t_turn1 + 1.0))
+    assert (same == same[0]).all() and same[0].tolist() == list(leg.pose_at(leg.t0 + leg.t_turn1 + 1.0)[:3])

@@ -15,14 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from vcran.core.collisions import COARSE, MAX_ROUNDS, MAX_SAMPLES, REFINE, TIME_TOL, Track
-from vcran.core.sampling import sample_leg
+from vcran.core.sampling import leg_poses
 
 
 def poses(track: Track, times: np.ndarray) -> np.ndarray:
     """``(len(times), 3)`` poses x, y, theta of ``track``."""
     if track.leg is None:
         return np.broadcast_to(np.asarray(track.pose, dtype=np.float64), (len(times), 3))
-    return sample_leg(track.leg, times)[:, :3]
+    return leg_poses(track.leg, times)
 
 
 def shape_of(points: Iterable[tuple[float, float]]) -> np.ndarray:

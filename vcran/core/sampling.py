@@ -71,6 +71,62 @@ def sample_leg(leg: Leg, times: np.ndarray) -> np.ndarray:
     return sample_moving(np.broadcast_to(row, (len(times), len(_COLUMNS))), times)  # type: ignore[arg-type]
 
 
+def leg_poses(leg: Leg, times: np.ndarray) -> np.ndarray:
+    """A ``(len(times), 3)`` array of one leg's ``x, y, theta`` at each of ``times`` (collision checks).
+
+    :func:`sample_moving`'s arithmetic, element for element, evaluated phase by phase: with ``times``
+    ascending, each phase of the leg (turning, accelerating, cruising, braking, turning, ended) is one
+    stretch of them, found by bisection, so each formula runs once, on its own stretch, with the leg's
+    parameters as scalars. A collision check samples a few dozen instants at a time, where numpy's cost
+    is per call, not per element: this takes about a third of the calls of :func:`sample_leg`, and a
+    refinement round, whose instants all lie in one phase, a tenth. Unordered ``times`` go through
+    :func:`sample_leg` (same results).
+    """
+    n = len(times)
+    if n > 1 and not (times[1:] >= times[:-1]).all():
+        return sample_leg(leg, times)[:, :3]
+    out = np.empty((n, 3))
+    ke = int(np.searchsorted(times, leg.t_end, "left"))  # from here on the leg has ended
+    if ke < n:
+        out[ke:] = (leg.x1, leg.y1, leg.end_theta)
+    if ke == 0:
+        return out
+    tau = np.maximum(times[:ke] - leg.t0, 0.0)
+    t1 = leg.t_turn1
+    k1 = int(np.searchsorted(tau, t1, "left"))  # before k1: turning towards the heading
+    if k1:
+        out[:k1, 0] = leg.x0
+        out[:k1, 1] = leg.y0
+        out[:k1, 2] = _wrap_array(leg.theta0 + leg.rate1 * tau[:k1])
+    if k1 == ke:
+        return out
+    d = tau[k1:] - t1
+    td = leg.t_drive
+    k2 = int(np.searchsorted(d, td, "left"))  # from k1 + k2 on: turning to the goal's theta
+    if k2 < len(d):
+        out[k1 + k2:ke, 0] = leg.x1
+        out[k1 + k2:ke, 1] = leg.y1
+        out[k1 + k2:ke, 2] = _wrap_array(leg.heading + leg.rate2 * (d[k2:] - td))
+    if k2:
+        d = d[:k2]
+        peak, ta, tdec, dist = leg.peak, leg.t_acc, leg.t_dec, leg.distance
+        na = int(np.searchsorted(d, ta, "left"))  # accelerating before na
+        nc = max(na, int(np.searchsorted(d, td - tdec, "right")))  # cruising before nc, then braking
+        s = np.empty(k2)
+        if na:
+            s[:na] = 0.5 * peak * d[:na] * d[:na] / ta
+        if nc > na:
+            s[na:nc] = 0.5 * peak * ta + peak * (d[na:nc] - ta)
+        if nc < k2:
+            rest = td - d[nc:]
+            s[nc:] = dist - 0.5 * peak * rest * rest / tdec
+        s = np.minimum(np.maximum(s, 0.0), dist)
+        out[k1:k1 + k2, 0] = leg.x0 + leg.ux * s
+        out[k1:k1 + k2, 1] = leg.y0 + leg.uy * s
+        out[k1:k1 + k2, 2] = leg.heading
+    return out
+
+
 def _wrap_array(a: np.ndarray) -> np.ndarray:
     """:func:`~vcran.core.motion.wrap` elementwise, with the same fmod steps (fmod is exact, so results agree)."""
     r = np.fmod(a + math.pi, TAU)
