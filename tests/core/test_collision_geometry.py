@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from vcran.core.collisions import TIME_TOL, Footprint, Track
 from vcran.core.motion import Leg, Limits
@@ -139,3 +141,39 @@ def test_s4_an_inexact_change_is_the_first_sample_after_it():
     leg = Leg(0.0, 0.0, 0.0, 0.0, 10.0, 0.0, None, Limits(2.0))
     mover, still = track(0, SQUARE, leg=leg), track(1, SQUARE, pose=(6.0, 0.0, 0.0))
     assert first_change(mover, still, 3.0, leg.t_end, 0.05, want=False, exact=False) == pytest.approx(3.525)
+
+
+def _convex_polygon(draw_radii, draw_angles):
+    """A convex polygon: points on an ellipse at increasing angles (a convex curve's points are in convex position)."""
+    (rx, ry), angles = draw_radii, sorted(set(draw_angles))
+    return tuple((rx * math.cos(a), ry * math.sin(a)) for a in angles)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.tuples(st.floats(0.2, 2.0), st.floats(0.2, 2.0)),
+    st.lists(st.floats(0.0, 2 * math.pi, exclude_max=True), min_size=3, max_size=8),
+    st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-math.pi, math.pi)), min_size=1, max_size=40),
+)
+def test_s4_separating_axes_agree_with_shapely_wherever_the_answer_is_clear(radii, angles, poses):
+    """The separating-axis test (numpy) against shapely's ``intersects`` on random convex footprints, a
+    robot at rest at the origin and another at many poses; poses within 1e-9 m of touching are left out
+    (there the two may round differently, and neither is wrong)."""
+    import shapely
+
+    points = _convex_polygon(radii, angles)
+    assume(len(points) >= 3 and shapely.Polygon(points).area > 1e-3 and convex_axes(shape_of(points)) is not None)
+    fixed = track(0, points)
+    exact = shapely.Polygon(points)
+    clear = []
+    for x, y, theta in poses:
+        c, s = math.cos(theta), math.sin(theta)
+        moved = shapely.Polygon([(x + c * px - s * py, y + s * px + c * py) for px, py in points])
+        gap = exact.distance(moved)
+        if gap > 1e-9 or exact.intersection(moved).area > 1e-9:
+            clear.append(((x, y, theta), gap == 0.0))
+    assume(clear)
+    for (x, y, theta), expected in clear:
+        other = track(1, points, pose=(x, y, theta))
+        assert touch(fixed, other) is expected, (x, y, theta)
+        assert touch(other, fixed) is expected, (x, y, theta)

@@ -33,9 +33,12 @@ def shape_of(points: Iterable[tuple[float, float]]) -> np.ndarray:
 
 @dataclass(frozen=True, slots=True)
 class Axes:
-    """A convex footprint's edge normals ``(n, 2)`` in the robot frame and its own extent along each."""
+    """A convex footprint's edge normals in the robot frame, x and y components each ``(m, 1)``, and its own
+    extent along each, ``low`` and ``high`` each ``(m, 1)``: shaped to broadcast against the other footprint's
+    corners laid out ``(corners, samples)`` (:func:`_apart_along`)."""
 
-    normals: np.ndarray
+    nx: np.ndarray
+    ny: np.ndarray
     low: np.ndarray
     high: np.ndarray
 
@@ -63,24 +66,28 @@ def convex_axes(shape: np.ndarray) -> Axes | None:
     if round(abs(float(np.arctan2(cross, dot).sum())) / (2.0 * math.pi)) != 1:
         return None
     normals = np.column_stack((-edges[:, 1], edges[:, 0]))
-    own = normals @ shape.T
-    return Axes(normals, own.min(axis=1), own.max(axis=1))
+    own = normals @ shape.T  # (m, corners)
+    return Axes(normals[:, 0:1], normals[:, 1:2], own.min(axis=1, keepdims=True), own.max(axis=1, keepdims=True))
 
 
-def _corners(track: Track, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The footprint's corners at ``poses`` in world coordinates: x and y, each ``(len(poses), n)``."""
-    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-    px, py = track.shape[:, 0], track.shape[:, 1]
-    xs = poses[:, :1] + c[:, None] * px - s[:, None] * py
-    ys = poses[:, 1:2] + s[:, None] * px + c[:, None] * py
-    return xs, ys
+def _corners(shape: np.ndarray, x: np.ndarray, y: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corners of footprint ``shape`` at poses ``x, y, theta``: x and y, each ``(corners, len(x))``.
+
+    Corners first, so that reductions over them (:func:`_apart_along`) run along the outer axis, which
+    numpy does as a few elementwise operations on whole rows: along the inner axis of four corners each,
+    ``max`` and ``min`` were a third of a contact test's time.
+    """
+    c, s = np.cos(theta), np.sin(theta)
+    px, py = shape[:, 0:1], shape[:, 1:2]
+    return x + px * c - py * s, y + px * s + py * c
 
 
 def footprints(track: Track, poses: np.ndarray) -> np.ndarray:
     """The footprint polygons at ``poses`` (a shapely array)."""
     import shapely  # only for concave footprints and contact points (see convex_axes)
 
-    return shapely.polygons(np.stack(_corners(track, poses), axis=-1))
+    xs, ys = _corners(track.shape, poses[:, 0], poses[:, 1], poses[:, 2])
+    return shapely.polygons(np.stack((xs.T, ys.T), axis=-1))
 
 
 def _apart_along(axes: Axes, pose: np.ndarray, other: Track, other_pose: np.ndarray) -> np.ndarray:
@@ -88,12 +95,13 @@ def _apart_along(axes: Axes, pose: np.ndarray, other: Track, other_pose: np.ndar
 
     Works in that robot's frame, where its own extent along each normal is a constant.
     """
-    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
-    dx, dy = other_pose[:, 0] - pose[:, 0], other_pose[:, 1] - pose[:, 1]
-    rel = np.column_stack((c * dx + s * dy, c * dy - s * dx, other_pose[:, 2] - pose[:, 2]))
-    xs, ys = _corners(other, rel)  # the other's corners in this robot's frame
-    proj = axes.normals[:, 0, None] * xs[:, None, :] + axes.normals[:, 1, None] * ys[:, None, :]
-    return ((proj.max(axis=2) < axes.low) | (proj.min(axis=2) > axes.high)).any(axis=1)
+    x, y, theta = pose[:, 0], pose[:, 1], pose[:, 2]
+    c, s = np.cos(theta), np.sin(theta)
+    dx, dy = other_pose[:, 0] - x, other_pose[:, 1] - y
+    # the other's corners in this robot's frame, (corners, samples); projected: (corners, normals, samples)
+    xs, ys = _corners(other.shape, c * dx + s * dy, c * dy - s * dx, other_pose[:, 2] - theta)
+    proj = axes.nx * xs[:, None, :] + axes.ny * ys[:, None, :]
+    return ((proj.max(axis=0) < axes.low) | (proj.min(axis=0) > axes.high)).any(axis=0)
 
 
 def _convex_touching(a: Track, b: Track, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:

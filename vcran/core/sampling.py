@@ -86,14 +86,14 @@ def leg_poses(leg: Leg, times: np.ndarray) -> np.ndarray:
     if n > 1 and not (times[1:] >= times[:-1]).all():
         return sample_leg(leg, times)[:, :3]
     out = np.empty((n, 3))
-    ke = int(np.searchsorted(times, leg.t_end, "left"))  # from here on the leg has ended
+    ke = int(times.searchsorted(leg.t_end, "left"))  # from here on the leg has ended
     if ke < n:
         out[ke:] = (leg.x1, leg.y1, leg.end_theta)
     if ke == 0:
         return out
     tau = np.maximum(times[:ke] - leg.t0, 0.0)
     t1 = leg.t_turn1
-    k1 = int(np.searchsorted(tau, t1, "left"))  # before k1: turning towards the heading
+    k1 = int(tau.searchsorted(t1, "left"))  # before k1: turning towards the heading
     if k1:
         out[:k1, 0] = leg.x0
         out[:k1, 1] = leg.y0
@@ -102,7 +102,7 @@ def leg_poses(leg: Leg, times: np.ndarray) -> np.ndarray:
         return out
     d = tau[k1:] - t1
     td = leg.t_drive
-    k2 = int(np.searchsorted(d, td, "left"))  # from k1 + k2 on: turning to the goal's theta
+    k2 = int(d.searchsorted(td, "left"))  # from k1 + k2 on: turning to the goal's theta
     if k2 < len(d):
         out[k1 + k2:ke, 0] = leg.x1
         out[k1 + k2:ke, 1] = leg.y1
@@ -110,8 +110,8 @@ def leg_poses(leg: Leg, times: np.ndarray) -> np.ndarray:
     if k2:
         d = d[:k2]
         peak, ta, tdec, dist = leg.peak, leg.t_acc, leg.t_dec, leg.distance
-        na = int(np.searchsorted(d, ta, "left"))  # accelerating before na
-        nc = max(na, int(np.searchsorted(d, td - tdec, "right")))  # cruising before nc, then braking
+        na = int(d.searchsorted(ta, "left"))  # accelerating before na
+        nc = max(na, int(d.searchsorted(td - tdec, "right")))  # cruising before nc, then braking
         s = np.empty(k2)
         if na:
             s[:na] = 0.5 * peak * d[:na] * d[:na] / ta
