@@ -35,7 +35,13 @@ class ReplayTransport(Transport):
         options = read_header(trace).get("options", {})
         #: A closed loop's link_down cut the link between manager and RAN, outside what the trace records
         #: (the RAN's own inbound and outbound): the records already carry it, the replayed RAN holds nothing.
-        self._link_outside = isinstance(options, dict) and options.get("transport") == "loop"
+        #: A replay's trace says so too (:meth:`options`), so a replay of it holds nothing either.
+        self.link_outside = isinstance(options, dict) and (
+            options.get("transport") == "loop" or options.get("link_outside") is True)
+
+    def options(self) -> dict[str, object]:
+        """The ``options`` of a replay's trace header: where it came from, and :attr:`link_outside`."""
+        return {"transport": "replay", "source": str(self.trace), **({"link_outside": True} if self.link_outside else {})}
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         env.process(self._play(env, deliver))
@@ -55,7 +61,7 @@ class ReplayTransport(Transport):
         pass
 
     def outage(self, robot: str, until: float) -> bool:
-        return self._link_outside
+        return self.link_outside
 
 
 def inbound_records(trace: Path) -> Iterator[tuple[float, Inbound]]:

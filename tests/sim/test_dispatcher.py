@@ -130,6 +130,8 @@ def test_s4_link_down_in_the_loop_holds_the_robots_news_until_the_link_is_back(t
     # the RAN itself published on time (the link held it): the trace replays byte for byte
     assert main(["replay", str(tmp_path / "run" / "trace.jsonl.zst"), "--out", str(tmp_path / "replay"), "--verify",
                  "--quiet"]) == 0
+    # and so does the replay's own trace: it still says the link was the loop's, so the RAN holds nothing
+    assert main(["replay", str(tmp_path / "replay"), "--out", str(tmp_path / "again"), "--verify", "--quiet"]) == 0
 
 
 class Heard(Dispatcher):

@@ -56,7 +56,8 @@ def _replay(args: argparse.Namespace, trace: Path, out: Path) -> int:
         if not complete and not args.quiet:
             print(f"vcran replay: {trace} has no end record (the run was killed?): an incomplete recording, "
                   f"replayed up to its last recorded instant, t={end:g}", file=sys.stderr)
-        result = run_to(scenario, out, ReplayTransport(trace), options={"transport": "replay", "source": str(trace)})
+        transport = ReplayTransport(trace)
+        result = run_to(scenario, out, transport, options=transport.options())
     except (ValueError, TraceError) as exc:
         raise CommandError(str(exc)) from None
     if not args.quiet:
