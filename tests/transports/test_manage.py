@@ -5,8 +5,10 @@ end to end over loopback: ``vcran broker`` + ``vcran live`` (the warehouse's rob
 from __future__ import annotations
 
 import json
+import signal
 
 import httpx
+import pytest
 
 from tests.conftest import ROOT
 from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401, F811
@@ -67,3 +69,27 @@ def test_a_manager_that_raises_ends_manage_with_one_line_and_exit_1(broker_proce
     assert err.startswith("vcran manage: the fleet manager raised RuntimeError: my bug (in fleet manager "
                           "Raising: on_job at t=") and err.count("\n") == 1, err
     assert httpx.get(f"{url}/v2/subscriptions").json() == []  # it still cleaned up after itself
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_a_signal_mid_manage_ends_it_normally_with_its_outputs_and_no_subscription_left(broker_process, tmp_path,  # noqa: F811
+                                                                                         signum):
+    """docs/live.md "The end": Ctrl-C (or SIGTERM) ends ``vcran manage`` as its duration would: exit 0, no
+    traceback, the job events and summary written, its subscription deleted."""
+    url = broker_process
+    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
+    manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--quiet",
+                   "--notify-url", f"http://127.0.0.1:{free_port()}/notify", "--out", str(tmp_path / "manage"))
+    try:
+        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 15)  # it listens
+        assert wait_until(lambda: "job_1" in json.dumps(httpx.get(f"{url}/v2/entities").json()), 20)  # and works
+    finally:
+        manage.send_signal(signum)
+        out, err = manage.communicate(timeout=30)
+    assert manage.returncode == 0 and "Traceback" not in err, err
+    assert httpx.get(f"{url}/v2/subscriptions").json() == []
+    summary = json.loads((tmp_path / "manage" / "summary.json").read_text())
+    assert summary["manager"] == "vcran.managers.dispatcher:Dispatcher"
+    assert 0 < summary["jobs"]["arrived"] < 240  # stopped within the hour's workload
+    events = list(event_records(tmp_path / "manage" / EVENTS_FILE))
+    assert any(e["event"] == "job_assigned" and e["job"] == "job_1" for e in events)
