@@ -177,3 +177,25 @@ def test_s4_separating_axes_agree_with_shapely_wherever_the_answer_is_clear(radi
         other = track(1, points, pose=(x, y, theta))
         assert touch(fixed, other) is expected, (x, y, theta)
         assert touch(other, fixed) is expected, (x, y, theta)
+
+
+def driving_diamond(start, end):
+    """The diamond of the cases above (the square turned 45 degrees) on a leg from ``start`` to ``end``: its
+    footprint is turned so that, facing the leg's heading, it is the diamond."""
+    heading = math.atan2(end[1] - start[1], end[0] - start[0])
+    turn = math.pi / 4 - heading
+    diamond = tuple((x * math.cos(turn) - y * math.sin(turn), x * math.sin(turn) + y * math.cos(turn)) for x, y in SQUARE)
+    leg = Leg(0.0, *start, heading, *end, None, Limits(1.0))
+    assert leg.t_turn1 == 0.0
+    return track(1, diamond, leg=leg)
+
+
+def test_s4_one_test_of_many_instants_mixes_samples_either_footprints_axes_separate():
+    """The diamond tested at both ends of a leg in one call: at (1.25, 0) the square's own axis x separates
+    them, at (0.9, 0.9) only the diamond's axis does (see above), so the diamond's axes are tested on the
+    samples the square's left, and both are apart; at (1.2, 0) and (0.8, 0.8) both touch."""
+    square = track(0, SQUARE)
+    apart = driving_diamond((1.25, 0.0), (0.9, 0.9))
+    assert touching(square, apart, np.array([0.0, apart.until])).tolist() == [False, False]
+    near = driving_diamond((1.2, 0.0), (0.8, 0.8))
+    assert touching(square, near, np.array([0.0, near.until])).tolist() == [True, True]

@@ -159,9 +159,15 @@ def test_one_leg_sampled_phase_by_phase_is_bit_identical(leg, extra, ordered):
 
 
 def test_one_leg_sampled_at_no_instant_and_at_repeated_instants():
-    from vcran.core.sampling import leg_poses
+    from vcran.core.sampling import leg_poses, sample_leg
 
     leg = Leg(2.0, 0, 0, 0, 0, 3, math.pi, Limits(1.0, 0.5, 0.5, 1.0))  # turn, trapezoid, turn
     assert leg_poses(leg, np.array([])).shape == (0, 3)
     same = leg_poses(leg, np.full(5, leg.t0 + leg.t_turn1 + 1.0))
     assert (same == same[0]).all() and same[0].tolist() == list(leg.pose_at(leg.t0 + leg.t_turn1 + 1.0)[:3])
+    # NaN is no instant of any phase: the reference's answer (NaN theta), alone or among others
+    for times in (np.array([np.nan]), np.array([1.0, np.nan, 9.0]), np.array([np.nan, 3.0])):
+        assert np.array_equal(leg_poses(leg, times), sample_leg(leg, times)[:, :3], equal_nan=True), times
+    # float32 instants are taken as the float64 numbers they are, as the fleet sweep takes them
+    narrow = np.array([2.5, 4.25, 7.75], dtype=np.float32)
+    assert np.array_equal(leg_poses(leg, narrow), sample_leg(leg, narrow)[:, :3])

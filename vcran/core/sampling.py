@@ -66,7 +66,8 @@ def fleet_distances(fleet: FleetKinematics, t: float) -> np.ndarray:
 
 
 def sample_leg(leg: Leg, times: np.ndarray) -> np.ndarray:
-    """A ``(len(times), 5)`` array of one leg's ``x, y, theta, v, w`` at each of ``times`` (collision checks)."""
+    """A ``(len(times), 5)`` array of one leg's ``x, y, theta, v, w`` at each of ``times``: the fleet sweep's
+    arithmetic on one leg, which :func:`leg_poses` reproduces and falls back to."""
     row = np.array(_row(leg), dtype=np.float64)
     return sample_moving(np.broadcast_to(row, (len(times), len(_COLUMNS))), times)  # type: ignore[arg-type]
 
@@ -79,11 +80,12 @@ def leg_poses(leg: Leg, times: np.ndarray) -> np.ndarray:
     stretch of them, found by bisection, so each formula runs once, on its own stretch, with the leg's
     parameters as scalars. A collision check samples a few dozen instants at a time, where numpy's cost
     is per call, not per element: this takes about a third of the calls of :func:`sample_leg`, and a
-    refinement round, whose instants all lie in one phase, a tenth. Unordered ``times`` go through
-    :func:`sample_leg` (same results).
+    refinement round, whose instants all lie in one phase, a tenth. Times are taken as float64 (the
+    reference's arithmetic); unordered ones, or NaN, go through :func:`sample_leg` (same results).
     """
+    times = np.asarray(times, dtype=np.float64)
     n = len(times)
-    if n > 1 and not (times[1:] >= times[:-1]).all():
+    if n and not (times[0] == times[0] and (times[1:] >= times[:-1]).all()):  # NaN or out of order
         return sample_leg(leg, times)[:, :3]
     out = np.empty((n, 3))
     ke = int(times.searchsorted(leg.t_end, "left"))  # from here on the leg has ended
