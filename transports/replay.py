@@ -41,7 +41,10 @@ class ReplayTransport(Transport):
 
     def options(self) -> dict[str, object]:
         """The ``options`` of a replay's trace header: where it came from, and :attr:`link_outside`."""
-        return {"transport": "replay", "source": str(self.trace), **({"link_outside": True} if self.link_outside else {})}
+        options: dict[str, object] = {"transport": "replay", "source": str(self.trace)}
+        if self.link_outside:
+            options["link_outside"] = True
+        return options
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         env.process(self._play(env, deliver))
