@@ -143,10 +143,10 @@ def test_s4_an_inexact_change_is_the_first_sample_after_it():
     assert first_change(mover, still, 3.0, leg.t_end, 0.05, want=False, exact=False) == pytest.approx(3.525)
 
 
-def _convex_polygon(draw_radii, draw_angles):
+def _convex_polygon(radii, angles):
     """A convex polygon: points on an ellipse at increasing angles (a convex curve's points are in convex position)."""
-    (rx, ry), angles = draw_radii, sorted(set(draw_angles))
-    return tuple((rx * math.cos(a), ry * math.sin(a)) for a in angles)
+    rx, ry = radii
+    return tuple((rx * math.cos(a), ry * math.sin(a)) for a in sorted(set(angles)))
 
 
 @settings(max_examples=150, deadline=None)
