@@ -66,3 +66,19 @@ def test_an_empty_folder_or_an_earlier_run_is_a_valid_out(tmp_path):
     assert main(["run", str(DEMO), "--out", str(out), "--quiet", "--report"]) in (0, 2)  # report needs matplotlib
     assert main(["run", str(DEMO), "--out", str(out), "--quiet"]) == 0  # a run folder with its report
     assert (out / "summary.json").exists() and not (out / "report").exists()  # replaced as a whole
+
+
+@pytest.mark.parametrize(("names", "vcran_output"), [
+    ({"trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json"}, True),  # a run's
+    ({"events.jsonl.zst", "summary.json"}, True),  # vcran manage's (docs/live.md)
+    ({"events.jsonl.zst"}, True),  # vcran manage's without its summary (a crash, before outputs were staged)
+    ({"summary.json"}, False),  # a summary alone says nothing of who wrote it
+    ({"events.jsonl.zst", "notes.txt"}, False),
+    ({"trace.jsonl.zst", "notes.txt"}, False),
+])
+def test_what_counts_as_a_vcran_output_folder(tmp_path, names, vcran_output):
+    from vcran.io.runfolder import is_run_folder
+
+    for name in names:
+        (tmp_path / name).write_bytes(b"")
+    assert is_run_folder(tmp_path) is vcran_output

@@ -52,23 +52,51 @@ def test_manage_refuses_a_scenario_without_a_manager_and_an_unreachable_orion(tm
     notify = f"http://127.0.0.1:{free_port()}/notify"
     assert main(["manage", str(demo), "--orion", "http://127.0.0.1:1", "--notify-url", notify]) == 2
     assert "names no fleet manager" in capsys.readouterr().err
-    assert main(["manage", str(WAREHOUSE), "--orion", f"http://127.0.0.1:{free_port()}", "--notify-url", notify]) == 2
+    out = tmp_path / "manage"
+    assert main(["manage", str(WAREHOUSE), "--orion", f"http://127.0.0.1:{free_port()}", "--notify-url", notify,
+                 "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("vcran manage: cannot subscribe to the fleet") and "unreachable" in err
+    assert list(tmp_path.iterdir()) == []  # nothing ran: no folder, complete or not, left behind
+
+
+def test_manage_refuses_an_out_folder_that_is_not_a_vcran_output(tmp_path, capsys):
+    """Its --out is written like a run folder's (vcran.io.runfolder): a folder holding anything else is
+    refused before Orion is contacted, and left as it was."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    notify = f"http://127.0.0.1:{free_port()}/notify"
+    assert main(["manage", str(WAREHOUSE), "--orion", "http://127.0.0.1:1", "--notify-url", notify, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran manage: ") and "is not a vcran run folder" in err and err.count("\n") == 1
+    assert [p.name for p in tmp_path.iterdir()] == ["mine"] and [p.name for p in out.iterdir()] == ["notes.txt"]
+    # an --orion that cannot work is refused before any folder is made
+    assert main(["manage", str(WAREHOUSE), "--orion", "not-a-url", "--notify-url", notify,
+                 "--out", str(tmp_path / "new")]) == 2
+    assert "--orion 'not-a-url'" in capsys.readouterr().err and [p.name for p in tmp_path.iterdir()] == ["mine"]
 
 
 def test_a_manager_that_raises_ends_manage_with_one_line_and_exit_1(broker_process, tmp_path):  # noqa: F811
     """The same boundary as ``vcran run``: the user's manager failed (which hook, when), not vcran."""
     url = broker_process
     assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
+    earlier = tmp_path / "manage"  # an earlier run's folder, which the failed run must not mix into
+    earlier.mkdir()
+    (earlier / "events.jsonl.zst").write_bytes(b"earlier")
+    (earlier / "summary.json").write_text('{"earlier": true}')
     manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "100", "--jobs", "1", "--quiet",
-                   "--manager", "tests.testing.loop_managers:Raising",
+                   "--manager", "tests.testing.loop_managers:Raising", "--out", str(earlier),
                    "--notify-url", f"http://127.0.0.1:{free_port()}/notify", cwd=ROOT)
     out, err = manage.communicate(timeout=60)
     assert (manage.returncode, out) == (1, ""), err
     assert err.startswith("vcran manage: the fleet manager raised RuntimeError: my bug (in fleet manager "
                           "Raising: on_job at t=") and err.count("\n") == 1, err
     assert httpx.get(f"{url}/v2/subscriptions").json() == []  # it still cleaned up after itself
+    # the failed run is visibly incomplete, beside the earlier run's folder, which is as it was
+    assert (earlier / "events.jsonl.zst").read_bytes() == b"earlier"
+    assert json.loads((earlier / "summary.json").read_text()) == {"earlier": True}
+    assert [p.name for p in (tmp_path / "manage.incomplete").iterdir()] == ["events.jsonl.zst"]
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
@@ -88,6 +116,7 @@ def test_a_signal_mid_manage_ends_it_normally_with_its_outputs_and_no_subscripti
         out, err = manage.communicate(timeout=30)
     assert manage.returncode == 0 and "Traceback" not in err, err
     assert httpx.get(f"{url}/v2/subscriptions").json() == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["manage"]  # complete: renamed into place
     summary = json.loads((tmp_path / "manage" / "summary.json").read_text())
     assert summary["manager"] == "vcran.managers.dispatcher:Dispatcher"
     assert 0 < summary["jobs"]["arrived"] < 240  # stopped within the hour's workload

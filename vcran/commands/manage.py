@@ -11,6 +11,7 @@ live") describes the wiring; :mod:`transports.orion.manage` the link.
 from __future__ import annotations
 
 import argparse
+import shutil
 import signal
 from pathlib import Path
 from typing import Any
@@ -45,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError
     from transports.orion.manage import ManageOptions, OrionLink, OrionLoop
     from vcran.api import EventList, ManagerError, build_manager
+    from vcran.io.runfolder import RunFolderError, publish, staging
     from vcran.io.trace import EVENTS_FILE
     from vcran.runner import EventLog, write_summary
     from vcran.sim.live import LiveEnvironment
@@ -65,21 +67,28 @@ def run(args: argparse.Namespace) -> int:
     if manager is None:
         raise CommandError(f"{args.scenario}: names no fleet manager: give one with --manager module:Class")
 
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-    events: EventLog | EventList = EventLog(args.out / EVENTS_FILE) if args.out is not None else EventList()
+    client = client_from_args(args)  # a URL or token file that cannot work: refused before any folder exists
+    # Written like a run folder: into <out>.incomplete, renamed when the run has ended; a manager that
+    # raises leaves it incomplete, never new events beside an older summary (vcran.io.runfolder).
+    try:
+        work = staging(args.out) if args.out is not None else None
+    except RunFolderError:
+        client.close()
+        raise
+    events: EventLog | EventList = EventLog(work / EVENTS_FILE) if work is not None else EventList()
     env = LiveEnvironment(speed=args.factor)
     options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=args.listen)
-    client = client_from_args(args)
     loop = OrionLoop(scenario, manager, events.write, client, options)
     try:
         loop.attach(env, lambda _inbound: None)
-    except OSError as exc:
+    except (OSError, OrionError) as exc:
         client.close()
+        events.close()
+        if work is not None:  # nothing ran: no folder left behind
+            shutil.rmtree(work, ignore_errors=True)
+        if isinstance(exc, OrionError):
+            raise CommandError(f"cannot subscribe to the fleet on {args.orion}: {exc}") from None
         raise CommandError(f"cannot listen for notifications on {args.listen}, {args.notify_url}: {exc.strerror}") from None
-    except OrionError as exc:
-        client.close()
-        raise CommandError(f"cannot subscribe to the fleet on {args.orion}: {exc}") from None
 
     done = env.event()
 
@@ -112,8 +121,9 @@ def run(args: argparse.Namespace) -> int:
         events.close()
     t = env.now
     jobs = loop.jobs.summary(t)
-    if args.out is not None:
-        write_summary(args.out, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
+    if work is not None and args.out is not None:
+        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
+        publish(work, args.out)
     if not args.quiet:
         print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "
               f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.requests} "

@@ -5,6 +5,7 @@ A run writes into a sibling of its ``--out`` folder named ``<name>.incomplete`` 
 ``<name>.incomplete`` behind (the next run into ``<name>`` clears it), never a folder that looks finished,
 and never a fresh partial trace beside an older run's ``summary.json``. An existing ``--out`` is
 replaced only when it is a vcran run folder; anything else is refused rather than mixed into.
+``vcran manage --out`` writes its folder (the job events and a summary, no trace) the same way.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ RUN_FILES = frozenset({
     "trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json",
     "trace.jsonl", "telemetry.bin", "events.jsonl", "report", "scenario.toml",
 })
+#: What ``vcran manage --out`` writes: a fleet manager's job events and summary (docs/live.md).
+MANAGE_FILES = frozenset({"events.jsonl.zst", "summary.json"})
 INCOMPLETE = ".incomplete"
 
 
@@ -27,8 +30,10 @@ class RunFolderError(ValueError):
 
 
 def is_run_folder(path: Path) -> bool:
-    """A folder with a trace and nothing but what a run writes."""
+    """A folder with a trace and nothing but what a run writes, or what ``vcran manage`` writes."""
     names = {p.name for p in path.iterdir()}
+    if names <= MANAGE_FILES and "events.jsonl.zst" in names:
+        return True
     return names <= RUN_FILES and bool(names & {"trace.jsonl.zst", "trace.jsonl"})
 
 
