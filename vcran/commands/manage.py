@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="address the notification listener binds to (default 127.0.0.1)")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
     parser.add_argument("--jobs", type=int, metavar="N", help="only the first N jobs of the workload")
-    parser.add_argument("--out", type=Path, metavar="DIR", help="write events.jsonl (job events) and summary.json")
+    parser.add_argument("--out", type=Path, metavar="DIR", help="write the job events (events.jsonl.zst) and summary.json into DIR, as a run folder")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
 
