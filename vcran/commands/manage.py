@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         events.close()
     t = env.now
     jobs = loop.jobs.summary(t)
-    if work is not None and args.out is not None:
+    if work is not None:
         write_summary(work, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
         publish(work, args.out)
     if not args.quiet:
