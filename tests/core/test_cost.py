@@ -131,3 +131,21 @@ def test_repeated_tasks_are_built_again_under_their_names_with_one_header():  # 
     assert again[0].header is again[3].header  # one header per repetition
     with pytest.raises(ValueError):
         build.RepeatedTasks([a, b]).build(["c_3_1"], build.header_at(9.5))  # a name per task
+
+
+@pytest.mark.parametrize("first", [0.0, -0.0])
+def test_shared_parts_keep_the_sign_of_zero_whatever_was_built_before(first):
+    # §5: the parts build shares (points, limits, areas) are keyed by their text. Keyed by float value, a
+    # point written with x = -0.0 came back with the sign of whichever zero a run (or an earlier run in the
+    # same process, e.g. a sweep's) had built first.
+    import math
+
+    from vcran.core import build
+
+    second = -first
+    for x in (first, second):
+        m = build.motion("t", "t_m1", 1, 1, x, 1.0, x, max_velocity=x, max_acceleration=x, area=[(x, 0.0), (1.0, 1.0), (0.0, 1.0)])
+        signs = {math.copysign(1.0, v) for v in (m.point.x, m.point.theta, m.max_velocity.linear.x,
+                                                  m.max_acceleration.linear.x, m.motion_area.polygon.points[0].x)}
+        assert signs == {math.copysign(1.0, x)}
+    assert build.motion("t", "t_m1", 1, 1, 2.0, 1.0).point is build.motion("u", "u_m1", 1, 1, 2.0, 1.0).point  # still shared

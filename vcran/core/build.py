@@ -8,10 +8,11 @@ task planner sends, and ``"charge"``, vcran's extension (category 0, action 3; S
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from collections.abc import Sequence as Seq
 from dataclasses import fields
 from functools import lru_cache
-from typing import Any
+from typing import Any, TypeVar
 
 from vcran.core.ids import NIL, NOT_SUPPORTED, Id, fresh_id, id_for
 from vcran.core.messages import (
@@ -80,24 +81,52 @@ def motion(
     )
 
 
+_Part = TypeVar("_Part")
+
+
+def _shared(maxsize: int) -> Callable[[Callable[..., _Part]], Callable[..., _Part]]:
+    """Share the parts built from the same numbers, told apart by their text.
+
+    ``lru_cache`` keys floats by value: -0.0 equals 0.0 and hashes alike, so it handed back a part built
+    with the other sign. A point written as x = -0.0 became x = 0.0, or the reverse, depending on what
+    had been built before in the process (another run of a sweep, say): an input changed and a run's
+    outputs depending on its neighbours (SPEC §5). ``repr`` tells every two floats apart."""
+
+    def wrap(build: Callable[..., _Part]) -> Callable[..., _Part]:
+        memo: dict[str, _Part] = {}
+
+        def shared(*args: Any) -> _Part:
+            key = repr(args)
+            found = memo.get(key)
+            if found is None:
+                if len(memo) >= maxsize:
+                    memo.clear()
+                found = memo[key] = build(*args)
+            return found
+
+        return shared
+
+    return wrap
+
+
 # Messages are immutable, so the parts a script repeats (a cycle's points, limits, areas) are shared:
 # building hours of generated assignments stays cheap.
-@lru_cache(maxsize=4096)
+@_shared(maxsize=4096)
 def _pose(x: float, y: float, theta: float) -> Pose2D:
     return Pose2D(x, y, theta)
 
 
-@lru_cache(maxsize=64)
+@_shared(maxsize=64)
 def _twist(linear: float) -> Twist:
     return Twist(Vector3(linear, 0.0, 0.0), Vector3())
 
 
-@lru_cache(maxsize=64)
+@_shared(maxsize=64)
 def _accel(linear: float) -> Accel:
     return Accel(Vector3(linear, 0.0, 0.0), Vector3())
 
 
-@lru_cache(maxsize=256)
+@_shared(maxsize=256)
 def _area(points: tuple[tuple[float, float], ...]) -> PolygonStamped:
     return PolygonStamped.from_xy(points)
 
