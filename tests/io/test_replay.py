@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import struct
 
@@ -245,3 +246,17 @@ def test_replay_without_out_or_verify_is_a_usage_error(demo_run, capsys):
     assert main(["replay", str(demo_run / "trace.jsonl.zst")]) == 2
     assert capsys.readouterr().err == ("vcran replay: --out DIR is required (with --verify it may be left out: the "
                                        "replay then goes to a temporary folder)\n")
+
+
+def test_a_zero_written_negative_is_recorded_and_replayed_as_written(run_toml, tmp_path):
+    # §5, §6: the trace holds the decoded value a fleet manager wrote, sign of a zero included (-0.0 == 0.0
+    # in Python, so a delta by == dropped it, and a memo keyed by floats handed back the other sign).
+    # The leg to x = -0.0 ends at -0.0, bit for bit, and the replay drives the same leg.
+    out = run_toml(script(motion(1, "A", "A_m1", 1, 1, 0.0, -1.0), motion(10, "B", "B_m1", 1, 1, -0.0, -1.0),
+                          motion(20, "C", "C_m1", 1, 1, 0.0, -1.0)))
+    written = [r["value"]["point"]["x"] for r in trace_records(out.dir) if r["dir"] == "in"]
+    assert [math.copysign(1.0, x) for x in written] == [1.0, -1.0, 1.0]
+    legs = np.load(out.dir / "legs.npy")
+    assert [math.copysign(1.0, x) for x in legs["x"]] == [1.0, -1.0, 1.0]
+    assert replay(out.dir, tmp_path / "rep") == 0
+    assert (tmp_path / "rep" / "legs.npy").read_bytes() == (out.dir / "legs.npy").read_bytes()

@@ -18,6 +18,8 @@ from collections.abc import Callable
 from operator import is_
 from typing import Any
 
+import orjson
+
 from vcran.core.ids import Id, NamedId, canonical_uuid, id_for
 from vcran.core.schema import FieldSpec, specs
 
@@ -120,17 +122,19 @@ def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, di
     found = _DELTAS.get(key)
     if found is not None:
         return found
-    helpers: dict[str, Any] = {"_same_items": _same_items}
+    helpers: dict[str, Any] = {"_same_items": _same_items, "_same_text": _same_text}
     body = []
     for spec in specs(cls):
         name = spec.name
         helpers[f"_c_{name}"] = _field_converter(spec, style)
         same = f"v is last.{name}" if spec.kind != "array" else f"v is last.{name} or _same_items(v, last.{name})"
+        # == cannot tell -0.0 from 0.0; where a float can be, equal values are compared as JSON text too
+        differs = f"not _same_text(c, full[{name!r}])" if _holds_float(spec) else f"c != full[{name!r}]"
         body.append(
             f" v = m.{name}\n"
             f" if not ({same}):\n"
             f"  c = _c_{name}(v)\n"
-            f"  if c != full[{name!r}]:\n"
+            f"  if {differs}:\n"
             f"   full[{name!r}] = out[{name!r}] = c\n"
         )
     source = "def delta(m, last, full):\n out = {}\n" + "".join(body) + " return out\n"
@@ -141,6 +145,19 @@ def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, di
 
 def _same_items(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
     return len(a) == len(b) and all(map(is_, a, b))
+
+
+def _same_text(a: Any, b: Any) -> bool:
+    """Whether two JSON values are written alike. ``==`` alone says -0.0 is 0.0; a trace must keep the sign
+    a fleet manager wrote (SPEC §6: the decoded value; a leg to x = -0.0 is another leg, bit for bit)."""
+    return a == b and orjson.dumps(a) == orjson.dumps(b)
+
+
+def _holds_float(spec: FieldSpec) -> bool:
+    """Whether a field's JSON value can hold a float: a float primitive, or a message with one."""
+    if spec.kind in ("prim", "array") and spec.cls is None:
+        return spec.ros.startswith("float")
+    return spec.kind != "id" and spec.cls is not Id and any(_holds_float(s) for s in specs(spec.cls))  # type: ignore[arg-type]
 
 
 def _field_converter(spec: FieldSpec, style: str) -> Convert:
