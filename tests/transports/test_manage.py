@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import signal
+import socket
 from collections.abc import Callable
 from typing import Any
 
@@ -28,7 +29,10 @@ from vcran.io.trace import EVENTS_FILE, event_records
 WAREHOUSE = ROOT / "scenarios" / "warehouse.toml"
 
 
-def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(broker_process, tmp_path):  # noqa: F811
+@pytest.mark.parametrize("inbound", ["subscription", "polling"])
+def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(broker_process, tmp_path,  # noqa: F811
+                                                                               inbound):
+    """In both modes: the manager subscribed to Orion (``--notify-url``), or polling it (its default)."""
     url = broker_process
     assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
     live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(tmp_path / "live"), "--factor", "20",
@@ -36,11 +40,17 @@ def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(b
     try:
         assert wait_until(lambda: live_time(url) >= 1.0, 15)  # the robots tick
         assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)  # and listen
-        manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--jobs", "3",
-                       "--notify-url", f"http://127.0.0.1:{free_port()}/notify", "--out", str(tmp_path / "manage"))
+        extra = ["--notify-url", f"http://127.0.0.1:{free_port()}/notify"] if inbound == "subscription" else []
+        manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--jobs", "3", *extra,
+                       "--out", str(tmp_path / "manage"))
         out, err = manage.communicate(timeout=90)  # until_idle: it ends once the three jobs have ended
         assert manage.returncode == 0, err
         assert "3 job(s) arrived, 3 completed, 0 failed, 0 open" in out
+        start, end = out.splitlines()
+        if inbound == "subscription":
+            assert start.endswith(f"x20, subscription to {extra[1]}; Ctrl-C stops") and end.endswith(" notification(s)")
+        else:  # the end line counts what polling did: reads of Orion, not notifications it never had
+            assert start.endswith("x20, polling every 0.25 s; Ctrl-C stops") and end.endswith(" read(s)"), out
         subscriptions = httpx.get(f"{url}/v2/subscriptions").json()
         assert len(subscriptions) == 1  # the manager deleted its own on the way out; live's remains
     finally:
@@ -266,3 +276,39 @@ def test_orion_going_away_while_polling_is_logged_once_and_polling_recovers(capl
     down = [m for m in lines if "retrying with backoff" in m]
     assert len(down) == 1 and down[0].startswith("manager polling: read entities: ") and "unreachable" in down[0]
     assert len([m for m in lines if "Orion is back" in m]) == 1
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--poll-interval", "0"], "--poll-interval must be positive"),
+    (["--poll-interval", "-1"], "--poll-interval must be positive"),
+    (["--poll-interval", "nan"], "--poll-interval must be positive"),
+    (["--listen", "0.0.0.0"], "--listen is where the notification listener binds: it needs --notify-url"),
+    (["--notify-url", "http://127.0.0.1:1/notify", "--poll-interval", "1"],
+     "--poll-interval is the polling period: without --notify-url only"),
+])
+def test_manage_polling_usage_errors_exit_2_before_orion_is_contacted(extra, message, tmp_path, capsys):
+    out = tmp_path / "manage"
+    assert main(["manage", str(WAREHOUSE), "--orion", "http://127.0.0.1:1", *extra, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"vcran manage: {message}\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_manage_polling_an_unreachable_orion_at_start_is_one_line_and_exit_2(tmp_path, capsys):
+    assert main(["manage", str(WAREHOUSE), "--orion", f"http://127.0.0.1:{free_port()}",
+                 "--out", str(tmp_path / "manage")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran manage: cannot read the fleet from http://127.0.0.1:") and "unreachable" in err
+    assert err.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_manage_on_a_busy_notification_port_names_the_address_and_exits_2(tmp_path, capsys):
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        notify = f"http://127.0.0.1:{busy.getsockname()[1]}/notify"
+        assert main(["manage", str(WAREHOUSE), "--orion", "http://127.0.0.1:1", "--notify-url", notify,
+                     "--out", str(tmp_path / "manage")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"vcran manage: cannot listen for notifications on 127.0.0.1, {notify}: "), err
+    assert err.count("\n") == 1 and list(tmp_path.iterdir()) == []
