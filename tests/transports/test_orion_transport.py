@@ -19,7 +19,8 @@ import pytest
 
 from tests.conftest import ROOT
 from transports.orion.client import OrionClient
-from transports.orion.transport import LiveOptions, OrionTransport, _resilient
+from transports.orion.transport import LiveOptions, OrionTransport
+from transports.orion.workers import resilient
 from vcran.cli import main
 from vcran.core.build import motion
 from vcran.core.codec import encode_attribute
@@ -378,7 +379,7 @@ def test_worker_loop_outlives_an_unexpected_error(caplog):
             raise KeyError("a bug")
 
     with caplog.at_level(logging.ERROR, logger="vcran.orion"):
-        _resilient("test", loop, stop)()  # first call raises, is logged, then the loop runs again
+        resilient("test", loop, stop)()  # first call raises, is logged, then the loop runs again
     assert len(calls) == 2 and "unexpected error" in caplog.text
 
 

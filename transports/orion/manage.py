@@ -11,15 +11,23 @@ the simulated link:
   wrote while the previous request was in flight goes out together, in write order. One entity carries
   one value per attribute, and the RAN reads an entity's attributes in a fixed order (motion, action,
   cancel), so a write that could not keep its order inside the current round starts the next one;
-* **updates** come from one Orion subscription to the robots' published attributes. Its condition is
-  the manager's :attr:`~vcran.core.manager.FleetManager.attributes`; every notification carries all of
-  them, so ``handle.latest`` and ``handle.pose`` are as fresh as the robot's last notified change. The
-  entities are read once after subscribing (what Orion already holds reaches the manager first).
-  Notifications arrive on the :class:`~transports.orion.listener.Listener` and enter the manager's thread
-  through :meth:`LiveEnvironment.call_soon`: every hook runs in one thread, as in simulated time.
+* **updates** come from one Orion subscription to the robots' published attributes (with a notification
+  URL), or from polling them. The subscription's condition is the manager's
+  :attr:`~vcran.core.manager.FleetManager.attributes`; every notification carries all of them, so
+  ``handle.latest`` and ``handle.pose`` are as fresh as the robot's last notified change. The entities
+  are read once after subscribing (what Orion already holds reaches the manager first). Notifications
+  arrive on the :class:`~transports.orion.listener.Listener`.
+  Polling (``GET /v2/entities`` every ``poll_interval`` simulated seconds, for a manager Orion cannot
+  reach) tells the manager what that subscription would: everything at the first read, then a robot's
+  attributes, all of them, when one of its condition attributes changed since the previous read (the
+  NGSI values compared as Orion gave them). A value that changes and changes back between two reads is
+  missed, as polling misses it in ``vcran live`` (docs/live.md).
+  Either way a batch enters the manager's thread through :meth:`LiveEnvironment.call_soon`: every hook
+  runs in one thread, as in simulated time.
 
 Orion being down is handled like live mode does: a failed write is kept and retried with capped backoff
-(logged once per fault); a refused one (4xx) is dropped and logged.
+(logged once per fault); a refused one (4xx) is dropped and logged. A failed poll is logged once per
+fault and retried with the backoff of ``vcran live``'s polling (:func:`transports.orion.workers.poll`).
 """
 
 from __future__ import annotations
@@ -28,14 +36,16 @@ import logging
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 from urllib.parse import urlsplit
 
 import simpy
 
 from transports.orion.client import OrionClient, OrionError, OrionRejected
+from transports.orion.health import Health
 from transports.orion.listener import Listener
-from transports.orion.transport import Health
+from transports.orion.workers import poll, resilient
 from vcran.core.codec import CodecError, decode_attribute, encode_attribute, split_batch
 from vcran.core.jobs import Log
 from vcran.core.manager import FleetManager
@@ -53,16 +63,18 @@ _ORDER = {name: k for k, name in enumerate(INBOUND)}  # the order in which the R
 @dataclass(frozen=True)
 class ManageOptions:
     entity_type: str
-    #: Where Orion POSTs the manager's notifications (vcran listens there).
-    notify_url: str
+    #: Where Orion POSTs the manager's notifications (vcran listens there); None means polling.
+    notify_url: str | None = None
     listen_host: str = "127.0.0.1"
+    #: Polling period in simulated seconds (scaled by the speed factor like everything else).
+    poll_interval: float = 0.25
     max_notification: int = 1_048_576
     backoff_start: float = 0.25
     backoff_cap: float = 5.0
 
 
 class OrionLink(ManagerLink):
-    """The manager's side of Orion: batched writes out, subscription notifications in."""
+    """The manager's side of Orion: batched writes out, subscription notifications or polled reads in."""
 
     def __init__(self, env: LiveEnvironment, client: OrionClient, robots: tuple[str, ...], options: ManageOptions,
                  attributes: frozenset[str] | None, notify: Callable[[list[Outbound]], None]) -> None:
@@ -76,34 +88,53 @@ class OrionLink(ManagerLink):
         self._wake = threading.Event()
         self._stop = threading.Event()
         self.outbound = Health("manager writes")
-        self.inbound = Health("manager subscription")
-        self.writes = self.requests = self.notifications = 0
+        self.inbound = Health("manager subscription" if options.notify_url is not None else "manager polling")
+        #: Notifications taken (subscription); reads of the entities Orion answered (either way).
+        self.writes = self.requests = self.notifications = self.reads = 0
+        #: Polling: each robot's condition values at the last read, to tell a change.
+        self._seen: dict[str, tuple[Any, ...]] = {}
         self._subscription: str | None = None
         self._listener: Listener | None = None
         self._sender: threading.Thread | None = None
+        self._poller: threading.Thread | None = None
 
     # --- lifecycle -------------------------------------------------------------------------------------
 
     def open(self) -> None:
-        """Listen for notifications, subscribe, read what Orion holds; then start the sender. Raises
-        OSError (the listener's port) or OrionError (Orion unreachable or refusing) before any hook runs."""
-        parts = urlsplit(self.options.notify_url)
-        self._listener = Listener(self.options.listen_host, parts.port or 80, parts.path or "/",
-                                  self._on_notification, self.options.max_notification)
+        """Listen for notifications and subscribe (or not, when polling), read what Orion holds; then
+        start the sender (and the poller). Raises OSError (the listener's port) or OrionError (Orion
+        unreachable or refusing) before any hook runs."""
+        notify_url = self.options.notify_url
+        if notify_url is not None:
+            parts = urlsplit(notify_url)
+            self._listener = Listener(self.options.listen_host, parts.port or 80, parts.path or "/",
+                                      self._on_notification, self.options.max_notification)
         try:
-            self._subscription = self.client.subscribe(self._subscription_body())
-            entities = self.client.entities(self.options.entity_type, list(self.robots), OUTBOUND)
+            if notify_url is not None:
+                self._subscription = self.client.subscribe(self._subscription_body())
+            entities = self._read()
         except BaseException:
             self.close()
             raise
-        self._forward(entities)
+        self._forward(entities if notify_url is not None else self._changed(entities))
         self._sender = threading.Thread(target=self._send_loop, name="vcran-manager-sender", daemon=True)
         self._sender.start()
+        if notify_url is None:
+            period = self.options.poll_interval / self.env.speed
+            loop = partial(poll, self._poll, period, self.inbound, self._stop, self.options.backoff_start,
+                           self.options.backoff_cap, first=period)  # the first read is done
+            self._poller = threading.Thread(target=resilient("vcran-manager-poller", loop, self._stop),
+                                            name="vcran-manager-poller", daemon=True)
+            self._poller.start()
 
     def close(self) -> None:
-        """Deliver what is still pending (one last try), stop listening, delete the subscription."""
+        """Stop polling, deliver what is still pending (one last try), stop listening, delete the
+        subscription."""
         self._stop.set()
         self._wake.set()
+        if self._poller is not None:
+            self._poller.join(timeout=10)
+            self._poller = None
         if self._sender is not None:
             self._sender.join(timeout=10)
             self._sender = None
@@ -203,6 +234,32 @@ class OrionLink(ManagerLink):
             "notification": {"http": {"url": self.options.notify_url}, "attrs": list(OUTBOUND),
                              "attrsFormat": "normalized"},
         }
+
+    def _read(self) -> list[dict[str, Any]]:
+        """The robots' published attributes as Orion holds them; raises OrionError."""
+        entities = self.client.entities(self.options.entity_type, list(self.robots), OUTBOUND)
+        self.reads += 1
+        return entities
+
+    def _poll(self) -> None:
+        self._forward(self._changed(self._read()))
+
+    def _changed(self, entities: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        """The fleet's entities that a subscription on the manager's condition would have notified since
+        the last read: every one the first time, then those of which a condition value changed (any
+        published value, for an empty condition: Orion's "any attribute"). An entity Orion no longer
+        holds is forgotten, so that it counts as changed when it is back (Orion notifies a creation)."""
+        seen, self._seen = self._seen, {}
+        changed = []
+        for entity in entities:
+            robot = entity.get("id")
+            if not isinstance(robot, str) or robot not in self._robots:  # a list id is unhashable
+                continue
+            values = tuple(entity.get(attribute) for attribute in self._condition or OUTBOUND)
+            self._seen[robot] = values
+            if seen.get(robot) != values:
+                changed.append(entity)
+        return changed
 
     def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
         if subscription != self._subscription:

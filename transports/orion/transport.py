@@ -26,7 +26,6 @@ import logging
 import math
 import statistics
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from time import monotonic
@@ -41,6 +40,7 @@ from transports.orion.health import Backoff, Health
 from transports.orion.listener import Listener
 from transports.orion.outbox import Outbox
 from transports.orion.sender import Sender
+from transports.orion.workers import poll, resilient
 from vcran.core.messages import INBOUND
 from vcran.core.wire import Frame, Inbound, Outbound, Publish
 from vcran.io.http_server import one_line
@@ -117,7 +117,7 @@ class OrionTransport(Transport):
         self.open()
         inbound = self._subscription_loop if self.options.notify_url else self._poll_loop
         for name, target in (("vcran-sender", partial(self.sender.loop, self._stop)), ("vcran-inbound", inbound)):
-            thread = threading.Thread(target=_resilient(name, target, self._stop), name=name, daemon=True)
+            thread = threading.Thread(target=resilient(name, target, self._stop), name=name, daemon=True)
             thread.start()
             self._threads.append(thread)
 
@@ -168,21 +168,9 @@ class OrionTransport(Transport):
 
     def _poll_loop(self) -> None:
         assert self._env is not None
-        period = self.options.poll_interval / self._env.speed
-        backoff = Backoff(max(period, self.options.backoff_start), max(period, self.options.backoff_cap))
-        next_poll = monotonic()
-        while not self._stop.is_set():
-            try:
-                self._read_all()
-            except OrionError as exc:
-                self.inbound.failed(f"{exc}; retrying with backoff")
-                next_poll = monotonic() + backoff.next(exc.retry_after)
-            else:
-                backoff.reset()
-                if self.inbound.ok():
-                    self.sender.wake()  # the sender may be deep in its backoff: Orion is back now
-                next_poll = max(next_poll + period, monotonic())
-            self._stop.wait(max(0.0, next_poll - monotonic()))
+        poll(self._read_all, self.options.poll_interval / self._env.speed, self.inbound, self._stop,
+             self.options.backoff_start, self.options.backoff_cap,
+             on_back=self.sender.wake)  # the sender may be deep in its backoff: Orion is back now
 
     def _subscription_loop(self) -> None:
         unread = True  # the entities must be read after each (re)subscription
@@ -290,18 +278,3 @@ def _failures(subscription: dict[str, Any]) -> tuple[Any, Any]:
     if not isinstance(notification, dict):
         return None, None
     return notification.get("lastFailure"), notification.get("failsCounter")
-
-
-def _resilient(name: str, loop: Callable[[], None], stop: threading.Event) -> Callable[[], None]:
-    """Run a worker loop; an unexpected error is logged and the loop restarted, never silently lost."""
-
-    def run() -> None:
-        while not stop.is_set():
-            try:
-                loop()
-                return
-            except Exception:  # noqa: BLE001 - a worker must outlive a bug in one iteration
-                log.exception("%s: unexpected error; restarting the loop", name)
-                stop.wait(1.0)
-
-    return run

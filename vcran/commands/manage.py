@@ -1,11 +1,13 @@
-"""``vcran manage SCENARIO --orion URL --notify-url URL``: a fleet manager against a real Orion (SPEC §9).
+"""``vcran manage SCENARIO --orion URL [--notify-url URL]``: a fleet manager against a real Orion (SPEC §9).
 
 The scenario's fleet manager (its ``[manager]``, or ``--manager module:Class``) runs in real time, scaled
 by ``--factor``, against the robots Orion holds: ``vcran live`` on the same scenario, or a physical fleet.
 Jobs come from the scenario's workload at their times (``--jobs N``: only the first N). The run ends when
 the scenario's duration has passed, on Ctrl-C, or, with the scenario's ``until_idle``, once no job is to
-come or open, no timer is pending and every write has reached Orion. docs/live.md ("A fleet manager,
-live") describes the wiring; :mod:`transports.orion.manage` the link.
+come or open, no timer is pending and every write has reached Orion. The manager learns of the robots'
+updates from a subscription (``--notify-url``: Orion must be able to reach vcran there) or, by default,
+by polling Orion every ``--poll-interval`` simulated seconds. docs/live.md ("A fleet manager, live")
+describes the wiring; :mod:`transports.orion.manage` the link.
 """
 
 from __future__ import annotations
@@ -23,16 +25,21 @@ HELP = "run the scenario's fleet manager against Orion in real time (next to vcr
 
 #: How often (simulated seconds) the run checks whether everything has ended.
 CHECK_EVERY = 0.25
+#: Default polling period (simulated seconds), as ``vcran live``'s.
+POLL_INTERVAL = 0.25
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scenario_argument(parser, " with the fleet and its jobs")
     add_connection_arguments(parser)
     parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])")
-    parser.add_argument("--notify-url", metavar="URL", required=True,
-                        help="where Orion notifies the manager of the robots' updates (vcran listens there)")
-    parser.add_argument("--listen", default="127.0.0.1", metavar="HOST",
-                        help="address the notification listener binds to (default 127.0.0.1)")
+    parser.add_argument("--notify-url", metavar="URL",
+                        help="subscribe: Orion notifies the manager of the robots' updates at this URL (vcran "
+                             "listens there); default: poll Orion, for a manager Orion cannot reach")
+    parser.add_argument("--listen", metavar="HOST",
+                        help="address the notification listener binds to (default 127.0.0.1); with --notify-url")
+    parser.add_argument("--poll-interval", type=float, metavar="S",
+                        help=f"polling period in simulated seconds (default {POLL_INTERVAL:g}); without --notify-url")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
     parser.add_argument("--jobs", type=int, metavar="N", help="only the first N jobs of the workload")
     parser.add_argument("--out", type=Path, metavar="DIR", help="write the job events (events.jsonl.zst) and summary.json into DIR, as a run folder")
@@ -56,7 +63,17 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("--factor must be positive")
     if args.jobs is not None and args.jobs < 0:
         raise CommandError("--jobs must not be negative")
-    check_notify_url(args.notify_url)
+    if args.notify_url is not None:
+        check_notify_url(args.notify_url)
+        if args.poll_interval is not None:
+            raise CommandError("--poll-interval is the polling period: without --notify-url only")
+    elif args.listen is not None:
+        raise CommandError("--listen is where the notification listener binds: it needs --notify-url")
+    elif args.poll_interval is not None and not args.poll_interval > 0:
+        raise CommandError("--poll-interval must be positive")
+    polling = args.notify_url is None
+    poll_interval = POLL_INTERVAL if args.poll_interval is None else args.poll_interval
+    listen = "127.0.0.1" if args.listen is None else args.listen
     scenario = load_scenario(args.scenario)
     if args.jobs is not None:
         scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
@@ -77,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
         raise
     events: EventLog | EventList = EventLog(work / EVENTS_FILE) if work is not None else EventList()
     env = LiveEnvironment(speed=args.factor)
-    options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=args.listen)
+    options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=listen,
+                            poll_interval=poll_interval)
     loop = OrionLoop(scenario, manager, events.write, client, options)
     try:
         loop.attach(env, lambda _inbound: None)
@@ -86,9 +104,11 @@ def run(args: argparse.Namespace) -> int:
         events.close()
         if work is not None:  # nothing ran: no folder left behind
             shutil.rmtree(work, ignore_errors=True)
+        if isinstance(exc, OrionError) and polling:
+            raise CommandError(f"cannot read the fleet from {args.orion}: {exc}") from None
         if isinstance(exc, OrionError):
             raise CommandError(f"cannot subscribe to the fleet on {args.orion}: {exc}") from None
-        raise CommandError(f"cannot listen for notifications on {args.listen}, {args.notify_url}: {exc.strerror}") from None
+        raise CommandError(f"cannot listen for notifications on {listen}, {args.notify_url}: {exc.strerror}") from None
 
     done = env.event()
 
@@ -108,9 +128,10 @@ def run(args: argparse.Namespace) -> int:
         env.timeout(scenario.settings.duration).callbacks.append(finish)
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: env.call_from_signal(finish))
+    mode = f"polling every {poll_interval:g} s" if polling else f"subscription to {args.notify_url}"
     if not args.quiet:
-        print(f"manage: {name} on {len(scenario.robots)} robot(s) at {args.orion}, x{args.factor:g}; Ctrl-C stops",
-              flush=True)
+        print(f"manage: {name} on {len(scenario.robots)} robot(s) at {args.orion}, x{args.factor:g}, {mode}; "
+              "Ctrl-C stops", flush=True)
     link = loop.link
     assert isinstance(link, OrionLink)
     try:
@@ -124,8 +145,9 @@ def run(args: argparse.Namespace) -> int:
     if work is not None:
         write_summary(work, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
         publish(work, args.out)
-    if not args.quiet:
+    if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling
+        inbound = f"{link.reads} read(s)" if polling else f"{link.notifications} notification(s)"
         print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "
               f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.requests} "
-              f"request(s), {link.notifications} notification(s)")
+              f"request(s), {inbound}")
     return 0
