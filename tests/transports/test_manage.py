@@ -315,3 +315,17 @@ def test_manage_on_a_busy_notification_port_names_the_address_and_exits_2(tmp_pa
     err = capsys.readouterr().err
     assert err.startswith(f"vcran manage: cannot listen for notifications on 127.0.0.1, {notify}: "), err
     assert err.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
+
+def test_a_notification_entity_with_an_id_that_is_no_string_is_skipped_not_raised():
+    """SPEC §7: a notification is outside input. An entity whose id is a list (unhashable) raised TypeError
+    in the membership test, the listener answered 500 and the batch's other robots were lost too."""
+    batches: list[list[Outbound]] = []
+    options = ManageOptions("ROBOT", "http://127.0.0.1:9/notify")
+    link = OrionLink(CallNow(), OrionClient("http://127.0.0.1:9"), ROBOTS, options, None, batches.append)  # type: ignore[arg-type]
+    status = encode_attribute("ran_status", RanStatus(state="WAITING"))
+    link._on_notification(None, [{"id": ["robot_1"], "type": "ROBOT", "ran_status": status},  # type: ignore[arg-type]
+                                 {"id": {"a": 1}, "type": "ROBOT", "ran_status": status},
+                                 {"id": "robot_2", "type": "ROBOT", "ran_status": status}])
+    assert [updates(b) for b in batches] == [{("robot_2", "ran_status", RanStatus(state="WAITING"))}]
+    link.client.close()

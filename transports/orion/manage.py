@@ -273,7 +273,7 @@ class OrionLink(ManagerLink):
         batch: list[Outbound] = []
         for entity in entities:
             robot = entity.get("id")
-            if robot not in self._robots:
+            if not isinstance(robot, str) or robot not in self._robots:  # a list id is unhashable
                 continue
             for attribute in OUTBOUND:
                 if attribute not in entity:
