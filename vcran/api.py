@@ -185,8 +185,9 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
         raise ManagerError(f"fleet manager {manager!r} is not a vcran.FleetManager subclass")
     try:
         return cls(**options), _name(cls)
-    except TypeError as exc:
-        raise ManagerError(f"cannot build fleet manager {_name(cls)} with options {options}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - the class refusing its options (Dispatcher's ValueError) is bad input
+        raise ManagerError(f"cannot build fleet manager {_name(cls)} with options {options}: "
+                           f"{_described(exc)}") from None
 
 
 def _import(path: str) -> Any:
@@ -197,11 +198,18 @@ def _import(path: str) -> Any:
         value: Any = importlib.import_module(module_name)
     except ImportError as exc:
         raise ManagerError(f"fleet manager {path!r}: cannot import {module_name}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - a SyntaxError or a raise in the user's module: not vcran's bug
+        raise ManagerError(f"fleet manager {path!r}: cannot import {module_name}: {_described(exc)}") from None
     for part in attribute.split("."):
         if not hasattr(value, part):
             raise ManagerError(f"fleet manager {path!r}: {value.__name__} has no attribute {part!r}")
         value = getattr(value, part)
     return value
+
+
+def _described(exc: BaseException) -> str:
+    """``ValueError: ...``: the user's code raised it, and its type says what kind of mistake it was."""
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _name(cls: type) -> str:

@@ -38,3 +38,17 @@ def test_bad_manager_or_scripted_scenario_with_a_manager_is_one_line_and_exit_2(
     assert main(["run", scenario, "--out", str(tmp_path), "--quiet", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith(message) and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_manager_options_the_class_refuses_are_exit_2_and_write_nothing(tmp_path, capsys):
+    """``[manager] options = { max_tries = 0 }``: the Dispatcher's ValueError is the user's mistake, one line
+    and exit 2 before any folder exists, not "a bug in vcran" (exit 70)."""
+    scenario = tmp_path / "w.toml"
+    scenario.write_text((ROOT / "scenarios" / "warehouse.toml").read_text().replace(
+        "options = { max_tries = 3 }", "options = { max_tries = 0 }"))
+    out = tmp_path / "out"
+    assert main(["run", str(scenario), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran run: cannot build fleet manager vcran.managers.dispatcher:Dispatcher")
+    assert "ValueError: max_tries must be at least 1" in err and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.toml"]
