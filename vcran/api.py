@@ -10,6 +10,8 @@ memory. ``vcran run`` is a thin shell on :func:`run`.
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -195,7 +197,7 @@ def _import(path: str) -> Any:
     if not module_name or not attribute:
         raise ManagerError(f"fleet manager {path!r}: expected 'module:Class', e.g. 'vcran.managers:Dispatcher'")
     try:
-        value: Any = importlib.import_module(module_name)
+        value: Any = _import_module(module_name)
     except ImportError as exc:
         raise ManagerError(f"fleet manager {path!r}: cannot import {module_name}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - a SyntaxError or a raise in the user's module: not vcran's bug
@@ -205,6 +207,21 @@ def _import(path: str) -> Any:
             raise ManagerError(f"fleet manager {path!r}: {value.__name__} has no attribute {part!r}")
         value = getattr(value, part)
     return value
+
+
+def _import_module(name: str) -> Any:
+    """``name`` imported, from the current folder too when it is there and nowhere else, as
+    ``python -m vcran`` finds it: the ``vcran`` console script does not put the current folder on
+    ``sys.path``, so docs/library.md's ``--manager my_module:FirstIdle`` beside the scenario did not
+    import. The folder goes last, so an installed package of the same name still wins."""
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        top, here = name.partition(".")[0], os.getcwd()
+        if exc.name != top or here in sys.path or not (Path(here, f"{top}.py").is_file() or Path(here, top).is_dir()):
+            raise
+        sys.path.append(here)
+        return importlib.import_module(name)
 
 
 def _described(exc: BaseException) -> str:

@@ -52,3 +52,22 @@ def test_manager_options_the_class_refuses_are_exit_2_and_write_nothing(tmp_path
     assert err.startswith("vcran run: cannot build fleet manager vcran.managers.dispatcher:Dispatcher")
     assert "ValueError: max_tries must be at least 1" in err and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["w.toml"]
+
+
+def test_a_manager_module_in_the_current_folder_imports_as_docs_library_shows(tmp_path, capsys, monkeypatch):
+    """``vcran run scenarios/warehouse.toml --out DIR --manager my_module:FirstIdle`` (docs/library.md) with
+    my_module.py in the current folder: the console script, unlike ``python -m``, has no current folder
+    on sys.path, so it said "No module named 'my_module'"."""
+    import sys
+
+    (tmp_path / "vcran_review_here.py").write_text(
+        "import vcran\n\nclass Idle(vcran.FleetManager):\n    '''Takes no job.'''\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", ".", str(tmp_path))])
+    monkeypatch.delitem(sys.modules, "vcran_review_here", raising=False)
+    out = tmp_path / "out"
+    assert main(["run", WAREHOUSE, "--out", str(out), "--quiet", "--manager", "vcran_review_here:Idle"]) == 0
+    jobs = json.loads((out / "summary.json").read_text())["jobs"]
+    assert jobs["completed"] == 0 and jobs["open"] == jobs["arrived"] > 0
+    assert main(["run", WAREHOUSE, "--out", str(out), "--quiet", "--manager", "not_here_either:Idle"]) == 2
+    assert "cannot import not_here_either: No module named 'not_here_either'" in capsys.readouterr().err
