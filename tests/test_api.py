@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import tomllib
 
 import numpy as np
@@ -155,3 +156,22 @@ def test_warehouse_every_job_completes_and_the_run_replays_byte_for_byte(tmp_pat
     assert result.summary["errors"] == 0
     assert all(r.lead_time is not None and r.lead_time > 0 for r in result.jobs)
     assert main(["replay", str(tmp_path / "run" / "trace.jsonl.zst"), "--verify", "--quiet"]) == 0  # as docs/library.md
+
+
+@pytest.mark.parametrize("module_text, message", [
+    ("def broken(:\n", r"cannot import vcran_review_broken: SyntaxError: .*line 1"),
+    ("raise RuntimeError('no database here')\n", r"cannot import vcran_review_broken: RuntimeError: no database here"),
+])
+def test_a_manager_module_that_fails_to_import_is_a_manager_error(tmp_path, monkeypatch, module_text, message):
+    """The user's module, not vcran, is at fault: a ManagerError (exit 2), not an internal error (exit 70)."""
+    (tmp_path / "vcran_review_broken.py").write_text(module_text)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "vcran_review_broken", raising=False)
+    with pytest.raises(vcran.ManagerError, match=message):
+        vcran.simulate(small(), manager="vcran_review_broken:Manager")
+
+
+def test_manager_options_the_class_refuses_are_a_manager_error():
+    """The Dispatcher checks its options with ValueError: max_tries = 0 in [manager] is bad input."""
+    with pytest.raises(vcran.ManagerError, match=r"options \{'max_tries': 0\}: ValueError: max_tries must be at least 1"):
+        vcran.simulate(small("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { max_tries = 0 }\n"))

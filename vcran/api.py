@@ -10,6 +10,8 @@ memory. ``vcran run`` is a thin shell on :func:`run`.
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -185,8 +187,9 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
         raise ManagerError(f"fleet manager {manager!r} is not a vcran.FleetManager subclass")
     try:
         return cls(**options), _name(cls)
-    except TypeError as exc:
-        raise ManagerError(f"cannot build fleet manager {_name(cls)} with options {options}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - the class refusing its options (Dispatcher's ValueError) is bad input
+        raise ManagerError(f"cannot build fleet manager {_name(cls)} with options {options}: "
+                           f"{_described(exc)}") from None
 
 
 def _import(path: str) -> Any:
@@ -194,14 +197,36 @@ def _import(path: str) -> Any:
     if not module_name or not attribute:
         raise ManagerError(f"fleet manager {path!r}: expected 'module:Class', e.g. 'vcran.managers:Dispatcher'")
     try:
-        value: Any = importlib.import_module(module_name)
+        value: Any = _import_module(module_name)
     except ImportError as exc:
         raise ManagerError(f"fleet manager {path!r}: cannot import {module_name}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - a SyntaxError or a raise in the user's module: not vcran's bug
+        raise ManagerError(f"fleet manager {path!r}: cannot import {module_name}: {_described(exc)}") from None
     for part in attribute.split("."):
         if not hasattr(value, part):
             raise ManagerError(f"fleet manager {path!r}: {value.__name__} has no attribute {part!r}")
         value = getattr(value, part)
     return value
+
+
+def _import_module(name: str) -> Any:
+    """``name`` imported, from the current folder too when it is there and nowhere else, as
+    ``python -m vcran`` finds it: the ``vcran`` console script does not put the current folder on
+    ``sys.path``, so docs/library.md's ``--manager my_module:FirstIdle`` beside the scenario did not
+    import. The folder goes last, so an installed package of the same name still wins."""
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        top, here = name.partition(".")[0], os.getcwd()
+        if exc.name != top or here in sys.path or not (Path(here, f"{top}.py").is_file() or Path(here, top).is_dir()):
+            raise
+        sys.path.append(here)
+        return importlib.import_module(name)
+
+
+def _described(exc: BaseException) -> str:
+    """``ValueError: ...``: the user's code raised it, and its type says what kind of mistake it was."""
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _name(cls: type) -> str:

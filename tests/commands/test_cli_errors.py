@@ -129,6 +129,25 @@ def test_nothing_is_written_for_a_scenario_that_does_not_load(capsys: pytest.Cap
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("where, key", [
+    ("simulation", "seed"), ("simulation", "history_limit"), ("robots[0]", "capacity"), ("stations[0]", "produce_limit"),
+])
+@pytest.mark.parametrize("value", [2**63, -(2**63) - 1, 10**20])
+def test_an_integer_past_tomls_64_bits_is_refused_at_load(capsys: pytest.CaptureFixture[str], tmp_path: Path,
+                                                          where: str, key: str, value: int) -> None:
+    """TOML's integers are 64-bit; tomllib reads longer ones, which the trace header (orjson) cannot write:
+    ``seed = 99999999999999999999`` was "a bug in vcran" (exit 70) and left ``out.incomplete`` behind."""
+    tables = {"simulation": "[simulation]\nduration = 60.0\n", "robots[0]": '[[robots]]\nid = "r1"\n',
+              "stations[0]": '[[stations]]\nid = "s"\nposition = [0.0, 0.0]\n'}
+    tables[where] += f"{key} = {value}\n"
+    path = tmp_path / "s.toml"
+    path.write_text("".join(tables.values()), encoding="utf-8")
+    code, out, err = vcran(capsys, "run", str(path), "--out", str(tmp_path / "out"))
+    assert (code, out) == (2, ""), err
+    assert err == f"vcran run: {path}: {where}: field {key!r}: {value} is outside TOML's 64-bit integer range\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]  # no out, no out.incomplete
+
+
 def test_nothing_is_written_for_a_run_refused_for_its_fleet_manager(capsys: pytest.CaptureFixture[str],
                                                                     tmp_path: Path) -> None:
     """A script and a manager, or jobs and none: refused before the output folder exists."""

@@ -38,3 +38,36 @@ def test_bad_manager_or_scripted_scenario_with_a_manager_is_one_line_and_exit_2(
     assert main(["run", scenario, "--out", str(tmp_path), "--quiet", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith(message) and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_manager_options_the_class_refuses_are_exit_2_and_write_nothing(tmp_path, capsys):
+    """``[manager] options = { max_tries = 0 }``: the Dispatcher's ValueError is the user's mistake, one line
+    and exit 2 before any folder exists, not "a bug in vcran" (exit 70)."""
+    scenario = tmp_path / "w.toml"
+    scenario.write_text((ROOT / "scenarios" / "warehouse.toml").read_text().replace(
+        "options = { max_tries = 3 }", "options = { max_tries = 0 }"))
+    out = tmp_path / "out"
+    assert main(["run", str(scenario), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vcran run: cannot build fleet manager vcran.managers.dispatcher:Dispatcher")
+    assert "ValueError: max_tries must be at least 1" in err and err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.toml"]
+
+
+def test_a_manager_module_in_the_current_folder_imports_as_docs_library_shows(tmp_path, capsys, monkeypatch):
+    """``vcran run scenarios/warehouse.toml --out DIR --manager my_module:FirstIdle`` (docs/library.md) with
+    my_module.py in the current folder: the console script, unlike ``python -m``, has no current folder
+    on sys.path, so it said "No module named 'my_module'"."""
+    import sys
+
+    (tmp_path / "vcran_review_here.py").write_text(
+        "import vcran\n\nclass Idle(vcran.FleetManager):\n    '''Takes no job.'''\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", ".", str(tmp_path))])
+    monkeypatch.delitem(sys.modules, "vcran_review_here", raising=False)
+    out = tmp_path / "out"
+    assert main(["run", WAREHOUSE, "--out", str(out), "--quiet", "--manager", "vcran_review_here:Idle"]) == 0
+    jobs = json.loads((out / "summary.json").read_text())["jobs"]
+    assert jobs["completed"] == 0 and jobs["open"] == jobs["arrived"] > 0
+    assert main(["run", WAREHOUSE, "--out", str(out), "--quiet", "--manager", "not_here_either:Idle"]) == 2
+    assert "cannot import not_here_either: No module named 'not_here_either'" in capsys.readouterr().err

@@ -87,6 +87,8 @@ def test_paths_that_lead_nowhere_say_where_they_stopped(path, message):
     ("seeds = [1, 1]\n", r"field 'seeds': \[1, 1\] repeats a seed"),
     ("seeds = {from = 1}\n", r"seeds: field 'count': missing"),
     ("seeds = {from = 1, count = 0}\n", r"seeds: field 'count': must be at least 1"),
+    ("seeds = [1, 9223372036854775808]\n", r"field 'seeds': 9223372036854775808 is outside TOML's 64-bit integer"),
+    ("seeds = {from = 9223372036854775807, count = 2}\n", r"the last seed, 9223372036854775808, is outside TOML's"),
     ("seeds = [1]\n[grid]\n\"simulation.task_timeout\" = []\n", r"grid: field 'simulation.task_timeout': expected a non-empty list"),
     ("seeds = [1]\n[grid]\n\"simulation.task_timeout\" = 3.0\n", "expected a non-empty list of values"),
     ("seeds = [1]\n[grid]\n\"simulation.seed\" = [1, 2]\n", "the seed is swept by 'seeds'"),

@@ -26,6 +26,11 @@ class ScenarioError(ValueError):
     """A scenario that cannot run; the message names the file, the entry and the field."""
 
 
+#: TOML's integers are 64-bit signed (toml.io, "Integer"); tomllib reads longer ones, which numpy, orjson
+#: (the trace header, the events) and Parquet (a sweep's seed column) cannot hold.
+INT64 = range(-(2**63), 2**63)
+
+
 def is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -120,6 +125,8 @@ class Table:
             return v
         if isinstance(v, bool) or not isinstance(v, int):
             self.fail(key, f"expected an integer, got {v!r}")
+        if v not in INT64:
+            self.fail(key, f"{v} is outside TOML's 64-bit integer range")
         if minimum is not None and v < minimum:
             self.fail(key, f"must be at least {minimum}, got {v}")
         return v

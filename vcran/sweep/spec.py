@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from vcran.io.scenario_file import parse
-from vcran.io.toml_table import ScenarioError, Table, read_toml
+from vcran.io.toml_table import INT64, ScenarioError, Table, read_toml
 from vcran.sweep.overrides import OverrideError, apply, canonical
 
 SEED_PATH = "simulation.seed"
@@ -153,9 +153,13 @@ def _seeds(top: Table) -> tuple[int, ...]:
         t = Table(raw, top.source, "seeds")
         first, count = t.integer("from"), t.integer("count", minimum=1)
         t.done()
+        if first + count - 1 not in INT64:
+            t.fail("count", f"the last seed, {first + count - 1}, is outside TOML's 64-bit integer range")
         return tuple(range(first, first + count))
     if not isinstance(raw, list) or not raw or not all(isinstance(s, int) and not isinstance(s, bool) for s in raw):
         top.fail("seeds", f"expected a non-empty list of integers or {{from = N, count = M}}, got {raw!r}")
+    if any(s not in INT64 for s in raw):
+        top.fail("seeds", f"{next(s for s in raw if s not in INT64)} is outside TOML's 64-bit integer range")
     if len(set(raw)) != len(raw):
         top.fail("seeds", f"{raw!r} repeats a seed (the runs would be identical)")
     return tuple(raw)
