@@ -46,6 +46,24 @@ def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
     assert again.read_text().replace("again.toml", "") == text.replace("fail.toml", "")  # same seed, same result
 
 
+def test_a_save_that_cannot_be_written_is_refused_before_the_search(tmp_path, capsys):
+    # a new user's mistake: the finding of a long search lost to a typo in --save (exit 2 at the end)
+    assert main(["fuzz", DEMO, "--save", str(tmp_path / "no" / "such" / "x.toml")]) == 2
+    assert "its folder does not exist" in capsys.readouterr().err
+    assert main(["fuzz", DEMO, "--save", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert main(["fuzz", DEMO, "--max-ops", "0"]) == 2
+    assert "--max-ops must be at least 1" in capsys.readouterr().err
+
+
+def test_a_finding_that_cannot_be_saved_is_still_printed(r7_bug, tmp_path, capsys):
+    unwritable = tmp_path / ("x" * 300 + ".toml")  # its folder exists; the name is too long to create
+    assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(unwritable)]) == 1
+    out, err = capsys.readouterr()
+    assert "(R7)" in out and "re-run: vcran run THIS_FILE" in out
+    assert "could not be saved" in err and "copy it from above" in err
+
+
 def test_bad_scenario_is_a_usage_error(tmp_path, capsys):
     assert main(["fuzz", str(tmp_path / "missing.toml")]) == 2
     assert "no such file" in capsys.readouterr().err

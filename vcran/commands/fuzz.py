@@ -64,6 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import importlib.util
+    import os
     import time
 
     from vcran.commands import CommandError, load_scenario
@@ -75,7 +76,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.examples < 1:
         raise CommandError("--examples must be at least 1")
+    if args.max_ops < 1:
+        raise CommandError("--max-ops must be at least 1 (with none, every example is the unperturbed script)")
     check_pool_options(args)
+    save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
+    if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
+        raise CommandError(f"--save {save}: {'is a folder' if os.path.isdir(save) else 'its folder does not exist'}")
     base = load_scenario(args.scenario)
     text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     loop = args.manager is not None or base.manager is not None
@@ -114,12 +120,16 @@ def run(args: argparse.Namespace) -> int:
         "re-run: vcran run THIS_FILE --out DIR",
     ])
     text = _failing_file(base, failure, header)
-    save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
-    save.write_text(text, encoding="utf-8")
-    print(text)
+    print(text, flush=True)  # first: a file that cannot be written must not lose the finding
+    try:
+        save.write_text(text, encoding="utf-8")
+        saved = f"is saved in {save}"
+    except OSError as exc:
+        saved = f"could not be saved in {save} ({exc.strerror or exc}): copy it from above"
     what = f"{name} broke a loop property" if loop else "rule violated"
-    print(f"vcran fuzz: {what} after {examples} examples ({outcome.shrinking} shrinking runs, {wall:.1f} s); "
-          f"the minimal {'scenario' if loop else 'script'} above is saved in {save}", file=sys.stderr)
+    print(f"vcran fuzz: {what} after {examples} example{'s' if examples != 1 else ''} ({outcome.shrinking} "
+          f"shrinking runs, {wall:.1f} s); the minimal {'scenario' if loop else 'script'} above {saved}",
+          file=sys.stderr)
     for p in failure.problems:
         print(f"  {p}", file=sys.stderr)
     return 1
