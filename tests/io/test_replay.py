@@ -260,3 +260,12 @@ def test_a_zero_written_negative_is_recorded_and_replayed_as_written(run_toml, t
     assert [math.copysign(1.0, x) for x in legs["x"]] == [1.0, -1.0, 1.0]
     assert replay(out.dir, tmp_path / "rep") == 0
     assert (tmp_path / "rep" / "legs.npy").read_bytes() == (out.dir / "legs.npy").read_bytes()
+
+
+def test_verify_does_not_claim_events_it_could_not_compare(demo_run, capsys):
+    # a new user deleted events.jsonl.zst: verification covers what is there, and says what it left out
+    (demo_run / "events.jsonl.zst").unlink()
+    assert main(["replay", str(demo_run), "--verify"]) == 0
+    out = capsys.readouterr().out
+    assert "every outbound record and leg (telemetry) matches the recording; events not compared" in out
+    assert "and event matches" not in out

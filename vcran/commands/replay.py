@@ -47,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
 def _replay(args: argparse.Namespace, trace: Path, out: Path) -> int:
     from transports.replay import ReplayTransport, TraceError
     from vcran.commands import CommandError
+    from vcran.io.trace import events_beside
     from vcran.io.verify import recorded_end, scenario_from_trace, verify
     from vcran.runner import run_to
 
@@ -72,6 +73,9 @@ def _replay(args: argparse.Namespace, trace: Path, out: Path) -> int:
         print(f"vcran replay --verify: {difference}", file=sys.stderr)
         return 1
     if not args.quiet:
-        print("verify: every outbound record, leg (telemetry) and event matches the recording"
-              + ("" if complete else " (as far as it goes)"))
+        recorded_events = events_beside(trace)
+        what = ("every outbound record, leg (telemetry) and event matches the recording" if recorded_events.exists()
+                else f"every outbound record and leg (telemetry) matches the recording; events not compared: "
+                     f"{recorded_events} is missing")
+        print(f"verify: {what}" + ("" if complete else " (as far as it goes)"))
     return 0
