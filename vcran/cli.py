@@ -84,7 +84,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not argv:  # a bare `vcran` asks what there is
         build_parser().print_help()
         return OK
-    args = build_parser(argv[0] if argv[0] in COMMANDS else None).parse_args(argv)
+    args, extra = build_parser(argv[0] if argv[0] in COMMANDS else None).parse_known_args(argv)
+    if extra:  # argparse would say so as "vcran:", though the command's own options are what was meant
+        prog = f"vcran {args.command}"
+        print(f"{prog}: unrecognized arguments: {' '.join(extra)} (see {prog} --help)", file=sys.stderr)
+        return BAD_INPUT
     try:
         with terminate_like_interrupt():  # SIGTERM ends any command as Ctrl-C does
             return int(args._run(args) or 0)

@@ -79,6 +79,8 @@ kind = "raw"
 attribute = "motion_assignment"
 value = '{{"type": "x", "value": {huge}}}'
 """)
+    bom = tmp_path / "bom.toml"  # what Notepad saves as "UTF-8"
+    bom.write_bytes(b"\xef\xbb\xbf" + (ROOT / "scenarios" / "demo.toml").read_bytes())
     raw_toml = tmp_path / "raw_toml.toml"
     raw_toml.write_text(f"[simulation]\nduration = 1.0\nx = {huge}\n", encoding="utf-8")
     late = scenario_file(tmp_path / "late", t=61.0, duration=60.0)
@@ -96,6 +98,8 @@ value = '{{"type": "x", "value": {huge}}}'
         (["run", DEMO, "--out", out, "--manager", "no colon"], "run", "expected 'module:Class'"),
         (["run", str(tmp_path), "--out", out], "run", f"{tmp_path}: is a folder, not a scenario file"),
         (["run", str(not_utf8), "--out", out], "run", f"{not_utf8}: not UTF-8 text"),
+        (["run", str(bom), "--out", out], "run", f"{bom}: starts with a byte-order mark, which TOML does not allow"),
+        (["run", DEMO, "--out", out, "--fast"], "run", "unrecognized arguments: --fast"),
         (["run", DEMO, "--out", str(a_file)], "run", f"{a_file}: exists and is not a folder"),
         (["run", DEMO, "--out", str(a_file / "sub")], "run",
          f"{a_file / 'sub'}: cannot create sub.incomplete beside it to write the run in: Not a directory"),

@@ -46,6 +46,9 @@ def read_toml(path: Path, kind: str = "scenario") -> tuple[str, dict[str, Any]]:
         raise ScenarioError(f"{path}: is a folder, not a {kind} file") from None
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from None
+    if raw.startswith(b"\xef\xbb\xbf"):  # what Notepad writes as "UTF-8"; tomllib says "Invalid statement"
+        raise ScenarioError(f"{path}: starts with a byte-order mark, which TOML does not allow: save it as UTF-8 "
+                            "without BOM")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
