@@ -9,7 +9,7 @@ HELP = "draw a run's layout and timeline and tabulate its KPIs, from the folder 
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("dir", type=Path, help="a run's output folder (summary.json, events.jsonl, trace.jsonl, ...)")
+    parser.add_argument("dir", type=Path, help="a run's output folder (summary.json, events.jsonl.zst, trace.jsonl.zst, legs.npy; format 1's files too)")
     parser.add_argument("--out", type=Path, required=True, metavar="REPORT_DIR", help="report folder (created if missing)")
     parser.add_argument("--format", choices=("png", "svg"), default="png", help="figure format (default: png)")
     parser.add_argument("--timeline-pages", type=_positive, default=None, metavar="N",
