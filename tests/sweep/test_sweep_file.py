@@ -148,3 +148,20 @@ def test_a_broken_scenario_is_the_scenario_loaders_message_behind_the_sweep_file
     with pytest.raises(SweepError, match=r"s\.toml: field 'scenario': .*base\.toml: simulation: field 'task_timeout': "
                                          r"must be positive"):
         load(path)
+
+
+def test_an_empty_table_clears_what_the_scenario_had_there(tmp_path):
+    # §10, docs/sweeps.md: the warehouse's [manager] options are the Dispatcher's; a variant comparing a
+    # class that takes none must be able to clear them ({} used to flatten into no path at all)
+    sweep = load(write(tmp_path, """
+seeds = [1]
+[[variants]]
+name = "mine"
+manager = "mypkg.fleet:Mine"
+"manager.options" = {}
+""", ROOT / "scenarios" / "warehouse.toml"))
+    (run,) = sweep.runs()
+    assert run.variant.params == (("manager", "mypkg.fleet:Mine"), ("manager.options", {}))
+    data = tomllib.loads((ROOT / "scenarios" / "warehouse.toml").read_text())
+    assert data["manager"]["options"] == {"max_tries": 3}
+    assert apply(data, run.variant.params)["manager"] == {"class": "mypkg.fleet:Mine", "options": {}}

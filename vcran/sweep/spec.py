@@ -172,13 +172,13 @@ def _variant(t: Table) -> tuple[str | None, list[tuple[str, Any]]]:
 
 def _flat_table(t: Table, *, lists: bool) -> list[tuple[str, Any]]:
     """The table's unread keys as (dotted path, value); nested tables (``simulation.task_timeout``
-    written unquoted) are paths too. With ``lists``, every value is a non-empty list of choices."""
+    written unquoted) are paths too, but for an empty one, which sets its path to an empty table. With ``lists``, every value is a non-empty list of choices."""
     out: list[tuple[str, Any]] = []
 
     def walk(prefix: str, table: dict[str, Any]) -> None:
         for key, value in table.items():
             path = f"{prefix}{key}"
-            if isinstance(value, dict):
+            if isinstance(value, dict) and value:  # an empty table is a value: "manager.options" = {} clears them
                 walk(path + ".", value)
             else:
                 out.append((path, value))
