@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 import tomllib
 
@@ -175,3 +176,28 @@ def test_manager_options_the_class_refuses_are_a_manager_error():
     """The Dispatcher checks its options with ValueError: max_tries = 0 in [manager] is bad input."""
     with pytest.raises(vcran.ManagerError, match=r"options \{'max_tries': 0\}: ValueError: max_tries must be at least 1"):
         vcran.simulate(small("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { max_tries = 0 }\n"))
+
+
+def test_a_scenario_changed_in_code_is_checked_as_its_file_would_be(tmp_path):
+    # docs/library.md varies scenarios with dataclasses.replace; a value the loader refuses failed deep in
+    # SimPy (a negative latency), with a ZeroDivisionError (mean_interval 0) or not at all (seed 1.5)
+    from dataclasses import replace
+
+    w = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    assert w.job_stream is not None
+    for changed, message in [
+        (replace(w, link=replace(w.link, latency=-1.0)), "link: field 'latency': must be positive, got -1.0"),
+        (replace(w, link=replace(w.link, latency="0.1")), "link: field 'latency': expected a finite number"),
+        (replace(w, job_stream=replace(w.job_stream, mean_interval=0.0)), "field 'mean_interval': must be positive"),
+        (replace(w, settings=replace(w.settings, seed=1.5)), "simulation: field 'seed': expected an integer, got 1.5"),
+    ]:
+        with pytest.raises(vcran.ScenarioError, match=re.escape(message)):
+            vcran.simulate(changed, out=tmp_path / "out")
+        assert not (tmp_path / "out").exists() and not (tmp_path / "out.incomplete").exists()
+    with pytest.raises(TypeError, match="scenario must be a path or a vcran.Scenario, got int"):
+        vcran.simulate(42)  # type: ignore[arg-type]
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "todo.txt").write_text("mine")
+    with pytest.raises(vcran.RunFolderError, match="not a vcran run folder"):
+        vcran.simulate(DEMO, out=tmp_path / "notes")
+    assert [p.name for p in (tmp_path / "notes").iterdir()] == ["todo.txt"]

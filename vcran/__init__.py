@@ -51,6 +51,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "Result": ("vcran.api", "Result"),
     "ManagerError": ("vcran.api", "ManagerError"),
     "run_to": ("vcran.runner", "run_to"),
+    "RunFolderError": ("vcran.io.runfolder", "RunFolderError"),
     "RunResult": ("vcran.runner", "RunResult"),
     # reading a run folder back (docs/outputs.md)
     "telemetry_table": ("vcran.io.trace", "telemetry_table"),
@@ -79,7 +80,7 @@ __all__ = [
     "load_scenario", "parse_scenario", "ScenarioError",
     "Id", "id_for", "MotionAssignment", "ActionAssignment", "CancelTask",
     "Transport", "Inbound", "Publish", "Frame",
-    "simulate", "Result", "ManagerError", "run_to", "RunResult",
+    "simulate", "Result", "ManagerError", "run_to", "RunResult", "RunFolderError",
     "telemetry_table", "trace_records",
     "FleetManager", "Handle", "Fleet", "Timer", "Job", "JobStream", "LinkSettings", "JobRecord",
     "load_sweep", "run_sweep", "Sweep", "SweepResult", "SweepError",
@@ -118,6 +119,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
         StationConfig,
     )
     from vcran.core.wire import Frame, Inbound, Publish, Transport
+    from vcran.io.runfolder import RunFolderError
     from vcran.io.scenario_file import ScenarioError
     from vcran.io.scenario_file import load as load_scenario
     from vcran.io.scenario_file import parse as parse_scenario

@@ -23,7 +23,7 @@ from vcran.core.motion import Leg
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.io.runfolder import publish, staging
-from vcran.io.scenario_file import ScenarioError, load
+from vcran.io.scenario_file import ScenarioError, load, parse
 from vcran.io.trace import EVENTS_FILE, event_records, events_beside, long_table, telemetry_table, trace_in
 from vcran.runner import EventLog, run_model, trace_writer, write_summary
 from vcran.sim.model import Model
@@ -105,11 +105,32 @@ def simulate(scenario: str | Path | Scenario, *, manager: ManagerLike | None = N
     folder (trace, telemetry, events, summary); without it no file is touched.
 
     Raises :class:`vcran.ScenarioError` for a scenario that cannot run this way (jobs but no manager, a
-    script and a manager, a closed loop without a duration) and :class:`ManagerError` for a manager
-    that cannot be built. An exception raised by the manager itself ends the run and propagates, with a
-    note saying which hook raised it and when.
+    script and a manager, a closed loop without a duration) or that the loader would refuse: a
+    :class:`vcran.Scenario` made with ``dataclasses.replace`` is checked as its file would be (settings,
+    fleet, stations, faults, jobs, job stream, link and manager; script messages are checked as they are
+    built). :class:`ManagerError` for a manager that cannot be built, :class:`vcran.RunFolderError` for
+    an ``out`` that cannot receive a run (an existing folder that is not a run folder). An exception
+    raised by the manager itself ends the run and propagates, with a note saying which hook raised it and when.
     """
+    if isinstance(scenario, Scenario):
+        _check_given(scenario)
+    elif not isinstance(scenario, (str, Path)):
+        raise TypeError(f"simulate: scenario must be a path or a vcran.Scenario, got {type(scenario).__name__}")
     return run(scenario, manager=manager, out=out)
+
+
+def _check_given(sc: Scenario) -> None:
+    """A scenario built or changed in code, checked by the loader's own rules: written back as the table a
+    file holds and parsed (a fraction of a millisecond for the bundled scenarios). A value it refuses
+    would otherwise fail deep inside the simulation, or not at all (a seed of 1.5)."""
+    from vcran.io.scenario_toml import loop_dict
+
+    try:
+        parse(loop_dict(sc), f"{sc.source} (as given)")
+    except ScenarioError:
+        raise
+    except (TypeError, ValueError, AttributeError) as exc:  # a field of the wrong kind altogether
+        raise ScenarioError(f"{sc.source} (as given): {type(exc).__name__}: {exc}") from None
 
 
 def run(
