@@ -103,11 +103,11 @@ def run(args: argparse.Namespace) -> int:
     name = args.manager or (base.manager.path if base.manager is not None else None)
     if outcome is None or outcome.failure is None:
         if loop:
-            print(f"vcran fuzz: {name} kept the loop properties on {examples} examples of {args.scenario} "
+            print(f"vcran fuzz: {name} kept the loop properties on {_examples(examples)} of {args.scenario} "
                   f"(seed {args.seed}): {wall:.1f} s")
         else:
             rate = f", {60 * examples / wall:,.0f} examples/min" if wall > 0 else ""
-            print(f"vcran fuzz: {examples} examples of {args.scenario} ran clean (seed {args.seed}): "
+            print(f"vcran fuzz: {_examples(examples)} of {args.scenario} ran clean (seed {args.seed}): "
                   f"{wall:.1f} s{rate}")
         return 0
     failure = outcome.failure
@@ -127,12 +127,16 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         saved = f"could not be saved in {save} ({exc.strerror or exc}): copy it from above"
     what = f"{name} broke a loop property" if loop else "rule violated"
-    print(f"vcran fuzz: {what} after {examples} example{'s' if examples != 1 else ''} ({outcome.shrinking} "
+    print(f"vcran fuzz: {what} after {_examples(examples)} ({outcome.shrinking} "
           f"shrinking runs, {wall:.1f} s); the minimal {'scenario' if loop else 'script'} above {saved}",
           file=sys.stderr)
     for p in failure.problems:
         print(f"  {p}", file=sys.stderr)
     return 1
+
+
+def _examples(n: int) -> str:
+    return f"{n} example{'' if n == 1 else 's'}"
 
 
 def _check_script(base: Scenario) -> None:
