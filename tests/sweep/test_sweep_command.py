@@ -1,5 +1,6 @@
 """``vcran sweep`` (§10): a run in a sweep is the run alone, byte for byte; the same rows from this process,
-a local process pool and a real Dask LocalCluster on loopback; failures and Ctrl-C keep every row done."""
+a local process pool and a real Dask LocalCluster on loopback; failures and Ctrl-C keep every row done
+(after Ctrl-C in DIR.incomplete: test_sweep_out_folder.py)."""
 
 from __future__ import annotations
 
@@ -140,9 +141,10 @@ def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, c
     monkeypatch.setattr(worker, "simulate", simulate)
     out = tmp_path / "sweep"
     assert main(["sweep", str(sweep_file), "--out", str(out), "--workers", "1", "--quiet"]) == 130
-    assert [r["run"] for r in rows(out)] == ["0", "1", "2"]
+    partial = tmp_path / "sweep.incomplete"  # never a DIR that looks finished (SPEC §6)
+    assert [r["run"] for r in rows(partial)] == ["0", "1", "2"] and not out.exists()
     assert "interrupted: 3 of 8 runs done" in capsys.readouterr().err
-    assert not list(out.glob("*.tmp"))
+    assert not list(partial.glob("*.tmp"))
 
 
 def test_kpis_of_a_summary_written_by_hand():
@@ -195,7 +197,8 @@ def test_an_out_folder_that_cannot_be_made_is_one_line(sweep_file, tmp_path, cap
     (tmp_path / "file").write_text("")
     assert main(["sweep", str(sweep_file), "--out", str(tmp_path / "file" / "o"), "--workers", "1"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("vcran sweep: --out ") and "cannot create the folder" in err and err.count("\n") == 1
+    assert err.startswith(f"vcran sweep: {tmp_path / 'file' / 'o'}: cannot create o.incomplete beside it")
+    assert err.count("\n") == 1
 
 
 def test_an_unreachable_scheduler_is_a_pool_error():

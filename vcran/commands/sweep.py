@@ -3,12 +3,19 @@
 Runs every variant × seed of a sweep file, here (a local process pool sized to the machine) or on a Dask
 cluster, and writes one row per run into ``DIR/runs.csv`` and ``DIR/runs.parquet``, plus comparison
 figures when matplotlib is installed. Exit status: 0 when every run ran, 1 when some failed (their rows
-say why), 2 for a sweep that cannot start, 130 on Ctrl-C (the rows done are written all the same).
+say why), 2 for a sweep that cannot start, 130 on Ctrl-C (the rows done are written all the same, into
+``DIR.incomplete``).
+
+``DIR`` is written like a run folder (SPEC §6, vcran.io.runfolder): everything, the kept runs of the
+workers included, goes into ``DIR.incomplete``, renamed to ``DIR`` when the sweep has ended. A sweep that
+is interrupted or fails leaves ``DIR.incomplete`` (the rows done are there) and any earlier ``DIR`` as it
+was; an earlier sweep's (or run's) ``DIR`` is replaced whole, and any other folder refused before a run starts.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -25,7 +32,9 @@ HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, loc
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("sweep", type=Path, help="sweep file (TOML): scenario, seeds, [grid], [[variants]]")
-    parser.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help="output folder, written as DIR.incomplete and renamed when the sweep has ended; an "
+                             "earlier sweep's folder is replaced whole, a folder vcran did not write is refused")
     add_pool_arguments(parser, "the runs", "one per CPU")
     parser.add_argument("--keep-runs", action="store_true",
                         help="keep every run's folder (trace, events, summary, scenario.toml) in DIR/runs/NNNN")
@@ -35,6 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vcran.commands import CommandError
+    from vcran.io.runfolder import publish, staging
     from vcran.sweep.progress import Progress
     from vcran.sweep.runs import execute
     from vcran.sweep.spec import SweepError, load
@@ -47,30 +57,34 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     runs = len(sweep.seeds) * len(sweep.variants)
     out: Path = args.out
+    work = staging(out, "sweep")  # refuses a folder vcran did not write (exit 2), before any run starts
     try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CommandError(f"--out {out}: cannot create the folder: {exc.strerror or exc}") from None
-    pool = pool_for(args, runs)
+        pool = pool_for(args, runs)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)  # nothing ran: no folder left behind
+        raise
     if not args.quiet:
         print(f"sweep {sweep.name}: {len(sweep.variants)} variant(s) x {len(sweep.seeds)} seed(s) = {runs} runs "
               f"on {pool.name}", file=sys.stderr)
     progress = Progress(sys.stderr, runs, quiet=args.quiet)
     start = time.perf_counter()
     try:
-        result = execute(sweep, pool, keep_runs=out.resolve() if args.keep_runs else None,
+        # the workers (local processes, or Dask's on a shared file system) write kept runs into the staging folder
+        result = execute(sweep, pool, keep_runs=work.resolve() if args.keep_runs else None,
                          on_row=lambda row: progress.update(row["error"] is not None))
     finally:
         progress.close()
         pool.close()
     wall = time.perf_counter() - start
 
-    files = result.write(out)
+    files = result.write(work)
     if not have_parquet() and not args.quiet:
         print("vcran sweep: runs.parquet not written: pyarrow is not installed (pip install 'vcran[sweep]')",
               file=sys.stderr)
-    if not result.interrupted:
-        files += figures(sweep, result.rows, out, args.format, args.quiet)
+    if not result.interrupted:  # an interrupted sweep stays DIR.incomplete: its rows there, DIR untouched
+        files += figures(sweep, result.rows, work, args.format, args.quiet)
+        publish(work, out)
+        files = [out / f.relative_to(work) for f in files]
 
     done, failed = len(result.rows), result.failed
     if result.interrupted:

@@ -5,12 +5,15 @@ A run writes into a sibling of its ``--out`` folder named ``<name>.incomplete`` 
 ``<name>.incomplete`` behind (the next run into ``<name>`` clears it), never a folder that looks finished,
 and never a fresh partial trace beside an older run's ``summary.json``. An existing ``--out`` is
 replaced only when it is a vcran run folder; anything else is refused rather than mixed into.
-``vcran manage --out`` writes its folder (the job events and a summary, no trace) the same way.
+``vcran manage --out`` writes its folder (the job events and a summary, no trace) the same way, and so does
+``vcran sweep --out`` (its tables, figures and kept runs: an earlier sweep's folder is replaced whole, never
+new rows beside old figures and runs).
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -22,6 +25,12 @@ RUN_FILES = frozenset({
 })
 #: What ``vcran manage --out`` writes: a fleet manager's job events and summary (docs/live.md).
 MANAGE_FILES = frozenset({"events.jsonl.zst", "summary.json"})
+#: What ``vcran sweep --out`` writes (docs/sweeps.md): its tables, a figure per swept parameter in either
+#: format, and with ``--keep-runs`` a folder ``runs/NNNN`` per run (``NNNN.incomplete`` for one that failed
+#: part way). Spelled here, not imported from vcran.sweep: a run imports no sweep machinery.
+SWEEP_TABLES = frozenset({"runs.csv", "runs.parquet"})
+SWEEP_FIGURE = re.compile(r"kpi-by-.+\.(png|svg)")
+SWEEP_RUN = re.compile(r"[0-9]{4,}(\.incomplete)?")
 INCOMPLETE = ".incomplete"
 
 
@@ -37,29 +46,55 @@ def is_run_folder(path: Path) -> bool:
     return names <= RUN_FILES and bool(names & {"trace.jsonl.zst", "trace.jsonl"})
 
 
-def check_out(out: Path) -> None:
-    """Raise :class:`RunFolderError` unless ``out`` may receive a run: missing, empty, or a run folder."""
+def is_sweep_folder(path: Path) -> bool:
+    """A folder with ``runs.csv`` (every sweep writes it) and nothing but what a sweep writes; its ``runs``
+    holding nothing but run folders by number. What is inside those is not read: a sweep is replaced whole."""
+    names = {p.name for p in path.iterdir()}
+    if "runs.csv" not in names:
+        return False
+    rest = names - SWEEP_TABLES - {"runs"}
+    if any(not SWEEP_FIGURE.fullmatch(name) for name in rest):
+        return False
+    runs = path / "runs"
+    if "runs" not in names:
+        return True
+    return runs.is_dir() and all(p.is_dir() and SWEEP_RUN.fullmatch(p.name) for p in runs.iterdir())
+
+
+def is_output_folder(path: Path) -> bool:
+    """What ``vcran sweep --out`` replaces: a sweep's folder, or a run's (or ``vcran manage``'s)."""
+    return is_sweep_folder(path) or is_run_folder(path)
+
+
+def check_out(out: Path, what: str = "run") -> None:
+    """Raise :class:`RunFolderError` unless ``out`` may receive a run (``what="run"``: missing, empty, or
+    a run folder) or a sweep (``what="sweep"``: missing, empty, or a sweep's or a run's folder)."""
     if out.name.endswith(INCOMPLETE):
-        raise RunFolderError(f"{out}: names an unfinished run's folder; choose another --out")
+        raise RunFolderError(f"{out}: names an unfinished {what}'s folder; choose another --out")
     if not out.exists():
         return
     if not out.is_dir():
         raise RunFolderError(f"{out}: exists and is not a folder")
-    if any(out.iterdir()) and not is_run_folder(out):
-        raise RunFolderError(f"{out}: exists and is not a vcran run folder; refusing to write a run into it "
+    if what == "sweep":
+        kind, replaceable = "output folder (a sweep's or a run's)", is_output_folder
+    else:
+        kind, replaceable = "run folder", is_run_folder
+    if any(out.iterdir()) and not replaceable(out):
+        raise RunFolderError(f"{out}: exists and is not a vcran {kind}; refusing to write a {what} into it "
                              "(choose a new --out, or remove it)")
 
 
-def staging(out: Path) -> Path:
-    """A fresh, empty ``<out>.incomplete`` beside ``out`` (checked with :func:`check_out` first)."""
-    check_out(out)
+def staging(out: Path, what: str = "run") -> Path:
+    """A fresh, empty ``<out>.incomplete`` beside ``out`` (checked with :func:`check_out` first); ``what``
+    (``"run"`` or ``"sweep"``) is what will be written there."""
+    check_out(out, what)
     work = out.with_name(out.name + INCOMPLETE)
     try:
         if work.exists():
             shutil.rmtree(work)  # an earlier interrupted run into the same --out
         work.mkdir(parents=True)
     except OSError as exc:  # a read-only or missing parent, a file on the way: named as the --out it is for
-        raise RunFolderError(f"{out}: cannot create {work.name} beside it to write the run in: "
+        raise RunFolderError(f"{out}: cannot create {work.name} beside it to write the {what} in: "
                              f"{exc.strerror or exc}") from None
     return work
 
