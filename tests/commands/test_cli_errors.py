@@ -82,6 +82,9 @@ value = '{{"type": "x", "value": {huge}}}'
     raw_toml = tmp_path / "raw_toml.toml"
     raw_toml.write_text(f"[simulation]\nduration = 1.0\nx = {huge}\n", encoding="utf-8")
     late = scenario_file(tmp_path / "late", t=61.0, duration=60.0)
+    stalling = tmp_path / "stalling.toml"  # simulated time stopped: faults at one instant forever
+    stalling.write_text(SCENARIO.format(t=1.0, duration=60.0, extra='[[random_faults]]\nkind = "motion_failure"\n'
+                                                                   'mtbf = 1e-300\n'), encoding="utf-8")
     out = str(tmp_path / "out")
     recording = tmp_path / "recording"
     assert cli.main(["run", DEMO, "--out", str(recording), "--quiet"]) == 0
@@ -104,6 +107,9 @@ value = '{{"type": "x", "value": {huge}}}'
         (["run", str(raw_text), "--out", out], "run", "field 'value': not valid JSON: Exceeds the limit (4300 digits)"),
         (["run", str(raw_toml), "--out", out], "run", f"{raw_toml}: not valid TOML: Exceeds the limit (4300 digits)"),
         (["run", str(late), "--out", out], "run", "the entry is sent at t = 61, after the run ends (duration = 60)"),
+        (["run", str(stalling), "--out", out], "run",
+         "random_faults[0]: field 'mtbf': must be at least 1e-06 s (R14: instants closer than 1 µs are one instant), "
+         "got 1e-300"),
         (["gen", "--robots", "2", "--hours", "inf", "--seed", "1"], "gen", "--hours must be a positive number, got inf"),
         (["gen", "--robots", "2", "--hours", "nan", "--seed", "1"], "gen", "--hours must be a positive number, got nan"),
         (["decode", str(empty)], "decode", f"{empty}: Is a directory"),

@@ -22,7 +22,7 @@ from typing import Any
 from vcran.core import build
 from vcran.core.battery import BatteryConfig
 from vcran.core.faults import KINDS as FAULT_KINDS
-from vcran.core.faults import RANDOM_KINDS, FaultSpec, RandomFaults
+from vcran.core.faults import MIN_MEAN, RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
@@ -274,14 +274,22 @@ def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
             t.fail("robots", f"no robot {r!r} in this scenario")
     source = RandomFaults(
         kind=kind,
-        mtbf=t.number("mtbf", positive=True),
-        mttr=t.number("mttr", positive=True) if FAULT_KINDS[kind] else 0.0,
+        mtbf=_mean(t, "mtbf"),
+        mttr=_mean(t, "mttr") if FAULT_KINDS[kind] else 0.0,
         robots=tuple(chosen),
         start=t.number("start", 0.0, minimum=0.0),
         until=t.number("until", math.inf, minimum=0.0),
     )
     t.done()
     return source
+
+
+def _mean(t: Table, key: str) -> float:
+    """``mtbf`` or ``mttr``: at least :data:`~vcran.core.faults.MIN_MEAN` (a tinier mean stalled time)."""
+    value: float = t.number(key, positive=True)
+    if value < MIN_MEAN:
+        t.fail(key, f"must be at least {MIN_MEAN:g} s (R14: instants closer than 1 µs are one instant), got {value:g}")
+    return value
 
 
 def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
