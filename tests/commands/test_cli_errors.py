@@ -82,6 +82,8 @@ value = '{{"type": "x", "value": {huge}}}'
     raw_toml = tmp_path / "raw_toml.toml"
     raw_toml.write_text(f"[simulation]\nduration = 1.0\nx = {huge}\n", encoding="utf-8")
     late = scenario_file(tmp_path / "late", t=61.0, duration=60.0)
+    (tmp_path / "far").mkdir()
+    far = scenario_file(tmp_path / "far", t=1e308, duration=60.0)  # t * 1e9 overflowed: exit 70
     stalling = tmp_path / "stalling.toml"  # simulated time stopped: faults at one instant forever
     stalling.write_text(SCENARIO.format(t=1.0, duration=60.0, extra='[[random_faults]]\nkind = "motion_failure"\n'
                                                                    'mtbf = 1e-300\n'), encoding="utf-8")
@@ -107,6 +109,8 @@ value = '{{"type": "x", "value": {huge}}}'
         (["run", str(raw_text), "--out", out], "run", "field 'value': not valid JSON: Exceeds the limit (4300 digits)"),
         (["run", str(raw_toml), "--out", out], "run", f"{raw_toml}: not valid TOML: Exceeds the limit (4300 digits)"),
         (["run", str(late), "--out", out], "run", "the entry is sent at t = 61, after the run ends (duration = 60)"),
+        (["run", str(far), "--out", out], "run",
+         "script[0]: field 't': 1e+308 s is later than a message's time stamp can say (int32 seconds"),
         (["run", str(stalling), "--out", out], "run",
          "random_faults[0]: field 'mtbf': must be at least 1e-06 s (R14: instants closer than 1 µs are one instant), "
          "got 1e-300"),

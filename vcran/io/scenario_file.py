@@ -292,8 +292,14 @@ def _mean(t: Table, key: str) -> float:
     return value
 
 
+#: The latest time a message can be stamped with: ROS time stamps hold int32 seconds (SPEC §2).
+LAST_STAMP = 2**31 - 1
+
+
 def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
     time = t.number("t", minimum=0.0)
+    if time > LAST_STAMP:  # said of the field, before its messages are built (a stamp of 1e308 s overflows)
+        t.fail("t", f"{time:g} s is later than a message's time stamp can say (int32 seconds: up to {LAST_STAMP} s)")
     robot = t.string("robot")
     if robot not in robots:
         t.fail("robot", f"no robot {robot!r} in this scenario (R11); robots: {', '.join(sorted(robots))}")
