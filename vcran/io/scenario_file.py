@@ -98,13 +98,13 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     manager_table = top.optional_table("manager")
     manager = None if manager_table is None else _manager(manager_table)
     known = {r.id for r in robots}
-    faults = tuple(sorted((_fault(t, known) for t in top.tables("faults")), key=lambda f: f.t))
+    faults = tuple(sorted((_fault(t, known, settings.duration) for t in top.tables("faults")), key=lambda f: f.t))
     random_faults = tuple(_random_faults(t, known) for t in top.tables("random_faults"))
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
     names = [s.id for s in stations]
-    listed = [_job(t, names) for t in job_tables]
+    listed = [_job(t, names, settings.duration) for t in job_tables]
     _unique(source, "jobs", [j.id for j in listed])
     jobs = sorted(listed, key=lambda j: j.t)  # stable: equal times keep file order
     stream = None
@@ -139,6 +139,14 @@ def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | 
     if duration is not None and start > duration:
         what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
         t.fail("t", f"the entry {what} at t = {start:g}, after the run ends (duration = {duration:g})")
+
+
+def _check_time(t: Table, time: float, duration: float | None, what: str) -> None:
+    """A job or a fault after the run's end would never happen, silently (like a late script entry,
+    :func:`_check_in_run`): refuse it. One at exactly ``duration`` still happens (before the end,
+    docs/determinism.md)."""
+    if duration is not None and time > duration:
+        t.fail("t", f"the {what} at t = {time:g}, after the run ends (duration = {duration:g})")
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -257,8 +265,9 @@ def _fault_robot(t: Table, robots: set[str]) -> str:
     return robot
 
 
-def _fault(t: Table, robots: set[str]) -> FaultSpec:
+def _fault(t: Table, robots: set[str], end: float | None) -> FaultSpec:
     time = t.number("t", minimum=0.0)
+    _check_time(t, time, end, "fault happens")
     robot = _fault_robot(t, robots)
     kind = t.choice("kind", tuple(FAULT_KINDS), what="fault")
     duration = t.number("duration", positive=True) if FAULT_KINDS[kind] else 0.0
@@ -402,9 +411,11 @@ def _station_ref(t: Table, key: str, stations: list[str]) -> str:
     return name
 
 
-def _job(t: Table, stations: list[str]) -> Job:
+def _job(t: Table, stations: list[str], end: float | None) -> Job:
+    time = t.number("t", minimum=0.0)
+    _check_time(t, time, end, "job arrives")
     job = Job(
-        t=t.number("t", minimum=0.0),
+        t=time,
         id=t.name("id"),
         pickup=_station_ref(t, "pickup", stations),
         dropoff=_station_ref(t, "dropoff", stations),
