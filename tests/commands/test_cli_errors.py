@@ -84,6 +84,13 @@ value = '{{"type": "x", "value": {huge}}}'
     raw_toml = tmp_path / "raw_toml.toml"
     raw_toml.write_text(f"[simulation]\nduration = 1.0\nx = {huge}\n", encoding="utf-8")
     late = scenario_file(tmp_path / "late", t=61.0, duration=60.0)
+    (tmp_path / "far").mkdir()
+    far = scenario_file(tmp_path / "far", t=1e308, duration=60.0)  # t * 1e9 overflowed: exit 70
+    stalling = tmp_path / "stalling.toml"  # simulated time stopped: faults at one instant forever
+    stalling.write_text(SCENARIO.format(t=1.0, duration=60.0, extra='[[random_faults]]\nkind = "motion_failure"\n'
+                                                                   'mtbf = 1e-300\n'), encoding="utf-8")
+    bad_ip = ["--orion", "http://256.0.0.1:1026"]  # urlsplit takes it, httpx refuses it (exit 70)
+    orion = ["--orion", "http://127.0.0.1:9"]
     out = str(tmp_path / "out")
     recording = tmp_path / "recording"
     assert cli.main(["run", DEMO, "--out", str(recording), "--quiet"]) == 0
@@ -108,6 +115,26 @@ value = '{{"type": "x", "value": {huge}}}'
         (["run", str(raw_text), "--out", out], "run", "field 'value': not valid JSON: Exceeds the limit (4300 digits)"),
         (["run", str(raw_toml), "--out", out], "run", f"{raw_toml}: not valid TOML: Exceeds the limit (4300 digits)"),
         (["run", str(late), "--out", out], "run", "the entry is sent at t = 61, after the run ends (duration = 60)"),
+        (["run", str(far), "--out", out], "run",
+         "script[0]: field 't': 1e+308 s is later than a message's time stamp can say (int32 seconds"),
+        (["run", str(stalling), "--out", out], "run",
+         "random_faults[0]: field 'mtbf': must be at least 1e-06 s (R14: instants closer than 1 µs are one instant), "
+         "got 1e-300"),
+        (["live", DEMO, *bad_ip, "--out", out], "live", "not a valid URL (Invalid IPv4 address: '256.0.0.1')"),
+        (["send", DEMO, *bad_ip], "send", "not a valid URL (Invalid IPv4 address: '256.0.0.1')"),
+        (["orion", "init", DEMO, *bad_ip], "orion", "not a valid URL (Invalid IPv4 address: '256.0.0.1')"),
+        (["manage", "warehouse", *bad_ip], "manage", "not a valid URL (Invalid IPv4 address: '256.0.0.1')"),
+        (["live", DEMO, *orion, "--out", out, "--notify-url", "http://256.0.0.1:8000/n"], "live",
+         "--notify-url 'http://256.0.0.1:8000/n': not a valid URL (Invalid IPv4 address"),
+        # inf divided by zero (live --factor: exit 70, an .incomplete folder left) or overflowed the poll loop
+        (["live", DEMO, *orion, "--out", out, "--factor", "inf"], "live", "--factor must be a positive number, got inf"),
+        (["live", DEMO, *orion, "--out", out, "--factor", "nan"], "live", "--factor must be a positive number, got nan"),
+        (["live", DEMO, *orion, "--out", out, "--poll-interval", "inf"], "live",
+         "--poll-interval must be a positive number, got inf"),
+        (["manage", "warehouse", *orion, "--factor", "inf"], "manage", "--factor must be a positive number, got inf"),
+        (["manage", "warehouse", *orion, "--poll-interval", "inf"], "manage",
+         "--poll-interval must be a positive number, got inf"),
+        (["send", DEMO, *orion, "--factor", "inf"], "send", "--factor must be a positive number, got inf"),
         (["gen", "--robots", "2", "--hours", "inf", "--seed", "1"], "gen", "--hours must be a positive number, got inf"),
         (["gen", "--robots", "2", "--hours", "nan", "--seed", "1"], "gen", "--hours must be a positive number, got nan"),
         (["decode", str(empty)], "decode", f"{empty}: Is a directory"),

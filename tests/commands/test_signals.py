@@ -18,6 +18,7 @@ import pytest
 from tests.conftest import read_lines
 from tests.transports.test_live import DEMO, broker_process, vcran, wait_until  # noqa: F401 - a fixture
 from vcran.cli import main
+from vcran.commands._signals import StopSignals, Terminated
 from vcran.io.gen import generate
 
 
@@ -46,6 +47,20 @@ def test_run_stops_at_a_signal_with_complete_outputs(tmp_path, signum, code, del
     summary = finished_outputs(out)
     assert 0 < summary["sim_time"] < 7200.0
     assert main(["replay", str(out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
+
+
+@pytest.mark.parametrize(("signum", "raised"), [(signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, Terminated)])
+def test_a_second_signal_stops_at_once(signum, raised):
+    """The safety net when the safe point never comes (an instant that never ends, as a random fault
+    source with mtbf = 1e-300 made before the loader refused it): the first signal only asks, the second
+    raises at once, whatever the run is doing (exit 130 or 143, docs/outputs.md)."""
+    asked, before = [], signal.getsignal(signum)
+    with pytest.raises(raised), StopSignals(lambda: asked.append(1)) as signals:
+        signal.raise_signal(signum)
+        assert (signals.requested, asked) == (signum, [1])  # asked, nothing raised
+        signal.raise_signal(signum)
+        pytest.fail("the second signal did not stop it")
+    assert signal.getsignal(signum) is before  # the handlers are given back
 
 
 def test_live_ends_normally_on_sigterm(broker_process, tmp_path):  # noqa: F811 - the fixture

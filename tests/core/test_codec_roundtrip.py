@@ -21,7 +21,7 @@ from vcran.core.codec import (
 )
 from vcran.core.messages import ATTRIBUTES, Header, Motion, PoseStamped, Time
 from vcran.core.plain import to_plain
-from vcran.core.schema import INT_RANGES, Message
+from vcran.core.schema import INT_RANGES, Message, MessageError
 from vcran.testing.strategies import (
     attribute_messages,
     messages_of,
@@ -133,6 +133,14 @@ def test_reference_stamp() -> None:
     assert Time(2291, 100_000_000).to_seconds() == 2291.1
     assert Time.from_seconds(2291.1) == Time(2291, 100_000_000)
     assert math.isclose(Time(1572008882, 381286634).to_seconds(), 1572008882.381286634, rel_tol=0, abs_tol=1e-6)
+
+
+@pytest.mark.parametrize("t", [3e9, 1e308, -1e308, 2.0**32])
+def test_a_time_beyond_a_stamp_is_a_message_error_naming_secs(t: float) -> None:
+    """``t * 1e9`` overflows to inf for t = 1e308: that was an OverflowError (exit 70 from a scenario's
+    script), not the MessageError the loader turns into a load error naming the entry."""
+    with pytest.raises(MessageError, match="^secs: .* is outside the int32 range"):
+        Time.from_seconds(t)
 
 
 @given(motions())

@@ -58,6 +58,7 @@ def test_a_scenario_without_jobs_has_no_workload():
     (job(1, "j", dropoff="a"), "field 'dropoff': equals the pickup 'a'"),
     (job(10, "j", more="deadline = 10.0"), "field 'deadline': 10.0 is not after the job's time 10"),
     (job(-1, "j"), "field 't'"),
+    (job(3600.5, "j"), "jobs[0]: field 't': the job arrives at t = 3600.5, after the run ends (duration = 3600)"),
     (job(1, "j", more="colour = 'red'"), "colour"),
     (job(1, "j") + job(2, "j"), "'j'"),
     ('\n[[jobs]]\nt = 1.0\nid = "j"\npickup = "a"\n', "field 'dropoff'"),
@@ -67,6 +68,12 @@ def test_bad_jobs_fail_to_load_naming_the_field(entry, message):
         load(entry)
     assert str(err.value).startswith("<test>: ")
     assert message in str(err.value)
+
+
+def test_a_job_at_the_last_instant_still_loads():
+    """The bound is inclusive, as for a script entry: a job at exactly ``duration`` reaches the manager
+    (jobs come before the end within an instant, docs/determinism.md)."""
+    assert [j.t for j in load(job(3600.0, "j")).jobs] == [3600.0]
 
 
 def test_jobs_and_a_script_exclude_each_other():

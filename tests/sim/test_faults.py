@@ -4,12 +4,14 @@ scenario keys' errors."""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import tomllib
 
 import pytest
 
 from tests.conftest import ROOT, run_scenario
 from tests.sim.test_scenarios import FLEET, motion
+from vcran.core.faults import RandomFaults
 from vcran.io.scenario_file import ScenarioError, load, parse
 from vcran.io.trace import samples
 
@@ -108,7 +110,26 @@ mttr = 5.0
     ('[[faults]]\nt = 1.0\nrobot = "robot_1"\nkind = "breakdown"', "field 'duration': missing"),
     ('[[random_faults]]\nkind = "pause"\nmtbf = 5.0', "unknown random fault 'pause'"),
     ('[[random_faults]]\nkind = "breakdown"\nmtbf = 0.0\nmttr = 1.0', "must be positive"),
+    # a mean this small drew faults at one instant forever: simulated time stopped, Ctrl-C waited for it
+    ('[[random_faults]]\nkind = "motion_failure"\nmtbf = 1e-300', "field 'mtbf': must be at least 1e-06 s"),
+    ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1e-7', "field 'mttr': must be at least 1e-06 s"),
+    ('[[faults]]\nt = 1e6\nrobot = "robot_1"\nkind = "pause"',
+     r"faults\[0\]: field 't': the fault happens at t = 1e\+06, after the run ends \(duration = "),
 ])
 def test_s4_bad_fault_entries_fail_to_load(extra, problem):
     with pytest.raises(ScenarioError, match=problem):
         parse(tomllib.loads(FLEET + "\n" + extra + "\n"), "<test>")
+
+
+def test_s4_the_smallest_mean_loads():
+    """The bound is inclusive (1 µs, docs/robots.md)."""
+    text = FLEET + '\n[[random_faults]]\nkind = "breakdown"\nmtbf = 1e-6\nmttr = 1e-6\n'
+    assert parse(tomllib.loads(text), "<test>").random_faults[0].mtbf == 1e-6
+
+
+def test_s4_a_random_stream_always_advances_time():
+    """Far out in time a gap can be below the float spacing of ``t`` (``t + gap == t``): the faults
+    must still come at strictly later instants, or a run draws them at one instant forever."""
+    source = RandomFaults("motion_failure", mtbf=1e-6, start=2.0**60)
+    times = [f.t for f in itertools.islice(source.stream(0, "robot_1"), 5)]
+    assert all(a < b for a, b in zip([source.start, *times], times)), times

@@ -153,6 +153,16 @@ def test_the_dispatcher_keeps_the_loop_properties(scenario):
     assert_loop_properties(vcran.simulate(scenario))  # the warehouse's own [manager]: the Dispatcher
 
 
+@settings(max_examples=20)
+@given(loop_variants(replace(WAREHOUSE, settings=replace(WAREHOUSE.settings, duration=20.0)), horizon=300.0))
+def test_a_drawn_variant_of_a_short_scenario_saves_to_a_file_that_loads(scenario):
+    """Jobs and faults after the run's end are load errors (docs/scenarios.md): the draws stay within a
+    base shorter than the horizon, or a saved failing scenario (vcran fuzz) would not load again."""
+    assert all(j.t <= 20.0 for j in scenario.jobs) and all(f.t <= 20.0 for f in scenario.faults)
+    again = parse(tomllib.loads(dumps(loop_dict(scenario))), "<saved>")
+    assert again.jobs == scenario.jobs and again.faults == scenario.faults
+
+
 def test_the_search_shrinks_a_never_replanning_manager_to_one_job_at_an_empty_line():
     small = replace(WAREHOUSE, robots=WAREHOUSE.robots[:2])  # two robots: the shrinking runs stay cheap
     finding = fuzz_manager(small, NeverReplans, examples=30, seed=1, max_jobs=3, horizon=30.0, settle=90.0)

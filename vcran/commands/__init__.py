@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,6 +20,13 @@ class CommandError(Exception):
     def __init__(self, message: str, code: int = 2) -> None:
         super().__init__(message)
         self.code = code
+
+
+def check_positive(option: str, value: float) -> None:
+    """A CommandError (exit 2) unless ``value`` is a positive finite number: ``inf`` for a speed factor or a
+    poll interval divided by zero or overflowed deep in a run, and ``nan`` compares false with everything."""
+    if not (math.isfinite(value) and value > 0):
+        raise CommandError(f"{option} must be a positive number, got {value:g}")
 
 
 def check_out(path: Path) -> None:

@@ -52,6 +52,12 @@ def check_url(option: str, url: str, schemes: tuple[str, ...]) -> SplitResult:
         raise CommandError(f"{option} {url!r}: not a valid URL; expected {expected}")
     if parts.query or parts.fragment or any(c.isspace() for c in url):
         raise CommandError(f"{option} {url!r}: a query, fragment or white space has no place here; expected {expected}")
+    import httpx  # as the client will read it: urlsplit takes a host httpx refuses (256.0.0.1)
+
+    try:
+        httpx.URL(url)
+    except httpx.InvalidURL as exc:
+        raise CommandError(f"{option} {url!r}: not a valid URL ({exc}); expected {expected}") from None
     return parts
 
 

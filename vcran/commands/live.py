@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, add_scenario_argument, check_out, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, check_out, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
 
@@ -42,8 +42,8 @@ def run(args: argparse.Namespace) -> int:
     from vcran.sim.live import LiveEnvironment
 
     setup_logging(args.quiet)
-    if not args.factor > 0 or not args.poll_interval > 0:
-        raise CommandError("--factor and --poll-interval must be positive")
+    check_positive("--factor", args.factor)
+    check_positive("--poll-interval", args.poll_interval)
     if args.notify_url is not None:
         check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)

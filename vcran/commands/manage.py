@@ -18,7 +18,7 @@ import signal
 from pathlib import Path
 from typing import Any
 
-from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands import CommandError, add_scenario_argument, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 
 HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
@@ -59,8 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from vcran.sim.live import LiveEnvironment
 
     setup_logging(args.quiet)
-    if not args.factor > 0:
-        raise CommandError("--factor must be positive")
+    check_positive("--factor", args.factor)
     if args.jobs is not None and args.jobs < 0:
         raise CommandError("--jobs must not be negative")
     if args.notify_url is not None:
@@ -69,8 +68,8 @@ def run(args: argparse.Namespace) -> int:
             raise CommandError("--poll-interval is the polling period: without --notify-url only")
     elif args.listen is not None:
         raise CommandError("--listen is where the notification listener binds: it needs --notify-url")
-    elif args.poll_interval is not None and not args.poll_interval > 0:
-        raise CommandError("--poll-interval must be positive")
+    elif args.poll_interval is not None:
+        check_positive("--poll-interval", args.poll_interval)
     polling = args.notify_url is None
     poll_interval = POLL_INTERVAL if args.poll_interval is None else args.poll_interval
     listen = "127.0.0.1" if args.listen is None else args.listen

@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from vcran.commands import CommandError, add_scenario_argument, load_scenario
+from vcran.commands import add_scenario_argument, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
 
@@ -28,8 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     setup_logging(args.quiet)
-    if not args.factor > 0:
-        raise CommandError("--factor must be positive")
+    check_positive("--factor", args.factor)
     scenario = load_scenario(args.scenario)
     client = client_from_args(args)
     signals = StopSignals()  # stop between two messages, never in the middle of one

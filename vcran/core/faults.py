@@ -24,6 +24,10 @@ KINDS: dict[str, bool] = {
 }
 #: Kinds a random source may draw (pause/resume are an operator's, not a failure).
 RANDOM_KINDS = ("breakdown", "motion_failure", "action_failure", "link_down")
+#: The smallest ``mtbf`` and ``mttr`` a random source takes, in seconds: R14's 1 µs, below which two
+#: instants are the same to the model. A mean far below it drew faults at one instant forever (``t + gap
+#: == t`` once the gaps fall under the float spacing of ``t``): simulated time stopped (docs/robots.md).
+MIN_MEAN = 1e-6
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,11 +75,14 @@ class RandomFaults:
         One ``random.Random`` per (scenario seed, kind, robot), seeded with a string (hashed with SHA-512
         by CPython, stable across versions and independent of PYTHONHASHSEED), so adding a robot or a
         source never shifts another robot's faults.
+
+        Each failure comes strictly after the previous repair ends, even where a gap is too small to
+        change ``t`` in floating point (far out in time): the stream always advances.
         """
         rng = random.Random(f"vcran-faults/{seed}/{self.kind}/{robot}")
         t = self.start
         while True:
-            t += rng.expovariate(1.0 / self.mtbf)
+            t = max(t + rng.expovariate(1.0 / self.mtbf), math.nextafter(t, math.inf))
             if t >= self.until:
                 return
             duration = rng.expovariate(1.0 / self.mttr) if KINDS[self.kind] and self.mttr > 0 else 0.0

@@ -45,6 +45,8 @@ class Time(Message):
     @classmethod
     def from_seconds(cls, t: float) -> Time:
         """Nearest nanosecond; exact inverse of :meth:`to_seconds` for every stamp it produces."""
+        if math.isfinite(t) and abs(t) >= 2**32:  # t * 1e9 may overflow to inf (1e308): say the range instead
+            return cls(math.floor(t), 0)  # raises, naming the field
         total = round(t * 1_000_000_000) if math.isfinite(t) else 0
         secs, nsecs = divmod(total, 1_000_000_000)
         if secs <= 2**31 - 1 and secs >= -(2**31):

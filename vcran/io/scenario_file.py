@@ -22,7 +22,7 @@ from typing import Any
 from vcran.core import build
 from vcran.core.battery import BatteryConfig
 from vcran.core.faults import KINDS as FAULT_KINDS
-from vcran.core.faults import RANDOM_KINDS, FaultSpec, RandomFaults
+from vcran.core.faults import MIN_MEAN, RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
@@ -98,13 +98,13 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     manager_table = top.optional_table("manager")
     manager = None if manager_table is None else _manager(manager_table)
     known = {r.id for r in robots}
-    faults = tuple(sorted((_fault(t, known) for t in top.tables("faults")), key=lambda f: f.t))
+    faults = tuple(sorted((_fault(t, known, settings.duration) for t in top.tables("faults")), key=lambda f: f.t))
     random_faults = tuple(_random_faults(t, known) for t in top.tables("random_faults"))
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
     names = [s.id for s in stations]
-    listed = [_job(t, names) for t in job_tables]
+    listed = [_job(t, names, settings.duration) for t in job_tables]
     _unique(source, "jobs", [j.id for j in listed])
     jobs = sorted(listed, key=lambda j: j.t)  # stable: equal times keep file order
     stream = None
@@ -139,6 +139,14 @@ def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | 
     if duration is not None and start > duration:
         what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
         t.fail("t", f"the entry {what} at t = {start:g}, after the run ends (duration = {duration:g})")
+
+
+def _check_time(t: Table, time: float, duration: float | None, what: str) -> None:
+    """A job or a fault after the run's end would never happen, silently (like a late script entry,
+    :func:`_check_in_run`): refuse it. One at exactly ``duration`` still happens (before the end,
+    docs/determinism.md)."""
+    if duration is not None and time > duration:
+        t.fail("t", f"the {what} at t = {time:g}, after the run ends (duration = {duration:g})")
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -257,8 +265,9 @@ def _fault_robot(t: Table, robots: set[str]) -> str:
     return robot
 
 
-def _fault(t: Table, robots: set[str]) -> FaultSpec:
+def _fault(t: Table, robots: set[str], end: float | None) -> FaultSpec:
     time = t.number("t", minimum=0.0)
+    _check_time(t, time, end, "fault happens")
     robot = _fault_robot(t, robots)
     kind = t.choice("kind", tuple(FAULT_KINDS), what="fault")
     duration = t.number("duration", positive=True) if FAULT_KINDS[kind] else 0.0
@@ -274,8 +283,8 @@ def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
             t.fail("robots", f"no robot {r!r} in this scenario")
     source = RandomFaults(
         kind=kind,
-        mtbf=t.number("mtbf", positive=True),
-        mttr=t.number("mttr", positive=True) if FAULT_KINDS[kind] else 0.0,
+        mtbf=_mean(t, "mtbf"),
+        mttr=_mean(t, "mttr") if FAULT_KINDS[kind] else 0.0,
         robots=tuple(chosen),
         start=t.number("start", 0.0, minimum=0.0),
         until=t.number("until", math.inf, minimum=0.0),
@@ -284,8 +293,22 @@ def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
     return source
 
 
+def _mean(t: Table, key: str) -> float:
+    """``mtbf`` or ``mttr``: at least :data:`~vcran.core.faults.MIN_MEAN` (a tinier mean stalled time)."""
+    value: float = t.number(key, positive=True)
+    if value < MIN_MEAN:
+        t.fail(key, f"must be at least {MIN_MEAN:g} s (R14: instants closer than 1 µs are one instant), got {value:g}")
+    return value
+
+
+#: The latest time a message can be stamped with: ROS time stamps hold int32 seconds (SPEC §2).
+LAST_STAMP = 2**31 - 1
+
+
 def _script_entry(t: Table, robots: set[str]) -> list[ScriptEntry] | Cycle:
     time = t.number("t", minimum=0.0)
+    if time > LAST_STAMP:  # said of the field, before its messages are built (a stamp of 1e308 s overflows)
+        t.fail("t", f"{time:g} s is later than a message's time stamp can say (int32 seconds: up to {LAST_STAMP} s)")
     robot = t.string("robot")
     if robot not in robots:
         t.fail("robot", f"no robot {robot!r} in this scenario (R11); robots: {', '.join(sorted(robots))}")
@@ -388,9 +411,11 @@ def _station_ref(t: Table, key: str, stations: list[str]) -> str:
     return name
 
 
-def _job(t: Table, stations: list[str]) -> Job:
+def _job(t: Table, stations: list[str], end: float | None) -> Job:
+    time = t.number("t", minimum=0.0)
+    _check_time(t, time, end, "job arrives")
     job = Job(
-        t=t.number("t", minimum=0.0),
+        t=time,
         id=t.name("id"),
         pickup=_station_ref(t, "pickup", stations),
         dropoff=_station_ref(t, "dropoff", stations),

@@ -135,6 +135,8 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
     ``max_faults`` faults (added to ``base``'s own; 0: none drawn). The run lasts ``horizon + settle``
     simulated seconds at most and ends early once idle."""
     pickups, dropoffs = workload_stations(base)
+    if base.settings.duration is not None:  # a job or fault after the end never happens: it fails to load
+        horizon = min(horizon, base.settings.duration)  # (docs/scenarios.md), so a saved failure would too
     jobs = draw(job_lists(pickups, dropoffs, max_jobs=max_jobs, horizon=horizon))
     stations = base.stations
     if vary_stock:
