@@ -128,17 +128,21 @@ def test_a_failing_run_is_a_row_with_its_error(sweep_file, tmp_path, monkeypatch
     assert "8 runs" in text and "6 ran, 2 failed" in text and "run 5 (seed 2): RuntimeError" in text
 
 
-def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, capsys):
-    real = worker.simulate
-    calls = []
+def interrupt_run(monkeypatch, n: int) -> None:
+    """Ctrl-C as the sweep's ``n``-th run starts (in this process: ``--workers 1``)."""
+    real, calls = worker.simulate, []
 
     def simulate(scenario, **options):
         calls.append(1)
-        if len(calls) == 4:
+        if len(calls) == n:
             raise KeyboardInterrupt
         return real(scenario, **options)
 
     monkeypatch.setattr(worker, "simulate", simulate)
+
+
+def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, capsys):
+    interrupt_run(monkeypatch, 4)
     out = tmp_path / "sweep"
     assert main(["sweep", str(sweep_file), "--out", str(out), "--workers", "1", "--quiet"]) == 130
     partial = tmp_path / "sweep.incomplete"  # never a DIR that looks finished (SPEC §6)

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import ROOT
+from tests.sweep.test_sweep_command import interrupt_run
 from vcran.cli import main
 from vcran.sweep import worker
 
@@ -94,15 +95,7 @@ def test_an_interrupted_sweep_leaves_dir_incomplete_and_the_earlier_sweep_intact
     wide = sweep_file(tmp_path, "wide", WIDE)
     assert main(["sweep", str(wide), "--out", str(out), "--keep-runs", "--workers", "1", "--quiet"]) == 0
     before = snapshot(out)
-    real, calls = worker.simulate, []
-
-    def simulate(scenario, **options):
-        calls.append(1)
-        if len(calls) == 4:
-            raise KeyboardInterrupt
-        return real(scenario, **options)
-
-    monkeypatch.setattr(worker, "simulate", simulate)
+    interrupt_run(monkeypatch, 4)
     narrow = sweep_file(tmp_path, "narrow3", NARROW.replace("[1, 2]", "[1, 2, 3, 4]"))
     assert main(["sweep", str(narrow), "--out", str(out), "--keep-runs", "--workers", "1", "--quiet"]) == 130
     assert snapshot(out) == before  # the earlier sweep, whole: no new rows beside its figures
@@ -112,7 +105,7 @@ def test_an_interrupted_sweep_leaves_dir_incomplete_and_the_earlier_sweep_intact
     assert not list(partial.glob("kpi-by-*"))
     assert f"their rows are in {partial / 'runs.csv'}" in capsys.readouterr().err
 
-    monkeypatch.setattr(worker, "simulate", real)
+    monkeypatch.undo()  # the runs run again
     assert main(["sweep", str(narrow), "--out", str(out), "--workers", "1", "--quiet"]) == 0
     assert not partial.exists()  # the next sweep into o clears the leftover
     assert run_numbers(out) == ["0", "1", "2", "3"] and not (out / "runs").exists()
