@@ -9,7 +9,7 @@ import pytest
 from tests.conftest import ROOT
 from transports.scripted import ScriptedTransport
 from vcran.cli import main
-from vcran.io.runfolder import RunFolderError
+from vcran.io.runfolder import RunFolderError, staging
 from vcran.io.scenario_file import load
 from vcran.runner import run_to
 
@@ -82,3 +82,19 @@ def test_what_counts_as_a_vcran_output_folder(tmp_path, names, vcran_output):
     for name in names:
         (tmp_path / name).write_bytes(b"")
     assert is_run_folder(tmp_path) is vcran_output
+
+
+@pytest.mark.parametrize("out", [".", "..", "./"])
+def test_the_folder_you_are_in_is_refused_as_out(tmp_path, monkeypatch, capsys, out):
+    # a new user's `--out .`: the folder would be renamed away under the shell (run, sweep: exit 70 on an
+    # empty name, or a sweep's folder replaced while the shell sat in it)
+    here = tmp_path / "work"
+    here.mkdir()
+    (here / "notes.txt").write_text("mine")
+    monkeypatch.chdir(here)
+    assert main(["run", str(ROOT / "scenarios" / "demo.toml"), "--out", out, "--quiet"]) == 2
+    assert "is the folder you are in, or holds it" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["work"] and [p.name for p in here.iterdir()] == ["notes.txt"]
+    for absolute in (here, tmp_path):  # by any name: the folder itself or one holding it
+        with pytest.raises(RunFolderError, match="a sweep replaces its --out as a whole"):
+            staging(absolute, "sweep")

@@ -413,3 +413,32 @@ def test_ran_errors_raised_during_an_outage_are_delivered_after_it_and_on_close(
     t.close()
     assert delivered_errors(orion) == [("robot_1", 1), ("robot_2", 2), ("robot_1", 3)]
     assert t.sender.counts.errors_undeliverable == 0
+
+
+def test_a_poll_period_longer_than_any_wait_polls_once_and_stops_cleanly():
+    # --poll-interval 1e12 (or --factor 1e-12) is a valid period; Event.wait past threading.TIMEOUT_MAX raised
+    # OverflowError, which the resilient wrapper logged as a traceback every second, forever
+    import threading
+
+    from transports.orion.health import Health
+    from transports.orion.workers import poll
+
+    stop, read, errors = threading.Event(), threading.Event(), []
+    reads = []
+
+    def once() -> None:
+        reads.append(1)
+        read.set()
+
+    def worker() -> None:
+        try:
+            poll(once, 1e12, Health("test polling"), stop, 0.25, 5.0)
+        except BaseException as exc:  # noqa: BLE001 - what the thread would have died of
+            errors.append(exc)
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    assert read.wait(10)
+    stop.set()
+    thread.join(10)
+    assert not thread.is_alive() and errors == [] and reads == [1]

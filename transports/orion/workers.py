@@ -17,6 +17,10 @@ from transports.orion.health import Backoff, Health
 
 log = logging.getLogger("vcran.orion")
 
+#: Longest single wait: ``Event.wait`` overflows past ``threading.TIMEOUT_MAX`` (about 292 years here, but
+#: a --poll-interval of 1e12 simulated seconds, or a --factor of 1e-12, asks for more).
+LONGEST_WAIT = 3600.0
+
 
 def poll(read: Callable[[], None], period: float, health: Health, stop: threading.Event, backoff_start: float,
          backoff_cap: float, on_back: Callable[[], None] = lambda: None, *, first: float = 0.0) -> None:
@@ -28,7 +32,12 @@ def poll(read: Callable[[], None], period: float, health: Health, stop: threadin
     succeeds after a fault (Orion is back)."""
     backoff = Backoff(max(period, backoff_start), max(period, backoff_cap))
     next_poll = monotonic() + first
-    while not stop.wait(max(0.0, next_poll - monotonic())):
+    while True:
+        due = next_poll - monotonic()
+        if stop.wait(min(max(0.0, due), LONGEST_WAIT)):
+            return
+        if due > LONGEST_WAIT:
+            continue  # not due yet: waited in pieces (a poll period of 1e12 s is valid, and no wait can be that long)
         try:
             read()
         except OrionError as exc:

@@ -69,6 +69,10 @@ def is_output_folder(path: Path) -> bool:
 def check_out(out: Path, what: str = "run") -> None:
     """Raise :class:`RunFolderError` unless ``out`` may receive a run (``what="run"``: missing, empty, or
     a run folder) or a sweep (``what="sweep"``: missing, empty, or a sweep's or a run's folder)."""
+    full, here = Path(os.path.abspath(out)), Path.cwd()
+    if full == here or full in here.parents:  # "--out .": it would be renamed away under the shell
+        raise RunFolderError(f"{out}: is the folder you are in, or holds it; a {what} replaces its --out as a "
+                             f"whole: name a folder inside it (e.g. --out {what}s/first)")
     if out.name.endswith(INCOMPLETE):
         raise RunFolderError(f"{out}: names an unfinished {what}'s folder; choose another --out")
     if not out.exists():
