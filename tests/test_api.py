@@ -194,6 +194,9 @@ def test_a_scenario_changed_in_code_is_checked_as_its_file_would_be(tmp_path):
         with pytest.raises(vcran.ScenarioError, match=re.escape(message)):
             vcran.simulate(changed, out=tmp_path / "out")
         assert not (tmp_path / "out").exists() and not (tmp_path / "out.incomplete").exists()
+    demo = vcran.load_scenario(DEMO)
+    with pytest.raises(vcran.ScenarioError, match=re.escape("script: an entry is sent at t = 6, after the run ends (duration = 5)")):
+        vcran.simulate(replace(demo, settings=replace(demo.settings, duration=5.0)))
     with pytest.raises(TypeError, match="scenario must be a path or a vcran.Scenario, got int"):
         vcran.simulate(42)  # type: ignore[arg-type]
     (tmp_path / "notes").mkdir()
