@@ -84,9 +84,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not argv:  # a bare `vcran` asks what there is
         build_parser().print_help()
         return OK
-    args, extra = build_parser(argv[0] if argv[0] in COMMANDS else None).parse_known_args(argv)
+    named = argv[0] in COMMANDS
+    args, extra = build_parser(argv[0] if named else None).parse_known_args(argv)
     if extra:  # argparse would say so as "vcran:", though the command's own options are what was meant
-        prog = f"vcran {args.command}"
+        prog = f"vcran {args.command}" if named else "vcran"  # `vcran --bogus run ...`: not run's option
         print(f"{prog}: unrecognized arguments: {' '.join(extra)} (see {prog} --help)", file=sys.stderr)
         return BAD_INPUT
     try:
