@@ -151,6 +151,8 @@ def test_bad_streams_fail_to_load(more, message):
     ('\n[job_stream]\nmean_interval = 1.0\npickup = {a = 0}\ndropoff = ["b"]\n', "positive number"),
     ('\n[job_stream]\nmean_interval = -1.0\npickup = ["a"]\ndropoff = ["b"]\n', "mean_interval"),
     ('\n[job_stream]\npickup = ["a"]\ndropoff = ["b"]\n', "give exactly one of rate"),  # neither
+    ('\n[job_stream]\nrate = 1.0\nstart = 3600.0\nuntil = 7200.0\npickup = ["a"]\ndropoff = ["b"]\n',
+     "field 'start': the job stream starts at t = 3600, when the run has ended \\(duration = 3600\\)"),
     ('\n[[job_stream]]\nrate = 1.0\npickup = ["a"]\ndropoff = ["b"]\n', "job_stream: expected a table, got list"),
     ('\n[manager]\nclass = "vcran.managers:Dispatcher"\noptions = 3\n', "manager.options: expected a table"),
 ])

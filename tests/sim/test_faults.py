@@ -113,6 +113,8 @@ mttr = 5.0
     # a mean this small drew faults at one instant forever: simulated time stopped, Ctrl-C waited for it
     ('[[random_faults]]\nkind = "motion_failure"\nmtbf = 1e-300', "field 'mtbf': must be at least 1e-06 s"),
     ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1e-7', "field 'mttr': must be at least 1e-06 s"),
+    ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1.0\nstart = 1e6',  # it would draw nothing
+     r"random_faults\[0\]: field 'start': the random fault source starts at t = 1e\+06, when the run has ended"),
     ('[[faults]]\nt = 1e6\nrobot = "robot_1"\nkind = "pause"',
      r"faults\[0\]: field 't': the fault happens at t = 1e\+06, after the run ends \(duration = "),
 ])

@@ -99,7 +99,7 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     manager = None if manager_table is None else _manager(manager_table)
     known = {r.id for r in robots}
     faults = tuple(sorted((_fault(t, known, settings.duration) for t in top.tables("faults")), key=lambda f: f.t))
-    random_faults = tuple(_random_faults(t, known) for t in top.tables("random_faults"))
+    random_faults = tuple(_random_faults(t, known, settings.duration) for t in top.tables("random_faults"))
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
@@ -147,6 +147,14 @@ def _check_time(t: Table, time: float, duration: float | None, what: str) -> Non
     docs/determinism.md)."""
     if duration is not None and time > duration:
         t.fail("t", f"the {what} at t = {time:g}, after the run ends (duration = {duration:g})")
+
+
+def _check_start(t: Table, start: float, duration: float | None, what: str) -> None:
+    """A random source (faults, jobs) draws strictly after its ``start``: one starting when the run has
+    ended would draw nothing, silently."""
+    if duration is not None and start >= duration:
+        t.fail("start", f"the {what} starts at t = {start:g}, when the run has ended (duration = {duration:g}): "
+                        "it would draw nothing")
 
 
 # --- sections -------------------------------------------------------------------------------------------
@@ -275,8 +283,10 @@ def _fault(t: Table, robots: set[str], end: float | None) -> FaultSpec:
     return FaultSpec(time, robot, kind, duration)
 
 
-def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
+def _random_faults(t: Table, robots: set[str], end: float | None) -> RandomFaults:
     kind = t.choice("kind", tuple(RANDOM_KINDS), what="random fault")
+    start = t.number("start", 0.0, minimum=0.0)
+    _check_start(t, start, end, "random fault source")
     chosen = t.strings("robots", [])
     for r in chosen:
         if r not in robots:
@@ -286,7 +296,7 @@ def _random_faults(t: Table, robots: set[str]) -> RandomFaults:
         mtbf=_mean(t, "mtbf"),
         mttr=_mean(t, "mttr") if FAULT_KINDS[kind] else 0.0,
         robots=tuple(chosen),
-        start=t.number("start", 0.0, minimum=0.0),
+        start=start,
         until=t.number("until", math.inf, minimum=0.0),
     )
     t.done()
@@ -436,6 +446,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
         t.fail("rate", "give exactly one of rate (jobs per hour) and mean_interval (seconds)")
     mean = 3600.0 / rate if rate is not None else interval
     start = t.number("start", 0.0, minimum=0.0)
+    _check_start(t, start, settings.duration, "job stream")
     until = t.number("until", settings.duration, minimum=0.0)
     if until is None:
         t.fail("until", "missing (and [simulation] has no duration to default to)")
