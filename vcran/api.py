@@ -132,7 +132,9 @@ def _check_given(sc: Scenario) -> None:
     except (TypeError, ValueError, AttributeError) as exc:  # a field of the wrong kind altogether
         raise ScenarioError(f"{sc.source} (as given): {type(exc).__name__}: {exc}") from None
     end = sc.settings.duration  # the script is not in that table: its times checked as the loader does
-    late = [e.t for e in sc.script if end is not None and e.t > end] + [c.t for c in sc.cycles if end is not None and c.t > end]
+    if end is None:
+        return
+    late = [e.t for e in sc.script if e.t > end] + [c.t for c in sc.cycles if c.t > end]
     if late:
         raise ScenarioError(f"{sc.source} (as given): script: an entry is sent at t = {min(late):g}, after the run "
                             f"ends (duration = {end:g})")

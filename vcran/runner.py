@@ -55,7 +55,7 @@ def _quiet_collector() -> Iterator[None]:
     run of ``vcran run``.
     """
     threshold = gc.get_threshold()
-    tracked = gc.get_freeze_count()  # frozen already (vcran.cli freezes at the end): not this heap's growth
+    tracked = gc.get_freeze_count()  # frozen by someone else before (an application, before forking): not ours
     gc.freeze()
     now = gc.get_freeze_count() - tracked
     if not _HEAP:
