@@ -98,3 +98,21 @@ def test_fuzzing_a_manager_saves_a_shrunk_failing_scenario_that_names_it(tmp_pat
         vcran.simulate(failing, manager=vcran.managers.Dispatcher))
     assert main(["fuzz", str(scenario), "--manager", "no.such:Manager"]) == 2
     assert "cannot import no.such" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("option", "value"), [("--horizon", "inf"), ("--horizon", "0"), ("--idle-bound", "nan"),
+                                               ("--idle-bound", "inf"), ("--jobs", "0")])
+def test_a_campaign_option_that_is_not_a_positive_number_is_a_usage_error(option, value, tmp_path, capsys):
+    """``--horizon inf`` on a manager scenario without a duration was an internal error (exit 70): the job
+    strategy draws arrival tenths up to ``int(horizon * 10)``."""
+    from dataclasses import replace
+
+    import vcran
+    from vcran.io.scenario_toml import dumps, loop_dict
+
+    warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    open_ended = replace(warehouse, robots=warehouse.robots[:2], settings=replace(warehouse.settings, duration=None))
+    scenario = tmp_path / "open.toml"
+    scenario.write_text(dumps(loop_dict(open_ended)))
+    assert main(["fuzz", str(scenario), "--examples", "1", option, value]) == 2
+    assert f"{option} must be a positive number, got {value}" in capsys.readouterr().err

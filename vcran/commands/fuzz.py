@@ -152,11 +152,11 @@ def _check_script(base: Scenario) -> None:
 def _loop_options(args: argparse.Namespace, base: Scenario, text: str) -> LoopOptions:
     """A fleet manager's campaign, checked before any example runs."""
     from vcran.api import ManagerError, build_manager
-    from vcran.commands import CommandError
+    from vcran.commands import CommandError, check_positive
     from vcran.testing.campaign import LoopOptions, loop_base
 
-    if args.jobs < 1 or not args.horizon > 0 or not args.idle_bound > 0:
-        raise CommandError("--jobs, --horizon and --idle-bound must be positive")
+    for option, value in (("--jobs", args.jobs), ("--horizon", args.horizon), ("--idle-bound", args.idle_bound)):
+        check_positive(option, value)  # inf too: the job strategy draws arrival tenths up to int(horizon * 10)
     if base.script or base.cycles:
         raise CommandError(f"{args.scenario}: has a [[script]]; a fleet manager plays that part (remove one)")
     try:  # a manager that cannot be built fails now, not as every example's crash
