@@ -19,13 +19,8 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
-
-if TYPE_CHECKING:
-    from vcran.sweep.spec import Sweep
-    from vcran.sweep.worker import Row
 
 HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
 
@@ -44,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vcran.commands import CommandError
-    from vcran.io.runfolder import publish, staging
+    from vcran.sweep.folder import compared, finish, have_matplotlib, open_folder
     from vcran.sweep.progress import Progress
     from vcran.sweep.runs import execute
     from vcran.sweep.spec import SweepError, load
@@ -57,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     runs = len(sweep.seeds) * len(sweep.variants)
     out: Path = args.out
-    work = staging(out, "sweep")  # refuses a folder vcran did not write (exit 2), before any run starts
+    work = open_folder(out)  # refuses a folder vcran did not write (exit 2), before any run starts
     try:
         pool = pool_for(args, runs)
     except BaseException:
@@ -77,14 +72,14 @@ def run(args: argparse.Namespace) -> int:
         pool.close()
     wall = time.perf_counter() - start
 
-    files = result.write(work)
+    # the tables and, unless interrupted, the figures, then DIR.incomplete renamed to DIR (run_sweep's code);
+    # an interrupted sweep stays DIR.incomplete: its rows there, DIR untouched
+    files = finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=args.format)
     if not have_parquet() and not args.quiet:
         print("vcran sweep: runs.parquet not written: pyarrow is not installed (pip install 'vcran[sweep]')",
               file=sys.stderr)
-    if not result.interrupted:  # an interrupted sweep stays DIR.incomplete: its rows there, DIR untouched
-        files += figures(sweep, result.rows, work, args.format, args.quiet)
-        publish(work, out)
-        files = [out / f.relative_to(work) for f in files]
+    if not result.interrupted and compared(sweep) and not have_matplotlib() and not args.quiet:
+        print("vcran sweep: no figures: matplotlib is not installed (pip install 'vcran[report]')", file=sys.stderr)
 
     done, failed = len(result.rows), result.failed
     if result.interrupted:
@@ -98,18 +93,3 @@ def run(args: argparse.Namespace) -> int:
         print(f"  written: {', '.join(str(f) for f in files)}")
     return 1 if failed else 0
 
-
-def figures(sweep: Sweep, rows: list[Row], out: Path, fmt: str, quiet: bool) -> list[Path]:
-    """The comparison figures, when there is something to compare and matplotlib to draw it."""
-    if not sweep.parameters and not sweep.labelled:
-        return []
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        if not quiet:
-            print("vcran sweep: no figures: matplotlib is not installed (pip install 'vcran[report]')",
-                  file=sys.stderr)
-        return []
-    from vcran.sweep.figures import draw
-
-    return draw(sweep, rows, out, fmt)
