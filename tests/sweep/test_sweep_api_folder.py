@@ -230,3 +230,23 @@ def test_a_pool_that_cannot_start_leaves_no_folder(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="cannot reach"):
         vcran.run_sweep(narrow, keep_runs=tmp_path / "o")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
+
+
+def test_a_figure_format_a_sweep_folder_cannot_hold_is_refused_before_anything_runs(tmp_path, monkeypatch):
+    """A ``kpi-by-*.pdf`` would make the folder no sweep's: the next sweep into it would be refused."""
+    narrow = sweep_file(tmp_path, "narrow", NARROW)
+    result = vcran.run_sweep(narrow, workers=1)
+    calls = no_runs(monkeypatch)
+    with pytest.raises(ValueError, match="figure format must be one of png, svg, got 'pdf'"):
+        vcran.run_sweep(narrow, workers=1, keep_runs=tmp_path / "o", fmt="pdf")
+    with pytest.raises(ValueError, match="figure format must be one of png, svg, got 'pdf'"):
+        result.write(tmp_path / "o", fmt="pdf")
+    assert calls == [] and sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
+
+
+def test_svg_figures_as_vcran_sweep_format_svg(tmp_path):
+    narrow = sweep_file(tmp_path, "narrow", NARROW)
+    assert main(["sweep", str(narrow), "--out", str(tmp_path / "cli"), "--format", "svg", "--keep-runs",
+                 "--workers", "1", "--quiet"]) == 0
+    vcran.run_sweep(narrow, workers=1, keep_runs=tmp_path / "py", fmt="svg").write(tmp_path / "py", fmt="svg")
+    same_sweep_folder(tmp_path / "py", tmp_path / "cli")

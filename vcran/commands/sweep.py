@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+from vcran.io.runfolder import SWEEP_FORMATS
 
 HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
 
@@ -33,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_pool_arguments(parser, "the runs", "one per CPU")
     parser.add_argument("--keep-runs", action="store_true",
                         help="keep every run's folder (trace, events, summary, scenario.toml) in DIR/runs/NNNN")
-    parser.add_argument("--format", choices=("png", "svg"), default="png", help="figure format (default: png)")
+    parser.add_argument("--format", choices=SWEEP_FORMATS, default="png", help="figure format (default: png)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress either)")
 
 

@@ -29,7 +29,8 @@ MANAGE_FILES = frozenset({"events.jsonl.zst", "summary.json"})
 #: format, and with ``--keep-runs`` a folder ``runs/NNNN`` per run (``NNNN.incomplete`` for one that failed
 #: part way). Spelled here, not imported from vcran.sweep: a run imports no sweep machinery.
 SWEEP_TABLES = frozenset({"runs.csv", "runs.parquet"})
-SWEEP_FIGURE = re.compile(r"kpi-by-.+\.(png|svg)")
+SWEEP_FORMATS = ("png", "svg")
+SWEEP_FIGURE = re.compile(rf"kpi-by-.+\.({'|'.join(SWEEP_FORMATS)})")
 SWEEP_RUN = re.compile(r"[0-9]{4,}(\.incomplete)?")
 INCOMPLETE = ".incomplete"
 

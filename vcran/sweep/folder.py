@@ -15,13 +15,20 @@ import os
 import shutil
 from pathlib import Path
 
-from vcran.io.runfolder import INCOMPLETE, check_out, publish, staging
+from vcran.io.runfolder import INCOMPLETE, SWEEP_FORMATS, check_out, publish, staging
 from vcran.sweep.spec import Sweep
 from vcran.sweep.table import write_tables
 from vcran.sweep.worker import Row
 
 #: Folder of a run's outputs under the sweep's folder, with ``--keep-runs`` (``runs/0007``).
 RUNS_DIR = "runs"
+
+
+def check_format(fmt: str) -> None:
+    """A ValueError for a figure format other than those a sweep's folder may hold (``SWEEP_FORMATS``): a
+    folder with another would no longer be recognised as a sweep's, and the next sweep into it refused."""
+    if fmt not in SWEEP_FORMATS:
+        raise ValueError(f"figure format must be one of {', '.join(SWEEP_FORMATS)}, got {fmt!r}")
 
 
 def open_folder(out: Path) -> Path:

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from vcran.sweep.folder import carry_runs, check, finish, open_folder, run_folder, staged
+from vcran.sweep.folder import carry_runs, check, check_format, finish, open_folder, run_folder, staged
 from vcran.sweep.pool import Pool, open_pool
 from vcran.sweep.spec import RunSpec, Sweep, load
 from vcran.sweep.table import columns, csv_text
@@ -57,6 +57,7 @@ class SweepResult:
         wrote for this result, its kept runs stay (the folder of ``vcran sweep --keep-runs``). An
         interrupted sweep's folder is never renamed: its files go to ``out.incomplete``. The files
         written, where they are."""
+        check_format(fmt)
         out = Path(out)
         mine = self._holds_its_rows(self.folder)
         if self.interrupted and mine and self.folder == staged(out).resolve():
@@ -89,6 +90,7 @@ def run_sweep(sweep: Sweep | str | Path, *, workers: int | None = None, cluster:
     to ``DIR`` when the sweep has ended (after Ctrl-C, or an error, it stays ``DIR.incomplete``); an
     earlier sweep's ``DIR`` is replaced whole, and a folder vcran did not write refused before a run
     starts (:class:`vcran.RunFolderError`)."""
+    check_format(fmt)
     if not isinstance(sweep, Sweep):
         sweep = load(sweep)
     out = Path(keep_runs) if keep_runs is not None else None
