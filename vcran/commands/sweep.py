@@ -9,8 +9,8 @@ say why), 2 for a sweep that cannot start, 130 on Ctrl-C (the rows done are writ
 ``DIR`` is written like a run folder (SPEC §6, vcran.io.runfolder), by the code ``vcran.run_sweep`` and
 ``SweepResult.write`` use too (vcran.sweep.folder): everything, the kept runs of the workers included, goes
 into ``DIR.incomplete``, renamed to ``DIR`` when the sweep has ended. A sweep that is interrupted or fails
-leaves ``DIR.incomplete`` (the rows done are there) and any earlier ``DIR`` as it
-was; an earlier sweep's (or run's) ``DIR`` is replaced whole, and any other folder refused before a run starts.
+leaves ``DIR.incomplete`` (the rows done are there) and any earlier ``DIR`` as it was; an earlier sweep's (or
+run's) ``DIR`` is replaced whole, and any other folder refused before a run starts.
 """
 
 from __future__ import annotations
