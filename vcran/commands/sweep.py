@@ -6,10 +6,11 @@ figures when matplotlib is installed. Exit status: 0 when every run ran, 1 when 
 say why), 2 for a sweep that cannot start, 130 on Ctrl-C (the rows done are written all the same, into
 ``DIR.incomplete``).
 
-``DIR`` is written like a run folder (SPEC §6, vcran.io.runfolder): everything, the kept runs of the
-workers included, goes into ``DIR.incomplete``, renamed to ``DIR`` when the sweep has ended. A sweep that
-is interrupted or fails leaves ``DIR.incomplete`` (the rows done are there) and any earlier ``DIR`` as it
-was; an earlier sweep's (or run's) ``DIR`` is replaced whole, and any other folder refused before a run starts.
+``DIR`` is written like a run folder (SPEC §6, vcran.io.runfolder), by the code ``vcran.run_sweep`` and
+``SweepResult.write`` use too (vcran.sweep.folder): everything, the kept runs of the workers included, goes
+into ``DIR.incomplete``, renamed to ``DIR`` when the sweep has ended. A sweep that is interrupted or fails
+leaves ``DIR.incomplete`` (the rows done are there) and any earlier ``DIR`` as it was; an earlier sweep's (or
+run's) ``DIR`` is replaced whole, and any other folder refused before a run starts.
 """
 
 from __future__ import annotations
@@ -19,13 +20,9 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
-
-if TYPE_CHECKING:
-    from vcran.sweep.spec import Sweep
-    from vcran.sweep.worker import Row
+from vcran.io.runfolder import SWEEP_FORMATS
 
 HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
 
@@ -38,13 +35,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_pool_arguments(parser, "the runs", "one per CPU")
     parser.add_argument("--keep-runs", action="store_true",
                         help="keep every run's folder (trace, events, summary, scenario.toml) in DIR/runs/NNNN")
-    parser.add_argument("--format", choices=("png", "svg"), default="png", help="figure format (default: png)")
+    parser.add_argument("--format", choices=SWEEP_FORMATS, default="png", help="figure format (default: png)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress either)")
 
 
 def run(args: argparse.Namespace) -> int:
     from vcran.commands import CommandError
-    from vcran.io.runfolder import publish, staging
+    from vcran.sweep.folder import compared, finish, have_matplotlib, open_folder
     from vcran.sweep.progress import Progress
     from vcran.sweep.runs import execute
     from vcran.sweep.spec import SweepError, load
@@ -57,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(str(exc)) from None
     runs = len(sweep.seeds) * len(sweep.variants)
     out: Path = args.out
-    work = staging(out, "sweep")  # refuses a folder vcran did not write (exit 2), before any run starts
+    work = open_folder(out)  # refuses a folder vcran did not write (exit 2), before any run starts
     try:
         pool = pool_for(args, runs)
     except BaseException:
@@ -77,14 +74,14 @@ def run(args: argparse.Namespace) -> int:
         pool.close()
     wall = time.perf_counter() - start
 
-    files = result.write(work)
+    # the tables and, unless interrupted, the figures, then DIR.incomplete renamed to DIR (run_sweep's code);
+    # an interrupted sweep stays DIR.incomplete: its rows there, DIR untouched
+    files = finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=args.format)
     if not have_parquet() and not args.quiet:
         print("vcran sweep: runs.parquet not written: pyarrow is not installed (pip install 'vcran[sweep]')",
               file=sys.stderr)
-    if not result.interrupted:  # an interrupted sweep stays DIR.incomplete: its rows there, DIR untouched
-        files += figures(sweep, result.rows, work, args.format, args.quiet)
-        publish(work, out)
-        files = [out / f.relative_to(work) for f in files]
+    if not result.interrupted and compared(sweep) and not have_matplotlib() and not args.quiet:
+        print("vcran sweep: no figures: matplotlib is not installed (pip install 'vcran[report]')", file=sys.stderr)
 
     done, failed = len(result.rows), result.failed
     if result.interrupted:
@@ -98,18 +95,3 @@ def run(args: argparse.Namespace) -> int:
         print(f"  written: {', '.join(str(f) for f in files)}")
     return 1 if failed else 0
 
-
-def figures(sweep: Sweep, rows: list[Row], out: Path, fmt: str, quiet: bool) -> list[Path]:
-    """The comparison figures, when there is something to compare and matplotlib to draw it."""
-    if not sweep.parameters and not sweep.labelled:
-        return []
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        if not quiet:
-            print("vcran sweep: no figures: matplotlib is not installed (pip install 'vcran[report]')",
-                  file=sys.stderr)
-        return []
-    from vcran.sweep.figures import draw
-
-    return draw(sweep, rows, out, fmt)

@@ -5,9 +5,10 @@ A run writes into a sibling of its ``--out`` folder named ``<name>.incomplete`` 
 ``<name>.incomplete`` behind (the next run into ``<name>`` clears it), never a folder that looks finished,
 and never a fresh partial trace beside an older run's ``summary.json``. An existing ``--out`` is
 replaced only when it is a vcran run folder; anything else is refused rather than mixed into.
-``vcran manage --out`` writes its folder (the job events and a summary, no trace) the same way, and so does
-``vcran sweep --out`` (its tables, figures and kept runs: an earlier sweep's folder is replaced whole, never
-new rows beside old figures and runs).
+``vcran manage --out`` writes its folder (the job events and a summary, no trace) the same way, and so do
+``vcran sweep --out``, ``vcran.run_sweep(keep_runs=)`` and ``SweepResult.write`` (vcran.sweep.folder: the
+tables, figures and kept runs; an earlier sweep's folder is replaced whole, never new rows beside old
+figures and runs).
 """
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ MANAGE_FILES = frozenset({"events.jsonl.zst", "summary.json"})
 #: format, and with ``--keep-runs`` a folder ``runs/NNNN`` per run (``NNNN.incomplete`` for one that failed
 #: part way). Spelled here, not imported from vcran.sweep: a run imports no sweep machinery.
 SWEEP_TABLES = frozenset({"runs.csv", "runs.parquet"})
-SWEEP_FIGURE = re.compile(r"kpi-by-.+\.(png|svg)")
+SWEEP_FORMATS = ("png", "svg")
+SWEEP_FIGURE = re.compile(rf"kpi-by-.+\.({'|'.join(SWEEP_FORMATS)})")
 SWEEP_RUN = re.compile(r"[0-9]{4,}(\.incomplete)?")
 INCOMPLETE = ".incomplete"
 

@@ -5,21 +5,23 @@ every swept parameter, its seed, its error (empty when it ran), the KPIs of its 
 wall time: every column but ``wall_seconds`` is a function of the sweep file alone, whichever pool ran
 it and in whatever order runs finished. A run that fails is a row with its error; Ctrl-C keeps the rows
 already done.
+
+The folders :func:`run_sweep` (``keep_runs``) and :meth:`SweepResult.write` write are those of ``vcran
+sweep --out``, staged and refused by the same code (:mod:`vcran.sweep.folder`).
 """
 
 from __future__ import annotations
 
+import shutil
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+from vcran.sweep.folder import carry_runs, check, check_format, finish, open_folder, run_folder, staged
 from vcran.sweep.pool import Pool, open_pool
 from vcran.sweep.spec import RunSpec, Sweep, load
-from vcran.sweep.table import columns, write_tables
+from vcran.sweep.table import columns, csv_text
 from vcran.sweep.worker import Row, run_one
-
-#: Folder of a run's outputs under the sweep's folder, with ``--keep-runs``.
-RUNS_DIR = "runs"
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,6 +34,11 @@ class SweepResult:
     interrupted: bool
     #: The columns before a run's results: run, variant, label (if variants are named), parameters, seed.
     head: list[str]
+    #: The sweep that ran (its parameters and name label the figures).
+    sweep: Sweep
+    #: The folder ``run_sweep(keep_runs=DIR)`` wrote, absolute: ``DIR``, or ``DIR.incomplete`` after
+    #: Ctrl-C; None without ``keep_runs``.
+    folder: Path | None = None
 
     @property
     def failed(self) -> int:
@@ -42,33 +49,73 @@ class SweepResult:
         """Every column of the runs table, in order; ``wall_seconds`` last."""
         return columns(self.rows, self.head)
 
-    def write(self, out: str | Path) -> list[Path]:
-        """``runs.csv`` (and ``runs.parquet`` when pyarrow is installed) into the folder ``out``."""
-        return write_tables(Path(out), self.rows, self.columns)
+    def write(self, out: str | Path, *, fmt: str = "png") -> list[Path]:
+        """The folder ``vcran sweep --out out`` writes: ``runs.csv``, ``runs.parquet`` (with pyarrow) and
+        the figures (with matplotlib, in format ``fmt``), staged in ``out.incomplete`` and renamed to
+        ``out``; an earlier sweep's folder there is replaced whole, a folder vcran did not write refused
+        (:class:`vcran.RunFolderError`, nothing written). Over the folder ``run_sweep(keep_runs=out)``
+        wrote for this result, its kept runs stay (the folder of ``vcran sweep --keep-runs``). An
+        interrupted sweep's folder is never renamed: its files go to ``out.incomplete``. The files
+        written, where they are."""
+        check_format(fmt)
+        out = Path(out)
+        mine = self._holds_its_rows(self.folder)
+        if self.interrupted and mine and self.folder == staged(out).resolve():
+            check(out)  # its own unfinished folder, runs and rows: written again where it is
+            work = staged(out)
+        else:
+            work = open_folder(out)
+            if not self.interrupted and mine and self.folder == out.resolve():
+                carry_runs(out, work)
+        return finish(work, out, self.sweep, self.rows, self.columns, interrupted=self.interrupted, fmt=fmt)
 
-
-def run_folder(out: Path, index: int) -> Path:
-    return out / RUNS_DIR / f"{index:04d}"
+    def _holds_its_rows(self, folder: Path | None) -> bool:
+        """``folder`` still holds this sweep (its ``runs.csv``, wall times and all, is this result's): not
+        replaced since by another sweep into the same place, whose runs are not this one's."""
+        if folder is None or not (folder / "runs.csv").is_file():
+            return False
+        return (folder / "runs.csv").read_bytes() == csv_text(self.rows, self.columns).encode("utf-8")
 
 
 def run_sweep(sweep: Sweep | str | Path, *, workers: int | None = None, cluster: str | None = None,
-              keep_runs: str | Path | None = None, on_row: Callable[[Row], None] | None = None) -> SweepResult:
+              keep_runs: str | Path | None = None, on_row: Callable[[Row], None] | None = None,
+              fmt: str = "png") -> SweepResult:
     """Every run of ``sweep`` (a :class:`Sweep` or a sweep file's path), in this process
     (``workers=1``), on ``workers`` local processes (default: one per CPU) or on the Dask scheduler at
-    ``cluster`` (``"tcp://host:8786"``). ``keep_runs`` keeps each run's folder under that folder
-    (``runs/0007/``); ``on_row`` sees each row as it arrives. Ctrl-C returns the rows done so far."""
+    ``cluster`` (``"tcp://host:8786"``). ``on_row`` sees each row as it arrives. Ctrl-C returns the rows
+    done so far.
+
+    ``keep_runs=DIR`` writes the folder ``vcran sweep --out DIR --keep-runs`` does (each run's folder in
+    ``runs/0007/``, the tables, the figures in format ``fmt``): staged in ``DIR.incomplete`` and renamed
+    to ``DIR`` when the sweep has ended (after Ctrl-C, or an error, it stays ``DIR.incomplete``); an
+    earlier sweep's ``DIR`` is replaced whole, and a folder vcran did not write refused before a run
+    starts (:class:`vcran.RunFolderError`)."""
+    check_format(fmt)
     if not isinstance(sweep, Sweep):
         sweep = load(sweep)
-    pool = open_pool(workers, cluster, jobs=len(sweep.seeds) * len(sweep.variants))
+    out = Path(keep_runs) if keep_runs is not None else None
+    work = open_folder(out) if out is not None else None
     try:
-        return execute(sweep, pool, keep_runs=Path(keep_runs) if keep_runs is not None else None, on_row=on_row)
+        pool = open_pool(workers, cluster, jobs=len(sweep.seeds) * len(sweep.variants))
+    except BaseException:
+        if work is not None:
+            shutil.rmtree(work, ignore_errors=True)  # nothing ran: no folder left behind
+        raise
+    try:
+        # the workers (local processes, or Dask's on a shared file system) write kept runs into the staging folder
+        result = execute(sweep, pool, keep_runs=work.resolve() if work is not None else None, on_row=on_row)
     finally:
         pool.close()
+    if work is None or out is None:
+        return result
+    finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=fmt)
+    return replace(result, folder=(work if result.interrupted else out).resolve())
 
 
 def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
             on_row: Callable[[Row], None] | None = None) -> SweepResult:
-    """:func:`run_sweep` on a pool that the caller opened and closes."""
+    """The runs of :func:`run_sweep` on a pool that the caller opened and closes; ``keep_runs`` is the
+    folder the runs are kept under, as it is (the caller stages it: :mod:`vcran.sweep.folder`)."""
     specs = sweep.runs()
     source = str(sweep.scenario_path)
     jobs = [(sweep.scenario_text, source, spec.overrides,
@@ -83,7 +130,7 @@ def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
     except KeyboardInterrupt:
         interrupted = True
         pool.stop()
-    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep))
+    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep)
 
 
 def head(sweep: Sweep) -> list[str]:
