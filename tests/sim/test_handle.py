@@ -197,3 +197,19 @@ def test_latest_and_pose_are_what_orion_holds():
     assert reader.before == ((1.0, 2.0, 0.5), None)  # nothing has reached the manager yet: the start pose
     pose, status = reader.after
     assert pose == pytest.approx((1.0, 2.0, 0.5)) and isinstance(status, AssignmentStatus)
+
+
+def test_the_fleet_a_manager_is_given_is_read_only():
+    """Settings.durations is the one mutable part of a scenario, and the fleet shared it with the model:
+    a manager setting ``self.fleet.settings.durations["load"] = 0`` made the simulated loads instant, and
+    the caller's scenario kept the change for its next run (the warehouse's p95 lead time 67.5 s instead of
+    78.0 s, run after run)."""
+    class Quick(vcran.FleetManager):
+        def on_start(self) -> None:
+            self.fleet.settings.durations["load"] = 0.0
+
+    given = scenario()
+    with pytest.raises(TypeError, match="does not support item assignment") as err:
+        vcran.simulate(given, manager=Quick())
+    assert "in fleet manager Quick: on_start at t=0.0" in err.value.__notes__
+    assert given.settings.durations == {"dummy": 1.0, "load": 5.0, "unload": 5.0}

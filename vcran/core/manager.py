@@ -21,8 +21,9 @@ import math
 import numbers
 import random
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any, ClassVar, cast
 
 from vcran.core import build
 from vcran.core.ids import Id
@@ -51,7 +52,10 @@ class Fleet:
 
     @classmethod
     def of(cls, scenario: Scenario) -> Fleet:
-        return cls(scenario.robots, scenario.stations, scenario.settings, scenario.link)
+        """The scenario's fleet, read-only: its one mutable part, ``settings.durations``, is the model's
+        too, so a manager writing to it changed the simulated actions and the caller's scenario."""
+        durations = cast(dict[str, float], MappingProxyType(dict(scenario.settings.durations)))
+        return cls(scenario.robots, scenario.stations, replace(scenario.settings, durations=durations), scenario.link)
 
     @property
     def robot_ids(self) -> tuple[str, ...]:
