@@ -56,6 +56,12 @@ class Probe(vcran.FleetManager):
     (lambda h: h.send("robot_9", vcran.CancelTask()), KeyError, "no robot 'robot_9'"),
     (lambda h: h.send("robot_1", "hello"), TypeError, "got str"),
     (lambda h: h.send_raw("robot_1", "ran_status", {}), ValueError, "unknown inbound attribute 'ran_status'"),
+    # in memory the RAN rejected it (R12); with out= the trace could not write it (exit 70, not the manager's
+    # fault by the note); under vcran manage the sender thread died on it and nothing more was written
+    (lambda h: h.send_raw("robot_1", "motion_assignment", {"x": {1, 2}}), TypeError,
+     "send_raw: the value is not JSON: Object of type set is not JSON serializable"),
+    (lambda h: h.send_raw("robot_1", "motion_assignment", {"x": float("nan")}), ValueError,
+     "send_raw: the value is not JSON: Out of range float values are not JSON compliant"),
     (lambda h: h.call_later(-1.0, print), ValueError, "negative delay"),
     (lambda h: h.send_task("robot_1", []), ValueError, "at least one point or one action"),
     (lambda h: h.job_done("never_arrived"), JobError, "no such job has arrived"),

@@ -17,6 +17,7 @@ Orion in wall-clock time: only the handle differs. Everything here is pure (no S
 
 from __future__ import annotations
 
+import json
 import math
 import numbers
 import random
@@ -149,6 +150,10 @@ class Handle:
         """Write an NGSI attribute as JSON, decoded (and maybe rejected, R12) by the RAN like a live one."""
         if attribute not in INBOUND:
             raise ValueError(f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+        try:  # what no Orion client can send (the live one refuses NaN too): refused here, in the hook
+            json.dumps(value, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"send_raw: the value is not JSON: {exc}") from None
         self._write(self._robot(robot), attribute, None, value)
 
     def cancel(self, robot: str, task: Id | str) -> None:
