@@ -148,6 +148,12 @@ def test_attributes_a_robot_does_not_publish_are_a_manager_error(tmp_path, manag
     assert list(tmp_path.iterdir()) == []  # refused before the folder exists
 
 
+def test_parse_scenario_of_toml_text_says_it_takes_a_table():
+    with pytest.raises(vcran.ScenarioError, match=r"^<text>: expected the scenario as a table \(a dict, as "
+                                                  r"tomllib.loads\(text\) gives\), got str$"):
+        vcran.parse_scenario(SMALL, "<text>")
+
+
 def test_manager_options_the_class_does_not_take_are_a_manager_error():
     with pytest.raises(vcran.ManagerError, match=r"cannot build fleet manager vcran.managers.dispatcher:Dispatcher"):
         vcran.simulate(small("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { colour = 1 }\n"))
