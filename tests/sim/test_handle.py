@@ -84,6 +84,21 @@ def test_the_handle_refuses_what_orion_or_the_protocol_would(check, error, messa
         vcran.simulate(scenario(), manager=Probe(check))
 
 
+@pytest.mark.parametrize("every", [-1.0, float("nan"), float("inf")])
+def test_a_task_spaced_by_no_finite_interval_is_refused_before_anything_goes_out(every):
+    """The first message went out and the job was recorded as assigned before the second one's timer was
+    refused ('call_at(1.97...): that is in the past'): half a task on the robot, and in the events."""
+    class Spaced(vcran.FleetManager):
+        def on_job(self, job) -> None:
+            with pytest.raises(ValueError, match=f"send_task: every must be a finite number of seconds >= 0, got {every}"):
+                self.handle.send_task("robot_1", [(1.0, 2.0), (3.0, 2.0)], ["dummy"], job=job, every=every)
+            self.handle.job_failed(job, "unassignable")
+
+    result = vcran.simulate(scenario(), manager=Spaced())
+    assert [e["event"] for e in result.events if e["event"].startswith(("job_", "task_"))] == ["job_arrived", "job_failed"]
+    assert result.jobs[0].tasks == ()
+
+
 def test_a_refused_task_does_not_use_up_a_task_number():
     def check(h):
         with pytest.raises(ValueError):

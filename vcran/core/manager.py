@@ -183,6 +183,8 @@ class Handle:
         """
         self._robot(robot)
         _check_task(path, actions)
+        if not (every >= 0 and math.isfinite(every)):  # refused before the first message goes out, not after
+            raise ValueError(f"send_task: every must be a finite number of seconds >= 0, got {every}")
         name = task if task is not None else f"{self._task_prefix}{self._tasks_sent + 1}"
         messages = build.task(name, path, actions, max_velocity=max_velocity, stamp=self.now, every=every)
         if job is not None:
