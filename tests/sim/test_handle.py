@@ -65,6 +65,13 @@ class Probe(vcran.FleetManager):
     (lambda h: h.call_later(-1.0, print), ValueError, "negative delay"),
     (lambda h: h.send_task("robot_1", []), ValueError, "at least one point or one action"),
     (lambda h: h.job_done("never_arrived"), JobError, "no such job has arrived"),
+    # "'int' object has no attribute 'id'", a bare KeyError 'robot_9', and None for ever
+    (lambda h: h.job_done(7), TypeError, "a job is a vcran.Job or its id, got int"),
+    (lambda h: h.send_task("robot_1", [(1.0, 1.0)], job=7), TypeError, "a job is a vcran.Job or its id, got int"),
+    (lambda h: h.call_at(5.0, h.pose, "robot_9"), KeyError, "no robot 'robot_9' in this fleet"),  # once telemetry came
+    (lambda h: h.latest("robot_9", "ran_status"), KeyError, "no robot 'robot_9' in this fleet"),
+    (lambda h: h.latest("robot_1", "motion_assignment"), ValueError,
+     "latest: 'motion_assignment' is not an attribute robots publish; known: robot_description, current_motion"),
     # a NaN time went into SimPy's heap and broke its order: 12 of the warehouse's 224 jobs arrived, and
     # job_completed events were written with "t": null; an infinite one never runs and holds until_idle off
     (lambda h: h.call_later(float("nan"), print), ValueError, "delay must be a finite number of seconds, got nan"),

@@ -199,7 +199,7 @@ class Handle:
 
     def pose(self, robot: str) -> tuple[float, float, float]:
         """``robot``'s latest known pose ``(x, y, theta)``: from ``current_motion``, or its start pose."""
-        motion = self.latest(robot, "current_motion")
+        motion = self.latest(self._robot(robot), "current_motion")
         if isinstance(motion, Motion):
             p = motion.current_position.pose
             return p.position.x, p.position.y, p.orientation.yaw()

@@ -26,7 +26,7 @@ import simpy
 from vcran.core.build import motion_message
 from vcran.core.jobs import JobBook, Log
 from vcran.core.manager import Fleet, FleetManager, Handle, Timer
-from vcran.core.messages import Message, Time
+from vcran.core.messages import OUTBOUND, Message, Time
 from vcran.core.scenario import Job, Scenario
 from vcran.core.wire import Deliver, Frame, Outbound, Transport
 from vcran.sim.link import Link
@@ -227,7 +227,9 @@ class SimHandle(Handle):
         return timer
 
     def latest(self, robot: str, attribute: str) -> Message | None:
-        return self._loop.latest(robot, attribute)
+        if attribute not in OUTBOUND:  # what the manager writes is not kept: None for ever, say so instead
+            raise ValueError(f"latest: {attribute!r} is not an attribute robots publish; known: {', '.join(OUTBOUND)}")
+        return self._loop.latest(self._robot(robot), attribute)
 
 
 class _SimTimer(Timer):
