@@ -121,6 +121,39 @@ def test_a_manager_that_cannot_be_found_is_a_manager_error(manager, message):
         vcran.simulate(small(), manager=manager)
 
 
+class Misspelt(vcran.FleetManager):
+    attributes = frozenset({"ran_stauts"})
+
+
+class AString(vcran.FleetManager):
+    attributes = "ran_status"  # type: ignore[assignment]
+
+
+class AnInbound(vcran.FleetManager):
+    attributes = frozenset({"motion_assignment"})
+
+
+@pytest.mark.parametrize("manager, message", [
+    # in simulated time it was never told anything; under vcran manage the same class subscribed with an
+    # empty condition, and Orion notified it of everything
+    (Misspelt, r"attributes names 'ran_stauts', which no robot publishes \(robot_description, current_motion, "
+               r"assignment_status, ran_status, ran_error, battery\)"),
+    (AnInbound, "attributes names 'motion_assignment', which no robot publishes"),
+    (AString, "attributes must be a set of attribute names or None, got the string 'ran_status'"),
+])
+def test_attributes_a_robot_does_not_publish_are_a_manager_error(tmp_path, manager, message):
+    for given in (manager, manager()):
+        with pytest.raises(vcran.ManagerError, match=f"fleet manager [a-z_.]*test_api:{manager.__name__}: {message}"):
+            vcran.simulate(small(), manager=given, out=tmp_path / "run")
+    assert list(tmp_path.iterdir()) == []  # refused before the folder exists
+
+
+def test_parse_scenario_of_toml_text_says_it_takes_a_table():
+    with pytest.raises(vcran.ScenarioError, match=r"^<text>: expected the scenario as a table \(a dict, as "
+                                                  r"tomllib.loads\(text\) gives\), got str$"):
+        vcran.parse_scenario(SMALL, "<text>")
+
+
 def test_manager_options_the_class_does_not_take_are_a_manager_error():
     with pytest.raises(vcran.ManagerError, match=r"cannot build fleet manager vcran.managers.dispatcher:Dispatcher"):
         vcran.simulate(small("\n[manager]\nclass = 'vcran.managers:Dispatcher'\noptions = { colour = 1 }\n"))

@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -209,15 +209,37 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
     from vcran.core.manager import FleetManager
 
     if isinstance(manager, FleetManager):
+        _check_attributes(manager)
         return manager, _name(type(manager))
     cls = _import(manager) if isinstance(manager, str) else manager
     if not (isinstance(cls, type) and issubclass(cls, FleetManager)):
         raise ManagerError(f"fleet manager {manager!r} is not a vcran.FleetManager subclass")
     try:
-        return cls(**options), _name(cls)
+        built = cls(**options)
     except Exception as exc:  # noqa: BLE001 - the class refusing its options (Dispatcher's ValueError) is bad input
         raise ManagerError(f"cannot build fleet manager {_name(cls)} with options {options}: "
                            f"{_described(exc)}") from None
+    _check_attributes(built)
+    return built, _name(cls)
+
+
+def _check_attributes(manager: FleetManager) -> None:
+    """``attributes`` names what the robots publish (SPEC §2), or is None. A misspelt name was never
+    notified in simulated time, while ``vcran manage`` subscribed with an empty condition and was told
+    of every change: one class, two behaviours, and no word of the mistake."""
+    from vcran.core.messages import OUTBOUND
+
+    wanted = manager.attributes
+    if wanted is None:
+        return
+    if (isinstance(wanted, str | bytes) or not isinstance(wanted, Collection)
+            or not all(isinstance(a, str) for a in wanted)):
+        raise ManagerError(f"fleet manager {_name(type(manager))}: attributes must be a set of attribute names or "
+                           f"None, got {'the string ' if isinstance(wanted, str) else ''}{wanted!r}")
+    unknown = sorted(a for a in wanted if a not in OUTBOUND)
+    if unknown:
+        raise ManagerError(f"fleet manager {_name(type(manager))}: attributes names {', '.join(map(repr, unknown))}, "
+                           f"which no robot publishes ({', '.join(OUTBOUND)})")
 
 
 def _import(path: str) -> Any:

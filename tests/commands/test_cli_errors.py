@@ -140,6 +140,16 @@ value = '{{"type": "x", "value": {huge}}}'
         (["decode", str(empty)], "decode", f"{empty}: Is a directory"),
         (["live", DEMO, "--orion", "http://127.0.0.1:9", "--out", out, "--token-file", str(tmp_path / "no-token")],
          "live", f"cannot read --token-file {tmp_path / 'no-token'}: No such file or directory"),
+        # Orion refuses every request of such a tenant or path (400): live ran to its end with "Orion down",
+        # send failed each message at its time and orion init at the first; vcran knows Orion's rules
+        (["send", DEMO, *orion, "--service-path", "factory"], "send",
+         "--service-path 'factory': Only /absolute/ Service Paths allowed [a service path must begin with /]"),
+        (["live", DEMO, *orion, "--out", out, "--service-path", "/factory/#"], "live",
+         "--service-path '/factory/#': Bad Character in Service-Path (vcran writes entities: one plain path)"),
+        (["orion", "init", DEMO, *orion, "--service-path", "/a,/b"], "orion",
+         "--service-path '/a,/b': Bad Character in Service-Path (vcran writes entities: one plain path)"),
+        (["manage", "warehouse", *orion, "--service", "plant-a"], "manage",
+         "--service 'plant-a': bad character in tenant name - only underscore and alphanumeric characters are allowed"),
         (["run", str(tmp_path / "nope.toml"), "--out", out], "run", "nope.toml: no such file"),
         (["run", DEMO], "run", "the following arguments are required: --out"),
     ]

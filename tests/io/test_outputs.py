@@ -314,3 +314,30 @@ def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # §6, 
     f.close()
     with open_input(path) as g:
         assert g.read() == long + b'{"n":1}\n'
+
+
+def test_an_events_file_cut_off_is_an_error_not_fewer_events(tmp_path):  # §6, §8
+    """A zstd stream cut short reads as a shorter one, without an error, and cut where a block ends it even
+    ends with a whole line: ``vcran report`` drew a finished run from half its events (0 tasks done where
+    the demo does 3). A reader of a finished run's events says the file is cut off; one reading a killed
+    run's recording (``cut_off=True``) takes its whole lines, as before."""
+    from vcran.io.trace import event_records, open_output
+
+    path = tmp_path / "events.jsonl.zst"
+    f = open_output(path)
+    f.write(b'{"t": 1.0, "robot": "r", "event": "task_queued", "task": "A"}\n')
+    f.flush()
+    boundary = path.stat().st_size  # the first lines' block ends here
+    f.write(b'{"t": 2.0, "robot": "r", "event": "task_completed", "task": "A"}\n')
+    f.close()
+    whole = path.read_bytes()
+    assert [e["event"] for e in event_records(path)] == ["task_queued", "task_completed"]
+    for cut in (boundary, len(whole) // 2, len(whole) - 1, 0):
+        path.write_bytes(whole[:cut])
+        with pytest.raises(ValueError, match="events.jsonl.zst: cut off: the zstd stream ends before its end"):
+            list(event_records(path))
+    path.write_bytes(whole[:boundary])
+    assert [e["event"] for e in event_records(path, cut_off=True)] == ["task_queued"]
+    path.write_bytes(b"hello")
+    with pytest.raises(ValueError, match="events.jsonl.zst: not a zstd stream"):
+        list(event_records(path))

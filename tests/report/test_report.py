@@ -308,6 +308,13 @@ def test_missing_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     (lambda d: write_lines(d / "events.jsonl.zst", ['{"t": 1, "robot": "r", "event": "task_queued", "task": "A"}', '[1]']),
      "events.jsonl.zst:2: not an event"),
     (lambda d: write_lines(d / "events.jsonl.zst", ["{oops"]), "events.jsonl.zst:1: not JSON"),
+    # a report of the events before the cut (0 tasks done where the demo does 3), or exit 70 (ZstdError)
+    (lambda d: (d / "events.jsonl.zst").write_bytes((d / "events.jsonl.zst").read_bytes()[:300]),
+     "events.jsonl.zst: cut off: the zstd stream ends before its end"),
+    (lambda d: (d / "events.jsonl.zst").write_bytes(b"hello"), "events.jsonl.zst: not a zstd stream"),
+    # the report drew the motion targets and areas of the records before the cut
+    (lambda d: (d / "trace.jsonl.zst").write_bytes((d / "trace.jsonl.zst").read_bytes()[:-20]),
+     "trace.jsonl.zst: cut off: the zstd stream ends before its end"),
     (lambda d: write_lines(d / "events.jsonl.zst", ['{"t": 1, "robot": "robot_1", "event": "state", "from": "WAITING"}']),
      "events.jsonl.zst:1: state event without to"),
 ])

@@ -6,6 +6,7 @@ from __future__ import annotations
 import tomllib
 from dataclasses import replace
 
+import pytest
 from hypothesis import given, settings
 
 import vcran
@@ -228,3 +229,19 @@ def test_s4_the_search_finds_a_manager_that_forgets_a_job_after_a_motion_failure
     again = parse(tomllib.loads(dumps(loop_dict(finding.scenario))), "<saved>")  # what vcran fuzz --save writes
     assert again.faults == finding.scenario.faults and check_jobs_ended(vcran.simulate(again, manager=ForgetsMotionFailures))
     assert fuzz_manager(LANE, Dispatcher, examples=150, seed=1, max_jobs=2, horizon=30.0, settle=120.0) is None
+
+
+def test_loop_variants_of_a_path_and_a_negative_bound_are_clear_errors():
+    """vcran.simulate takes a path, so a user passes one here too: it was "AttributeError: 'str' object has
+    no attribute 'job_stream'" from inside hypothesis. A negative bound listed every robot, over stretches
+    'from t=24.81 to t=24.1'."""
+    @given(loop_variants("scenarios/warehouse.toml"))  # type: ignore[arg-type]
+    def drawn(scenario):
+        pass
+
+    with pytest.raises(TypeError, match=r"loop_variants: base must be a vcran.Scenario \(vcran.load_scenario\(path\)\), "
+                                        "got str 'scenarios/warehouse.toml'"):
+        drawn()
+    result = vcran.simulate(ROOT / "scenarios" / "warehouse.toml")
+    with pytest.raises(ValueError, match="bound must be a number of seconds >= 0, got -1"):
+        check_no_idle_while_waiting(result, bound=-1)

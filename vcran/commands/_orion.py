@@ -30,6 +30,7 @@ def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     from transports.orion.client import OrionClient, Tenant
 
     check_url("--orion", args.orion, ("http", "https"))
+    check_scope(args.service, args.service_path)
     token = os.environ.get(TOKEN_ENV) or None
     if args.token_file is not None:
         try:
@@ -38,6 +39,25 @@ def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
             raise CommandError(f"cannot read --token-file {args.token_file}: "
                                f"{getattr(exc, 'strerror', None) or 'not UTF-8 text'}") from None
     return OrionClient(args.orion, Tenant(args.service, args.service_path, token))
+
+
+def check_scope(service: str | None, service_path: str | None) -> None:
+    """A CommandError for a tenant or service path Orion refuses in every request vcran makes (400), by
+    Orion's own rules (:mod:`vcran.core.orion_rules`, which vcran's broker applies): they would otherwise
+    look like an Orion that is down, for the whole run. vcran writes entities, so one plain path."""
+    from vcran.core.orion_rules import service_path_error, split_service_paths, tenant_error, update_service_path_error
+
+    if service is not None:
+        error = tenant_error(service.lower())
+        if error is not None:
+            raise CommandError(f"--service {service!r}: {error}")
+    if service_path is not None and service_path.strip():
+        paths = split_service_paths(service_path)
+        error = service_path_error(paths[0]) if len(paths) == 1 else None
+        if error is None and (len(paths) > 1 or update_service_path_error(paths[0]) is not None):
+            error = "Bad Character in Service-Path (vcran writes entities: one plain path)"
+        if error is not None:
+            raise CommandError(f"--service-path {service_path!r}: {error}")
 
 
 def check_url(option: str, url: str, schemes: tuple[str, ...]) -> SplitResult:

@@ -118,6 +118,8 @@ class JobBook:
         }
 
     def _open(self, job: Job | str, what: str) -> JobRecord:
+        if not isinstance(job, Job | str):
+            raise TypeError(f"a job is a vcran.Job or its id, got {type(job).__name__}")
         key = job if isinstance(job, str) else job.id
         record = self._records.get(key)
         if record is None:

@@ -17,10 +17,14 @@ Orion in wall-clock time: only the handle differs. Everything here is pure (no S
 
 from __future__ import annotations
 
+import json
+import math
+import numbers
 import random
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any, ClassVar, cast
 
 from vcran.core import build
 from vcran.core.ids import Id
@@ -49,7 +53,10 @@ class Fleet:
 
     @classmethod
     def of(cls, scenario: Scenario) -> Fleet:
-        return cls(scenario.robots, scenario.stations, scenario.settings, scenario.link)
+        """The scenario's fleet, read-only: its one mutable part, ``settings.durations``, is the model's
+        too, so a manager writing to it changed the simulated actions and the caller's scenario."""
+        durations = cast(dict[str, float], MappingProxyType(dict(scenario.settings.durations)))
+        return cls(scenario.robots, scenario.stations, replace(scenario.settings, durations=durations), scenario.link)
 
     @property
     def robot_ids(self) -> tuple[str, ...]:
@@ -127,6 +134,8 @@ class Handle:
         """Call ``fn(*args, **kwargs)`` ``delay`` seconds from now."""
         if delay < 0:
             raise ValueError(f"negative delay {delay}")
+        if not math.isfinite(delay):  # NaN passes the test above; inf would never run
+            raise ValueError(f"call_later: the delay must be a finite number of seconds, got {delay}")
         return self.call_at(self.now + delay, fn, *args, **kwargs)
 
     def send(self, robot: str, message: Message) -> None:
@@ -141,6 +150,10 @@ class Handle:
         """Write an NGSI attribute as JSON, decoded (and maybe rejected, R12) by the RAN like a live one."""
         if attribute not in INBOUND:
             raise ValueError(f"unknown inbound attribute {attribute!r}; known: {', '.join(INBOUND)}")
+        try:  # what no Orion client can send (the live one refuses NaN too): refused here, in the hook
+            json.dumps(value, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"send_raw: the value is not JSON: {exc}") from None
         self._write(self._robot(robot), attribute, None, value)
 
     def cancel(self, robot: str, task: Id | str) -> None:
@@ -169,11 +182,14 @@ class Handle:
         ``job_assigned`` event; the job's robot becomes ``robot``).
         """
         self._robot(robot)
-        self._tasks_sent += 1
-        name = task if task is not None else f"{self._task_prefix}{self._tasks_sent}"
+        _check_task(path, actions)
+        if not (every >= 0 and math.isfinite(every)):  # refused before the first message goes out, not after
+            raise ValueError(f"send_task: every must be a finite number of seconds >= 0, got {every}")
+        name = task if task is not None else f"{self._task_prefix}{self._tasks_sent + 1}"
         messages = build.task(name, path, actions, max_velocity=max_velocity, stamp=self.now, every=every)
         if job is not None:
             self._jobs.assigned(self.now, job, robot, name)
+        self._tasks_sent += 1  # only for a task that goes out: a refused one leaves the numbering as it was
         for k, message in enumerate(messages):
             if k == 0 or every == 0:
                 self.send(robot, message)
@@ -183,7 +199,7 @@ class Handle:
 
     def pose(self, robot: str) -> tuple[float, float, float]:
         """``robot``'s latest known pose ``(x, y, theta)``: from ``current_motion``, or its start pose."""
-        motion = self.latest(robot, "current_motion")
+        motion = self.latest(self._robot(robot), "current_motion")
         if isinstance(motion, Motion):
             p = motion.current_position.pose
             return p.position.x, p.position.y, p.orientation.yaw()
@@ -196,11 +212,39 @@ class Handle:
     def job_failed(self, job: Job | str, reason: str) -> None:
         """Report ``job`` failed for ``reason`` (a ``job_failed`` event); use one of
         :data:`vcran.core.jobs.FAILURE_REASONS` where one fits (``"timeout"``, ``"action_failed"``, ...)."""
+        if not isinstance(reason, str):  # it is written to events.jsonl and JobRecord.reason as a string
+            raise TypeError(f"job_failed: reason must be a string, got {type(reason).__name__}")
         self._jobs.failed(self.now, job, reason)
 
     def _robot(self, robot: str) -> str:
         self.fleet.robot(robot)  # a write to an entity Orion does not hold fails (Orion answers 404)
         return robot
+
+
+def _check_task(path: Any, actions: Any) -> None:
+    """A path of ``(x, y)`` or ``(x, y, theta)`` points and a list of action names, or a clear error
+    naming what is wrong: the task builder would fail deep inside ('tuple index out of range'), or take a
+    string apart letter by letter ("'l' is not a valid ActionKind")."""
+    if isinstance(path, str | bytes):
+        raise TypeError(f"send_task: path is a list of points (x, y) or (x, y, theta), got the string {path!r}")
+    if isinstance(actions, str | bytes):
+        raise TypeError(f"send_task: actions is a list of action names, e.g. ['load']; got the string {actions!r}")
+    for k, point in enumerate(path):
+        if not _is_point(point):
+            raise ValueError(f"send_task: path[{k}]: expected (x, y) or (x, y, theta), got {point!r}")
+
+
+def _is_point(point: Any) -> bool:
+    """Two or three coordinates (a tuple, a list, a numpy row), numbers all but a theta of None."""
+    if isinstance(point, str | bytes) or not hasattr(point, "__getitem__") or not hasattr(point, "__len__"):
+        return False
+    n = len(point)
+    return n in (2, 3) and _is_number(point[0]) and _is_number(point[1]) and (n == 2 or point[2] is None
+                                                                              or _is_number(point[2]))
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
 class FleetManager:

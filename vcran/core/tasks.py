@@ -7,8 +7,10 @@ known once R3 holds, which is also the moment the whole path can go to the AGV.
 
 from __future__ import annotations
 
+import io
 import pickle
 import struct
+import threading
 from array import array
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -97,7 +99,29 @@ def fingerprint(a: Assignment | CancelTask) -> bytes:
     goes silent; an ended task applies nothing either way.
     """
     content = (type(a).__name__, *_flattener(type(a), "header")(a))  # only MotionAssignment has one
-    return blake2b(pickle.dumps(content, protocol=5), digest_size=FINGERPRINT_SIZE).digest()
+    return blake2b(_pickled(content), digest_size=FINGERPRINT_SIZE).digest()
+
+
+_PICKLERS = threading.local()
+
+
+def _pickled(content: tuple[Any, ...]) -> bytes:
+    """``content`` pickled without pickle's memo: with it, a bytes or str object met twice is written the
+    second time as a reference to the first, so equal contents held by one object or by two equal ones
+    (a built motion's point_id and motion_id are one Id; decoded from the wire they are two) pickled, and
+    hashed, differently. Without it the bytes depend on the values alone (a flat tuple: no cycles). One
+    pickler per thread, reused: making one per call took fingerprint() from 2.1 to 2.8 µs, reusing it 2.2."""
+    try:
+        out, pickler = _PICKLERS.pair
+    except AttributeError:
+        out = io.BytesIO()
+        pickler = pickle.Pickler(out, protocol=5)
+        pickler.fast = True  # no memo
+        _PICKLERS.pair = out, pickler
+    out.seek(0)
+    out.truncate()
+    pickler.dump(content)
+    return out.getvalue()
 
 
 def assignment_id(a: Assignment) -> Id:

@@ -80,6 +80,9 @@ def load(path: str | Path) -> Scenario:
 
 def parse(data: dict[str, Any], source: str = "<scenario>", default_name: str = "scenario") -> Scenario:
     """The scenario in ``data`` (a TOML document as read by tomllib); ``source`` names it in errors."""
+    if not isinstance(data, dict):  # TOML text itself, most likely: "<scenario>: : expected a table, got str"
+        raise ScenarioError(f"{source}: expected the scenario as a table (a dict, as tomllib.loads(text) gives), "
+                            f"got {type(data).__name__}")
     return read(Table(data, source, ""), default_name)
 
 

@@ -203,6 +203,41 @@ class _Batched(io.RawIOBase):
         super().close()
 
 
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+
+
+def zst_cut_off(path: Path) -> bool:
+    """Whether the zstd file ``path`` ends before its last frame does (a ValueError if it is no zstd
+    stream at all). A truncated stream reads as a shorter one, without an error: cut at a block boundary
+    it even ends with a whole line. Walks the block headers (a seek per 128 kB block), decompressing nothing."""
+    import zstandard
+
+    size = path.stat().st_size
+    pos = 0
+    with path.open("rb") as f:
+        while pos < size:
+            f.seek(pos)
+            head = f.read(18)  # a frame header is at most 18 bytes
+            if head[:4] != ZSTD_MAGIC[: len(head)]:
+                raise ValueError(f"{path}: not a zstd stream")
+            try:
+                pos += zstandard.frame_header_size(head)
+                checksum = zstandard.get_frame_parameters(head).has_checksum
+            except zstandard.ZstdError:  # the magic number, and the file ends inside the header
+                return True
+            last = False
+            while not last:
+                f.seek(pos)
+                block = f.read(3)
+                if len(block) < 3:
+                    return True
+                bits = int.from_bytes(block, "little")
+                last, kind = bool(bits & 1), (bits >> 1) & 3
+                pos += 3 + (1 if kind == 1 else bits >> 3)  # an RLE block holds one byte
+            pos += 4 if checksum else 0
+    return pos > size or size == 0
+
+
 def open_input(path: Path) -> IO[bytes]:
     """Read ``path``, decompressing a ``.zst`` file as it is read."""
     if path.suffix != ".zst":
@@ -467,6 +502,9 @@ def event_records(path: Path, *, cut_off: bool = False) -> Iterator[Any]:
     """The events of ``events.jsonl.zst`` (or format 1's ``events.jsonl``), fields without a value left out
     (a line that is JSON but no object is passed through, for the caller to name). ``cut_off``: the
     recording was killed; it ends at its last whole line."""
+    if not cut_off and path.suffix == ".zst" and zst_cut_off(path):
+        raise ValueError(f"{path}: cut off: the zstd stream ends before its end (the file was truncated or its "
+                         "run killed)")
     with open_input(path) as f:
         for n, line in enumerate(whole_lines(f) if cut_off else f, start=1):
             try:

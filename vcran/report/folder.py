@@ -29,6 +29,7 @@ from vcran.io.trace import (
     robots_of,
     samples,
     trace_in,
+    zst_cut_off,
 )
 
 FILES = ("summary.json",)  # and a trace with its events and leg log (or format 1's telemetry)
@@ -132,6 +133,8 @@ def read_run(path: Path) -> Run:
     if missing:
         raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
     with _reading(trace):
+        if trace.suffix == ".zst" and zst_cut_off(trace):  # a finished run's trace (it has a summary), cut short
+            raise ValueError(f"{trace}: cut off: the zstd stream ends before its end (the file was truncated)")
         header = read_header(trace)
         ids = robots_of(header)
         configs = {r["id"]: r for r in header["fleet"]["robots"]}

@@ -15,6 +15,8 @@ no update other than periodic telemetry still on its way to the manager (:attr:`
 
 from __future__ import annotations
 
+import inspect
+import math
 import random
 from collections.abc import Callable, Iterator
 from typing import Any, Protocol
@@ -24,7 +26,7 @@ import simpy
 from vcran.core.build import motion_message
 from vcran.core.jobs import JobBook, Log
 from vcran.core.manager import Fleet, FleetManager, Handle, Timer
-from vcran.core.messages import Message, Time
+from vcran.core.messages import OUTBOUND, Message, Time
 from vcran.core.scenario import Job, Scenario
 from vcran.core.wire import Deliver, Frame, Outbound, Transport
 from vcran.sim.link import Link
@@ -178,11 +180,25 @@ class ClosedLoop(Transport):
 
     def _run(self, fn: Callable[..., Any], args: tuple[Any, ...], kwargs: dict[str, Any], what: str) -> None:
         try:
-            fn(*args, **kwargs)
+            returned = fn(*args, **kwargs)
+            if returned is not None and (inspect.isgenerator(returned) or inspect.isawaitable(returned)):
+                _refuse_waiting(returned, what)
         except Exception as exc:
             assert self.handle is not None
             exc.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
             raise
+
+
+def _refuse_waiting(returned: Any, what: str) -> None:
+    """A hook or timer that returned a generator (a SimPy habit: ``yield`` to wait) or a coroutine
+    (``async def``) did nothing at all; say so instead of silently dropping its work."""
+    kind = "generator" if inspect.isgenerator(returned) else "coroutine" if inspect.iscoroutine(returned) else "awaitable"
+    close = getattr(returned, "close", None)
+    if close is not None:
+        close()  # no "never awaited" warning on top of the error
+    name = what.removeprefix("timer ")
+    raise TypeError(f"{name} returned a {kind}: hooks and timers run to the end at one simulated instant; to wait, "
+                    "schedule a callback (self.handle.call_later) instead of yield or await")
 
 
 class SimHandle(Handle):
@@ -201,6 +217,8 @@ class SimHandle(Handle):
         self._loop.link.write(robot, attribute, message, raw)
 
     def call_at(self, when: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
+        if not math.isfinite(when):  # a NaN breaks the order of SimPy's event heap; inf never comes
+            raise ValueError(f"call_at({when}): not a finite time")
         if when < self.env.now:
             raise ValueError(f"call_at({when}): that is in the past (now {self.env.now})")
         timer = _SimTimer(when, self._loop)
@@ -209,7 +227,9 @@ class SimHandle(Handle):
         return timer
 
     def latest(self, robot: str, attribute: str) -> Message | None:
-        return self._loop.latest(robot, attribute)
+        if attribute not in OUTBOUND:  # what the manager writes is not kept: None for ever, say so instead
+            raise ValueError(f"latest: {attribute!r} is not an attribute robots publish; known: {', '.join(OUTBOUND)}")
+        return self._loop.latest(self._robot(robot), attribute)
 
 
 class _SimTimer(Timer):

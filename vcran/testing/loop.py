@@ -134,6 +134,9 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
     """``base`` with a drawn workload (listed jobs; its stream dropped), station stock, link and up to
     ``max_faults`` faults (added to ``base``'s own; 0: none drawn). The run lasts ``horizon + settle``
     simulated seconds at most and ends early once idle."""
+    if not isinstance(base, Scenario):  # vcran.simulate takes a path; this needs the scenario to vary
+        raise TypeError(f"loop_variants: base must be a vcran.Scenario (vcran.load_scenario(path)), got "
+                        f"{type(base).__name__} {base!r}")
     pickups, dropoffs = workload_stations(base)
     if base.settings.duration is not None:  # a job or fault after the end never happens: it fails to load
         horizon = min(horizon, base.settings.duration)  # (docs/scenarios.md), so a saved failure would too
@@ -184,6 +187,8 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     not idle, and a job whose task was cancelled on a robot whose link was down waits, for the manager,
     only from when that link is back. Such spans cut the stretches rather than lengthen them.
     """
+    if not bound >= 0:  # a negative bound reported every robot, over stretches that end before they begin
+        raise ValueError(f"check_no_idle_while_waiting: bound must be a number of seconds >= 0, got {bound}")
     end = float(result.summary["sim_time"])
     away = _fault_spans(result.events, end, UNAVAILABLE_FAULTS)
     unseen = _fault_spans(result.events, end, frozenset({"link_down"}))
