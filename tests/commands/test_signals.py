@@ -18,7 +18,7 @@ import pytest
 from tests.conftest import read_lines
 from tests.transports.test_live import DEMO, broker_process, vcran, wait_until  # noqa: F401 - a fixture
 from vcran.cli import main
-from vcran.commands._signals import StopSignals, Terminated
+from vcran.commands._signals import REPEAT_WINDOW, StopSignals, Terminated
 from vcran.io.gen import generate
 
 
@@ -49,8 +49,25 @@ def test_run_stops_at_a_signal_with_complete_outputs(tmp_path, signum, code, del
     assert main(["replay", str(out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
+class Clock:
+    """``time.monotonic`` as the signal handlers see it, moved by hand."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+@pytest.fixture
+def clock(monkeypatch):
+    c = Clock()
+    monkeypatch.setattr("vcran.commands._signals.time.monotonic", c)
+    return c
+
+
 @pytest.mark.parametrize(("signum", "raised"), [(signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, Terminated)])
-def test_a_second_signal_stops_at_once(signum, raised):
+def test_a_second_signal_stops_at_once(signum, raised, clock):
     """The safety net when the safe point never comes (an instant that never ends, as a random fault
     source with mtbf = 1e-300 made before the loader refused it): the first signal only asks, the second
     raises at once, whatever the run is doing (exit 130 or 143, docs/outputs.md)."""
@@ -58,9 +75,27 @@ def test_a_second_signal_stops_at_once(signum, raised):
     with pytest.raises(raised), StopSignals(lambda: asked.append(1)) as signals:
         signal.raise_signal(signum)
         assert (signals.requested, asked) == (signum, [1])  # asked, nothing raised
+        clock.now += REPEAT_WINDOW
         signal.raise_signal(signum)
         pytest.fail("the second signal did not stop it")
     assert signal.getsignal(signum) is before  # the handlers are given back
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_one_signal_delivered_twice_is_one_request(signum, clock):
+    """``timeout 60 vcran live ...``: timeout(1) sends SIGTERM to vcran and then to its process group, so vcran
+    can see it twice, microseconds apart; taken as "stop now", the run ended "interrupted" with its outputs
+    left in DIR.incomplete (found by a fresh-user review). The same signal within REPEAT_WINDOW is the first
+    one again; another signal, even at once, is a second request."""
+    asked = []
+    with StopSignals(lambda: asked.append(1)) as signals:
+        signal.raise_signal(signum)
+        clock.now += REPEAT_WINDOW / 2
+        signal.raise_signal(signum)  # the same request: nothing raised, not asked again
+        assert (signals.requested, asked) == (signum, [1])
+        other = signal.SIGTERM if signum == signal.SIGINT else signal.SIGINT
+        with pytest.raises(KeyboardInterrupt):
+            signal.raise_signal(other)
 
 
 def test_live_ends_normally_on_sigterm(broker_process, tmp_path):  # noqa: F811 - the fixture

@@ -6,7 +6,11 @@ inside a file write it leaves a telemetry row half written. SIGTERM, unhandled, 
 contents of its output buffers. So within :class:`StopSignals` both only record the request (and call
 ``on_request``, which must be safe in a signal handler); the command stops at its next safe point and
 finishes its outputs. A second signal means "now": it raises KeyboardInterrupt (exit 130, or 143 for
-SIGTERM). Outside such a block, the CLI makes SIGTERM end any command as Ctrl-C does.
+SIGTERM). The same signal again within :data:`REPEAT_WINDOW` of the first is not a second request but the
+first delivered twice: ``timeout(1)`` sends its SIGTERM to the command and then to its own process group,
+and a wrapper forwarding Ctrl-C to a child in the terminal's group does the same, so ``timeout 60 vcran
+live ...`` sometimes (when the handler ran between the two) stopped at once, its outputs left incomplete.
+Outside such a block, the CLI makes SIGTERM end any command as Ctrl-C does.
 
 Exit codes (docs/live.md, docs/outputs.md): ``live`` and ``broker`` end this way normally and exit 0;
 ``run`` and ``send`` stopped early exit 128 + the signal number (130 for SIGINT, 143 for SIGTERM), as a
@@ -17,12 +21,15 @@ from __future__ import annotations
 
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType, TracebackType
 from typing import Any
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
+#: Seconds (monotonic, wall-clock) within which the same signal again is taken as the first delivered twice.
+REPEAT_WINDOW = 1.0
 
 
 class Terminated(KeyboardInterrupt):
@@ -50,6 +57,7 @@ class StopSignals:
     def __init__(self, on_request: Callable[[], None] | None = None) -> None:
         self.on_request = on_request
         self.requested: int | None = None
+        self._asked_at = 0.0
         self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> StopSignals:
@@ -64,9 +72,12 @@ class StopSignals:
         self._previous.clear()
 
     def _handle(self, signum: int, _frame: FrameType | None) -> None:
+        now = time.monotonic()
         if self.requested is not None:
+            if signum == self.requested and now - self._asked_at < REPEAT_WINDOW:
+                return  # the first one again (a process-group kill, timeout(1)): still a request to stop
             raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt  # a second one: now
-        self.requested = signum
+        self.requested, self._asked_at = signum, now
         if self.on_request is not None:
             self.on_request()
 
