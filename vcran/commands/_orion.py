@@ -29,7 +29,11 @@ def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     not a fault retried forever; a well-formed URL where nothing answers is Orion being down (retried)."""
     from transports.orion.client import OrionClient, Tenant
 
-    check_url("--orion", args.orion, ("http", "https"))
+    parts = check_url("--orion", args.orion, ("http", "https"))
+    if parts.path.rstrip("/").lower().endswith("/v2"):  # every request would go to /v2/v2/...: 400 for the whole run
+        base = args.orion.rstrip("/")[: -len("/v2")]
+        raise CommandError(f"--orion {args.orion!r}: give Orion's base URL, without /v2 (vcran adds /v2/entities "
+                           f"and the rest itself): {base}")
     check_scope(args.service, args.service_path)
     token = os.environ.get(TOKEN_ENV) or None
     if args.token_file is not None:
