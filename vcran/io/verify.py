@@ -58,7 +58,7 @@ class Difference:
     file: str
     t: float | None
     robot: str | None
-    attribute: str | None
+    attribute: str | None  # for the events file: the event's name
     path: str
     expected: Any
     got: Any
@@ -68,7 +68,7 @@ class Difference:
             part for part in (
                 f"t={self.t!r}" if self.t is not None else "",
                 f"robot={self.robot}" if self.robot else "",
-                f"attribute={self.attribute}" if self.attribute else "",
+                f"{'event' if self.file.startswith('events') else 'attribute'}={self.attribute}" if self.attribute else "",
             ) if part
         )
         field = f" field {self.path}" if self.path else ""
