@@ -3,6 +3,7 @@ the reference dispatcher, and the search shrinks a failure to a minimal scenario
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import replace
 
@@ -21,6 +22,7 @@ from vcran.testing.loop import (
     check_jobs_ended,
     check_no_idle_while_waiting,
     check_protocol,
+    fault_lists,
     fuzz_manager,
     loop_variants,
 )
@@ -245,3 +247,25 @@ def test_loop_variants_of_a_path_and_a_negative_bound_are_clear_errors():
     result = vcran.simulate(ROOT / "scenarios" / "warehouse.toml")
     with pytest.raises(ValueError, match="bound must be a number of seconds >= 0, got -1"):
         check_no_idle_while_waiting(result, bound=-1)
+
+
+@pytest.mark.parametrize(("strategy", "says"), [
+    (lambda base: loop_variants(base, max_jobs=0), "max_jobs must be at least 1, got 0"),
+    (lambda base: loop_variants(base, horizon=float("inf")), "horizon must be a finite number of seconds >= 0, got inf"),
+    (lambda base: loop_variants(base, horizon=-1.0), "horizon must be a finite number of seconds >= 0, got -1.0"),
+    (lambda base: fault_lists(["robot_1"], max_faults=-1), "max_faults must be at least 0, got -1"),
+    (lambda base: fault_lists(["robot_1"], horizon=float("nan")), "horizon must be a finite number of seconds >= 0, got nan"),
+])
+def test_strategy_options_out_of_range_are_clear_errors(strategy, says):
+    """``max_jobs=0`` failed inside hypothesis (min_size=1 > max_size=0), ``horizon=inf`` with an
+    OverflowError (arrival tenths up to int(horizon * 10)), a negative horizon had nothing to draw from;
+    on a scenario without a duration, where the horizon is not cut to it."""
+    open_ended = replace(WAREHOUSE, settings=replace(WAREHOUSE.settings, duration=None))
+
+    @settings(max_examples=1, database=None)
+    @given(strategy(open_ended))
+    def drawn(value):
+        pass
+
+    with pytest.raises(ValueError, match=f"^{re.escape(says)}\n"):  # then hypothesis's note
+        drawn()

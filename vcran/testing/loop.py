@@ -29,6 +29,7 @@ scenario that :func:`vcran.io.scenario_toml.loop_toml` writes back as a file ``v
 
 from __future__ import annotations
 
+import math
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -77,10 +78,12 @@ def job_lists(draw: st.DrawFn, pickups: Sequence[str], dropoffs: Sequence[str], 
               horizon: float = 300.0) -> list[Job]:
     """1..``max_jobs`` jobs arriving in ``[0, horizon]``, each from a pickup to a different drop-off,
     named ``job_1``, ``job_2``, ... in arrival order."""
+    if max_jobs < 1:
+        raise ValueError(f"max_jobs must be at least 1, got {max_jobs}")
+    tenths = _tenths_within(horizon)
     pairs = [(p, d) for p in pickups for d in dropoffs if p != d]
     if not pairs:
         raise ValueError("no pickup/drop-off pair of two different stations")
-    tenths = st.integers(0, int(horizon * 10)).map(lambda k: k / 10)  # integers shrink in few steps
     drawn = draw(st.lists(st.tuples(tenths, st.sampled_from(pairs)), min_size=1, max_size=max_jobs))
     drawn.sort(key=lambda item: item[0])
     return [Job(t, f"job_{n}", p, d) for n, (t, (p, d)) in enumerate(drawn, start=1)]
@@ -114,13 +117,22 @@ def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JIT
 FAULT_DURATIONS = (5.0, 20.0, 45.0)
 
 
+def _tenths_within(horizon: float) -> st.SearchStrategy[float]:
+    """Instants in ``[0, horizon]`` at tenths of a second, drawn as integers (they shrink in few steps)."""
+    if not (math.isfinite(horizon) and horizon >= 0):  # int(inf * 10) overflowed; a negative one has nothing
+        raise ValueError(f"horizon must be a finite number of seconds >= 0, got {horizon}")
+    return st.integers(0, int(horizon * 10)).map(lambda k: k / 10)
+
+
 @st.composite
 def fault_lists(draw: st.DrawFn, robots: Sequence[str], *, max_faults: int = 4, horizon: float = 300.0,
                 kinds: Sequence[str] = RANDOM_KINDS, durations: Sequence[float] = FAULT_DURATIONS) -> list[FaultSpec]:
     """0..``max_faults`` faults (SPEC §4) in ``[0, horizon]``, in time order. ``kinds`` defaults to what
     breaks without an operator (breakdown, motion_failure, action_failure, link_down; a pause without its
     resume would hold a robot for good, which no manager can mend). Shrinks towards no fault."""
-    tenths = st.integers(0, int(horizon * 10)).map(lambda k: k / 10)
+    if max_faults < 0:
+        raise ValueError(f"max_faults must be at least 0, got {max_faults}")
+    tenths = _tenths_within(horizon)
     drawn = draw(st.lists(st.tuples(tenths, st.sampled_from(list(robots)), st.sampled_from(list(kinds)),
                                     st.sampled_from(list(durations))), max_size=max_faults))
     drawn.sort(key=lambda item: item[0])
