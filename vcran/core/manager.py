@@ -23,8 +23,7 @@ import numbers
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from types import MappingProxyType
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar, NoReturn
 
 from vcran.core import build
 from vcran.core.ids import Id
@@ -34,6 +33,22 @@ from vcran.core.scenario import Job, LinkSettings, RobotConfig, Scenario, Settin
 
 #: Inbound message type -> the attribute it is written to.
 ATTRIBUTE_OF: dict[type[Message], str] = {cls: name for name, cls in INBOUND.items()}
+
+
+class ReadOnlyDict(dict[str, float]):
+    """A dict that refuses every write: the fleet's ``settings.durations`` (SPEC §9). A dict still, so the
+    fleet pickles, deep-copies (a copy read-only too), goes to ``json.dumps`` and ``dataclasses.asdict`` as
+    before it was read-only, which a ``MappingProxyType`` could not; ``dict(d)`` is a copy one may change."""
+
+    def _refuse(self, *_args: Any, **_kwargs: Any) -> NoReturn:
+        raise TypeError("the fleet is read-only: its settings.durations does not support item assignment "
+                        "(dict(self.fleet.settings.durations) is a copy you may change)")
+
+    __setitem__ = __delitem__ = __ior__ = _refuse  # type: ignore[assignment]
+    clear = pop = popitem = setdefault = update = _refuse  # type: ignore[assignment]
+
+    def __reduce__(self) -> tuple[type[ReadOnlyDict], tuple[dict[str, float]]]:
+        return type(self), (dict(self),)  # not dict's own, which refills the copy item by item
 
 
 @dataclass(frozen=True)
@@ -55,7 +70,7 @@ class Fleet:
     def of(cls, scenario: Scenario) -> Fleet:
         """The scenario's fleet, read-only: its one mutable part, ``settings.durations``, is the model's
         too, so a manager writing to it changed the simulated actions and the caller's scenario."""
-        durations = cast(dict[str, float], MappingProxyType(dict(scenario.settings.durations)))
+        durations = ReadOnlyDict(scenario.settings.durations)
         return cls(scenario.robots, scenario.stations, replace(scenario.settings, durations=durations), scenario.link)
 
     @property
