@@ -272,3 +272,20 @@ def test_the_read_only_fleet_still_copies_pickles_and_serialises():
         with pytest.raises(TypeError, match="read-only"):
             write(fleet.settings.durations)
     assert fleet.settings.durations == durations
+
+
+def test_a_path_as_a_numpy_array_or_any_iterable_is_the_same_task():
+    """A planner's path as an (n, 2) numpy array ('The truth value of an array with more than one element
+    is ambiguous', from inside the task builder), or a generator (consumed by the point check, then 'has no
+    len()'), is the task the same points as a list give: the handle takes the points, as its check says
+    (SPEC §9, docs/library.md)."""
+    import numpy as np
+
+    points = [(2.0, 2.0), (3.0, 2.0)]
+    given = [points, np.array(points), (p for p in points), tuple(points)]
+    runs = []
+    for path in given:
+        result = vcran.simulate(scenario(), manager=Probe(lambda h, path=path: h.send_task("robot_1", path, ["dummy"])))
+        runs.append([e for e in result.events if e["event"] in ("task_queued", "motion_finished", "task_completed")])
+    assert runs[0][-1] == {"t": runs[0][-1]["t"], "robot": "robot_1", "event": "task_completed", "task": "task_1"}
+    assert all(run == runs[0] for run in runs)

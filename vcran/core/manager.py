@@ -197,7 +197,7 @@ class Handle:
         ``job_assigned`` event; the job's robot becomes ``robot``).
         """
         self._robot(robot)
-        _check_task(path, actions)
+        path, actions = _check_task(path, actions)
         if not (every >= 0 and math.isfinite(every)):  # refused before the first message goes out, not after
             raise ValueError(f"send_task: every must be a finite number of seconds >= 0, got {every}")
         name = task if task is not None else f"{self._task_prefix}{self._tasks_sent + 1}"
@@ -236,17 +236,21 @@ class Handle:
         return robot
 
 
-def _check_task(path: Any, actions: Any) -> None:
-    """A path of ``(x, y)`` or ``(x, y, theta)`` points and a list of action names, or a clear error
-    naming what is wrong: the task builder would fail deep inside ('tuple index out of range'), or take a
-    string apart letter by letter ("'l' is not a valid ActionKind")."""
+def _check_task(path: Any, actions: Any) -> tuple[list[Any], list[Any]]:
+    """The points of ``path``, each ``(x, y)`` or ``(x, y, theta)``, and the action names, as lists, or a
+    clear error naming what is wrong: the task builder would fail deep inside ('tuple index out of range'),
+    or take a string apart letter by letter ("'l' is not a valid ActionKind"). Lists, so that any iterable
+    of points is a path: a numpy array (whose truth value the builder asked for), a generator (which the
+    check here would have used up)."""
     if isinstance(path, str | bytes):
         raise TypeError(f"send_task: path is a list of points (x, y) or (x, y, theta), got the string {path!r}")
     if isinstance(actions, str | bytes):
         raise TypeError(f"send_task: actions is a list of action names, e.g. ['load']; got the string {actions!r}")
-    for k, point in enumerate(path):
+    points, kinds = list(path), list(actions)
+    for k, point in enumerate(points):
         if not _is_point(point):
             raise ValueError(f"send_task: path[{k}]: expected (x, y) or (x, y, theta), got {point!r}")
+    return points, kinds
 
 
 def _is_point(point: Any) -> bool:
