@@ -116,3 +116,19 @@ def test_a_campaign_option_that_is_not_a_positive_number_is_a_usage_error(option
     scenario.write_text(dumps(loop_dict(open_ended)))
     assert main(["fuzz", str(scenario), "--examples", "1", option, value]) == 2
     assert f"{option} must be a positive number, got {value}" in capsys.readouterr().err
+
+
+def test_a_horizon_too_large_to_count_in_tenths_is_a_usage_error(tmp_path, capsys):
+    """``--horizon 1e308`` passed the positive-and-finite check, then ``int(horizon * 10)`` overflowed in the
+    job strategy: 'internal error', exit 70, as ``--horizon inf`` did (SPEC §9, §8)."""
+    from dataclasses import replace
+
+    import vcran
+    from vcran.io.scenario_toml import dumps, loop_dict
+
+    warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    open_ended = replace(warehouse, robots=warehouse.robots[:2], settings=replace(warehouse.settings, duration=None))
+    scenario = tmp_path / "open.toml"
+    scenario.write_text(dumps(loop_dict(open_ended)))
+    assert main(["fuzz", str(scenario), "--examples", "1", "--horizon", "1e308"]) == 2
+    assert "--horizon 1e+308 is too large: instants are drawn at tenths of a second up to it" in capsys.readouterr().err

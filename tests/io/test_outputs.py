@@ -341,3 +341,26 @@ def test_an_events_file_cut_off_is_an_error_not_fewer_events(tmp_path):  # §6, 
     path.write_bytes(b"hello")
     with pytest.raises(ValueError, match="events.jsonl.zst: not a zstd stream"):
         list(event_records(path))
+
+
+def test_a_zstd_file_with_skippable_frames_is_whole_not_a_foreign_file(tmp_path):  # §6, §8
+    """zstd's skippable frames (pzstd writes one before each frame) are part of a valid stream, which the
+    reader always read; the cut-off check called such a file 'not a zstd stream'. One cut inside a
+    skippable frame is cut off, and a raw block or an RLE one (one byte for many) are walked over too."""
+    import zstandard
+
+    from vcran.io.trace import event_records, zst_cut_off
+
+    line = b'{"t": 1.0, "robot": "r", "event": "task_queued", "task": "A"}\n'
+    frame = zstandard.ZstdCompressor(write_checksum=True).compress(line)
+    skip = b"\x5a\x2a\x4d\x18" + (5).to_bytes(4, "little") + b"vcran"
+    rle = b"\x28\xb5\x2f\xfd\x20\x03" + (1 | 1 << 1 | 3 << 3).to_bytes(3, "little") + b" "  # 3 spaces
+    raw = b"\x28\xb5\x2f\xfd\x20" + bytes([len(line)]) + (1 | len(line) << 3).to_bytes(3, "little") + line
+    path = tmp_path / "events.jsonl.zst"
+    whole = skip + frame + skip + raw + rle + frame
+    path.write_bytes(whole)
+    assert not zst_cut_off(path)
+    assert [e["event"] for e in event_records(path)] == ["task_queued"] * 3
+    for cut in (len(skip) - 1, len(skip) + len(frame) + 4, len(whole) - len(frame) - 1):
+        path.write_bytes(whole[:cut])
+        assert zst_cut_off(path), cut

@@ -68,6 +68,17 @@ def test_an_empty_folder_or_an_earlier_run_is_a_valid_out(tmp_path):
     assert (out / "summary.json").exists() and not (out / "report").exists()  # replaced as a whole
 
 
+
+def test_an_out_that_is_a_symlink_to_an_earlier_run_leaves_nothing_behind(tmp_path):
+    """§6: the earlier --out is renamed aside and removed once the new run is in place. A symlink's rmtree
+    fails (ignored), so ``link.replaced-PID`` stayed beside the new folder for good, a new one per run."""
+    assert main(["run", str(DEMO), "--out", str(tmp_path / "real"), "--quiet"]) == 0
+    (tmp_path / "link").symlink_to("real")
+    assert main(["run", str(DEMO), "--out", str(tmp_path / "link"), "--quiet"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real"]
+    assert (tmp_path / "link" / "summary.json").is_file() and not (tmp_path / "link").is_symlink()
+    assert (tmp_path / "real" / "summary.json").is_file()  # where the link led: not written into, not removed
+
 @pytest.mark.parametrize(("names", "vcran_output"), [
     ({"trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json"}, True),  # a run's
     ({"events.jsonl.zst", "summary.json"}, True),  # vcran manage's (docs/live.md)

@@ -241,3 +241,51 @@ def test_the_fleet_a_manager_is_given_is_read_only():
         vcran.simulate(given, manager=Quick())
     assert "in fleet manager Quick: on_start at t=0.0" in err.value.__notes__
     assert given.settings.durations == {"dummy": 1.0, "load": 5.0, "unload": 5.0}
+
+
+def test_the_read_only_fleet_still_copies_pickles_and_serialises():
+    """Read-only must not mean unusable (SPEC §9): a MappingProxyType made the fleet, and a manager holding
+    it after a run, impossible to pickle or deep-copy ("cannot pickle 'mappingproxy' object"), and its
+    durations to json.dumps or dataclasses.asdict, all of which worked before the fleet was made
+    read-only. A copy is read-only too, and writing to it leaves the original alone."""
+    import copy
+    import dataclasses
+    import json
+    import pickle
+
+    from vcran.core.manager import Fleet
+
+    fleet = Fleet.of(scenario())
+    durations = {"dummy": 1.0, "load": 5.0, "unload": 5.0}
+    assert json.loads(json.dumps(fleet.settings.durations)) == durations
+    assert dataclasses.asdict(fleet.settings)["durations"] == durations
+    for twin in (pickle.loads(pickle.dumps(fleet)), copy.deepcopy(fleet)):
+        assert twin == fleet and twin.settings.durations == durations
+        with pytest.raises(TypeError, match="does not support item assignment"):
+            twin.settings.durations["load"] = 0.0
+    mine = dict(fleet.settings.durations)  # the way to a copy one may change
+    mine["load"] = 0.0
+    assert fleet.settings.durations == durations
+    for write in (lambda d: d.update(load=0.0), lambda d: d.pop("load"), lambda d: d.setdefault("x", 1.0),
+                  lambda d: d.clear(), lambda d: d.popitem(), lambda d: d.__delitem__("load"),
+                  lambda d: d.__ior__({"load": 0.0})):
+        with pytest.raises(TypeError, match="read-only"):
+            write(fleet.settings.durations)
+    assert fleet.settings.durations == durations
+
+
+def test_a_path_as_a_numpy_array_or_any_iterable_is_the_same_task():
+    """A planner's path as an (n, 2) numpy array ('The truth value of an array with more than one element
+    is ambiguous', from inside the task builder), or a generator (consumed by the point check, then 'has no
+    len()'), is the task the same points as a list give: the handle takes the points, as its check says
+    (SPEC §9, docs/library.md)."""
+    import numpy as np
+
+    points = [(2.0, 2.0), (3.0, 2.0)]
+    given = [points, np.array(points), (p for p in points), tuple(points)]
+    runs = []
+    for path in given:
+        result = vcran.simulate(scenario(), manager=Probe(lambda h, path=path: h.send_task("robot_1", path, ["dummy"])))
+        runs.append([e for e in result.events if e["event"] in ("task_queued", "motion_finished", "task_completed")])
+    assert runs[0][-1] == {"t": runs[0][-1]["t"], "robot": "robot_1", "event": "task_completed", "task": "task_1"}
+    assert all(run == runs[0] for run in runs)

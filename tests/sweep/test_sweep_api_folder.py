@@ -250,3 +250,16 @@ def test_svg_figures_as_vcran_sweep_format_svg(tmp_path):
                  "--workers", "1", "--quiet"]) == 0
     vcran.run_sweep(narrow, workers=1, keep_runs=tmp_path / "py", fmt="svg").write(tmp_path / "py", fmt="svg")
     same_sweep_folder(tmp_path / "py", tmp_path / "cli")
+
+
+def test_write_over_its_own_folder_without_kept_runs_there(tmp_path):
+    """Dask workers without a file system shared with this machine keep their runs on theirs: the folder
+    ``keep_runs`` wrote here holds the tables and figures but no ``runs/``. Writing the result over it again
+    was a FileNotFoundError from copying the runs it does not have (SPEC §10)."""
+    import shutil
+
+    narrow = sweep_file(tmp_path, "narrow", NARROW)
+    result = vcran.run_sweep(narrow, workers=1, keep_runs=tmp_path / "o")
+    shutil.rmtree(tmp_path / "o" / "runs")  # where the runs would be, had the workers shared this disk
+    assert result.write(tmp_path / "o") == [tmp_path / "o" / name for name in ("runs.csv", "runs.parquet", FIGURE)]
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [FIGURE, "runs.csv", "runs.parquet"]

@@ -255,6 +255,9 @@ def test_loop_variants_of_a_path_and_a_negative_bound_are_clear_errors():
     (lambda base: loop_variants(base, horizon=-1.0), "horizon must be a finite number of seconds >= 0, got -1.0"),
     (lambda base: fault_lists(["robot_1"], max_faults=-1), "max_faults must be at least 0, got -1"),
     (lambda base: fault_lists(["robot_1"], horizon=float("nan")), "horizon must be a finite number of seconds >= 0, got nan"),
+    # finite, but not in tenths of a second: int(horizon * 10) overflowed as inf did
+    (lambda base: loop_variants(base, horizon=1e308), "horizon 1e+308 s is too large: instants are drawn at tenths of "
+                                                      "a second up to it"),
 ])
 def test_strategy_options_out_of_range_are_clear_errors(strategy, says):
     """``max_jobs=0`` failed inside hypothesis (min_size=1 > max_size=0), ``horizon=inf`` with an

@@ -26,6 +26,7 @@ names the one search, ``--seed S --examples M``, that finds it again in a single
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -157,6 +158,8 @@ def _loop_options(args: argparse.Namespace, base: Scenario, text: str) -> LoopOp
 
     for option, value in (("--jobs", args.jobs), ("--horizon", args.horizon), ("--idle-bound", args.idle_bound)):
         check_positive(option, value)  # inf too: the job strategy draws arrival tenths up to int(horizon * 10)
+    if not math.isfinite(args.horizon * 10):  # finite, but that overflows all the same (1e308)
+        raise CommandError(f"--horizon {args.horizon:g} is too large: instants are drawn at tenths of a second up to it")
     if base.script or base.cycles:
         raise CommandError(f"{args.scenario}: has a [[script]]; a fleet manager plays that part (remove one)")
     try:  # a manager that cannot be built fails now, not as every example's crash

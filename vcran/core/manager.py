@@ -23,8 +23,7 @@ import numbers
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from types import MappingProxyType
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar, NoReturn
 
 from vcran.core import build
 from vcran.core.ids import Id
@@ -34,6 +33,22 @@ from vcran.core.scenario import Job, LinkSettings, RobotConfig, Scenario, Settin
 
 #: Inbound message type -> the attribute it is written to.
 ATTRIBUTE_OF: dict[type[Message], str] = {cls: name for name, cls in INBOUND.items()}
+
+
+class ReadOnlyDict(dict[str, float]):
+    """A dict that refuses every write: the fleet's ``settings.durations`` (SPEC §9). A dict still, so the
+    fleet pickles, deep-copies (a copy read-only too), goes to ``json.dumps`` and ``dataclasses.asdict`` as
+    before it was read-only, which a ``MappingProxyType`` could not; ``dict(d)`` is a copy one may change."""
+
+    def _refuse(self, *_args: Any, **_kwargs: Any) -> NoReturn:
+        raise TypeError("the fleet is read-only: its settings.durations does not support item assignment "
+                        "(dict(self.fleet.settings.durations) is a copy you may change)")
+
+    __setitem__ = __delitem__ = __ior__ = _refuse  # type: ignore[assignment]
+    clear = pop = popitem = setdefault = update = _refuse  # type: ignore[assignment]
+
+    def __reduce__(self) -> tuple[type[ReadOnlyDict], tuple[dict[str, float]]]:
+        return type(self), (dict(self),)  # not dict's own, which refills the copy item by item
 
 
 @dataclass(frozen=True)
@@ -55,7 +70,7 @@ class Fleet:
     def of(cls, scenario: Scenario) -> Fleet:
         """The scenario's fleet, read-only: its one mutable part, ``settings.durations``, is the model's
         too, so a manager writing to it changed the simulated actions and the caller's scenario."""
-        durations = cast(dict[str, float], MappingProxyType(dict(scenario.settings.durations)))
+        durations = ReadOnlyDict(scenario.settings.durations)
         return cls(scenario.robots, scenario.stations, replace(scenario.settings, durations=durations), scenario.link)
 
     @property
@@ -182,7 +197,7 @@ class Handle:
         ``job_assigned`` event; the job's robot becomes ``robot``).
         """
         self._robot(robot)
-        _check_task(path, actions)
+        path, actions = _check_task(path, actions)
         if not (every >= 0 and math.isfinite(every)):  # refused before the first message goes out, not after
             raise ValueError(f"send_task: every must be a finite number of seconds >= 0, got {every}")
         name = task if task is not None else f"{self._task_prefix}{self._tasks_sent + 1}"
@@ -221,17 +236,21 @@ class Handle:
         return robot
 
 
-def _check_task(path: Any, actions: Any) -> None:
-    """A path of ``(x, y)`` or ``(x, y, theta)`` points and a list of action names, or a clear error
-    naming what is wrong: the task builder would fail deep inside ('tuple index out of range'), or take a
-    string apart letter by letter ("'l' is not a valid ActionKind")."""
+def _check_task(path: Any, actions: Any) -> tuple[list[Any], list[Any]]:
+    """The points of ``path``, each ``(x, y)`` or ``(x, y, theta)``, and the action names, as lists, or a
+    clear error naming what is wrong: the task builder would fail deep inside ('tuple index out of range'),
+    or take a string apart letter by letter ("'l' is not a valid ActionKind"). Lists, so that any iterable
+    of points is a path: a numpy array (whose truth value the builder asked for), a generator (which the
+    check here would have used up)."""
     if isinstance(path, str | bytes):
         raise TypeError(f"send_task: path is a list of points (x, y) or (x, y, theta), got the string {path!r}")
     if isinstance(actions, str | bytes):
         raise TypeError(f"send_task: actions is a list of action names, e.g. ['load']; got the string {actions!r}")
-    for k, point in enumerate(path):
+    points, kinds = list(path), list(actions)
+    for k, point in enumerate(points):
         if not _is_point(point):
             raise ValueError(f"send_task: path[{k}]: expected (x, y) or (x, y, theta), got {point!r}")
+    return points, kinds
 
 
 def _is_point(point: Any) -> bool:

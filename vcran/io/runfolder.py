@@ -112,5 +112,7 @@ def publish(work: Path, out: Path) -> None:
         old = out.with_name(f"{out.name}.replaced-{os.getpid()}")
         out.rename(old)
     work.rename(out)
-    if old is not None:
+    if old is not None and old.is_symlink():  # an --out that led elsewhere: the link goes, not what it led to
+        old.unlink()
+    elif old is not None:
         shutil.rmtree(old, ignore_errors=True)

@@ -218,6 +218,11 @@ def zst_cut_off(path: Path) -> bool:
         while pos < size:
             f.seek(pos)
             head = f.read(18)  # a frame header is at most 18 bytes
+            if len(head) >= 4 and head[0] & 0xF0 == 0x50 and head[1:4] == b"\x2a\x4d\x18":  # a skippable frame
+                pos += 8 + int.from_bytes(head[4:8], "little")  # (pzstd writes them): its length, then its bytes
+                if len(head) < 8:
+                    return True
+                continue
             if head[:4] != ZSTD_MAGIC[: len(head)]:
                 raise ValueError(f"{path}: not a zstd stream")
             try:

@@ -89,7 +89,10 @@ def figures(sweep: Sweep, rows: list[Row], out: Path, fmt: str) -> list[Path]:
 def carry_runs(old: Path, work: Path) -> None:
     """The kept runs of the sweep folder ``old`` into the staging folder ``work`` that will replace it:
     hard links where the file system allows (instant, no second copy of the traces), copies elsewhere.
-    ``old`` stays whole until :func:`finish` renames ``work`` over it."""
+    ``old`` stays whole until :func:`finish` renames ``work`` over it. None there (Dask workers without a
+    file system shared with this machine kept them on theirs): nothing to carry."""
+    if not (old / RUNS_DIR).is_dir():
+        return
     shutil.copytree(old / RUNS_DIR, work / RUNS_DIR, copy_function=_link_or_copy, symlinks=True)
 
 

@@ -121,6 +121,8 @@ def _tenths_within(horizon: float) -> st.SearchStrategy[float]:
     """Instants in ``[0, horizon]`` at tenths of a second, drawn as integers (they shrink in few steps)."""
     if not (math.isfinite(horizon) and horizon >= 0):  # int(inf * 10) overflowed; a negative one has nothing
         raise ValueError(f"horizon must be a finite number of seconds >= 0, got {horizon}")
+    if not math.isfinite(horizon * 10):  # finite, but int(horizon * 10) overflows as inf did
+        raise ValueError(f"horizon {horizon:g} s is too large: instants are drawn at tenths of a second up to it")
     return st.integers(0, int(horizon * 10)).map(lambda k: k / 10)
 
 
