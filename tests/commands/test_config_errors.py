@@ -32,6 +32,8 @@ def one_line_error(capsys, command: str) -> str:
     # Orion answered each request to /v2/v2/... 400 "Service not found", and live ran to its end as if Orion were down
     ("http://127.0.0.1:1026/v2", "without /v2 (vcran adds /v2/entities and the rest itself): http://127.0.0.1:1026"),
     ("http://127.0.0.1:1026/orion/v2/", "give Orion's base URL, without /v2"),
+    ("http://127.0.0.1:1026/v2/entities", "the rest itself): http://127.0.0.1:1026\n"),
+    ("http://127.0.0.1:1026/proxy/v2/entities/", "the rest itself): http://127.0.0.1:1026/proxy\n"),
 ])
 @pytest.mark.parametrize("command", [["live", DEMO], ["send", DEMO], ["orion", "init", DEMO]])
 def test_an_orion_url_that_cannot_work_is_refused_at_start(tmp_path, capsys, command, url, says):

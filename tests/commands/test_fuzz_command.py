@@ -115,7 +115,7 @@ def test_a_campaign_option_that_is_not_a_positive_number_is_a_usage_error(option
     scenario = tmp_path / "open.toml"
     scenario.write_text(dumps(loop_dict(open_ended)))
     assert main(["fuzz", str(scenario), "--examples", "1", option, value]) == 2
-    assert f"{option} must be a positive number, got {value}" in capsys.readouterr().err
+    assert f"{option} must be a finite number above 0, got {value}" in capsys.readouterr().err
 
 
 def test_a_horizon_too_large_to_count_in_tenths_is_a_usage_error(tmp_path, capsys):

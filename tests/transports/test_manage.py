@@ -282,10 +282,10 @@ def test_orion_going_away_while_polling_is_logged_once_and_polling_recovers(capl
 
 
 @pytest.mark.parametrize(("extra", "message"), [
-    (["--poll-interval", "0"], "--poll-interval must be a positive number, got 0"),
-    (["--poll-interval", "-1"], "--poll-interval must be a positive number, got -1"),
-    (["--poll-interval", "nan"], "--poll-interval must be a positive number, got nan"),
-    (["--poll-interval", "inf"], "--poll-interval must be a positive number, got inf"),
+    (["--poll-interval", "0"], "--poll-interval must be a finite number above 0, got 0"),
+    (["--poll-interval", "-1"], "--poll-interval must be a finite number above 0, got -1"),
+    (["--poll-interval", "nan"], "--poll-interval must be a finite number above 0, got nan"),
+    (["--poll-interval", "inf"], "--poll-interval must be a finite number above 0, got inf"),
     (["--listen", "0.0.0.0"], "--listen is where the notification listener binds: it needs --notify-url"),
     (["--notify-url", "http://127.0.0.1:1/notify", "--poll-interval", "1"],
      "--poll-interval is the polling period: without --notify-url only"),

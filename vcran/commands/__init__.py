@@ -26,7 +26,7 @@ def check_positive(option: str, value: float) -> None:
     """A CommandError (exit 2) unless ``value`` is a positive finite number: ``inf`` for a speed factor or a
     poll interval divided by zero or overflowed deep in a run, and ``nan`` compares false with everything."""
     if not (math.isfinite(value) and value > 0):
-        raise CommandError(f"{option} must be a positive number, got {value:g}")
+        raise CommandError(f"{option} must be a finite number above 0, got {value:g}")
 
 
 def check_out(path: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import sys
 from pathlib import Path
 from urllib.parse import SplitResult, urlsplit
@@ -30,8 +31,9 @@ def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     from transports.orion.client import OrionClient, Tenant
 
     parts = check_url("--orion", args.orion, ("http", "https"))
-    if parts.path.rstrip("/").lower().endswith("/v2"):  # every request would go to /v2/v2/...: 400 for the whole run
-        base = args.orion.rstrip("/")[: -len("/v2")]
+    api = _NGSI_PATH.search(parts.path)
+    if api is not None:  # every request would go to /v2/.../v2/...: 400 for the whole run, as if Orion were down
+        base = parts._replace(path=parts.path[: api.start()]).geturl()
         raise CommandError(f"--orion {args.orion!r}: give Orion's base URL, without /v2 (vcran adds /v2/entities "
                            f"and the rest itself): {base}")
     check_scope(args.service, args.service_path)
@@ -43,6 +45,10 @@ def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
             raise CommandError(f"cannot read --token-file {args.token_file}: "
                                f"{getattr(exc, 'strerror', None) or 'not UTF-8 text'}") from None
     return OrionClient(args.orion, Tenant(args.service, args.service_path, token))
+
+
+#: The NGSI v2 API at the end of a URL's path (``/v2``, ``/v2/entities/robot_1``): what vcran adds to ``--orion``.
+_NGSI_PATH = re.compile(r"/v2(/(entities|subscriptions|registrations|types|op|version)\b.*)?/*$", re.IGNORECASE)
 
 
 def check_scope(service: str | None, service_path: str | None) -> None:

@@ -25,7 +25,7 @@ def generate(robots: int, hours: float, seed: int) -> str:
     if robots < 1:
         raise ValueError(f"--robots must be at least 1, got {robots}")
     if not (hours > 0 and math.isfinite(hours)):
-        raise ValueError(f"--hours must be a positive number, got {hours}")
+        raise ValueError(f"--hours must be a finite number above 0, got {hours}")
     rng = random.Random(seed)
     duration = hours * 3600.0
     columns = math.ceil(math.sqrt(robots))
