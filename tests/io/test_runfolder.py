@@ -107,5 +107,5 @@ def test_the_folder_you_are_in_is_refused_as_out(tmp_path, monkeypatch, capsys, 
     assert "is the folder you are in, or holds it" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["work"] and [p.name for p in here.iterdir()] == ["notes.txt"]
     for absolute in (here, tmp_path):  # by any name: the folder itself or one holding it
-        with pytest.raises(RunFolderError, match="a sweep replaces its --out as a whole"):
+        with pytest.raises(RunFolderError, match="a sweep replaces its output folder as a whole"):
             staging(absolute, "sweep")

@@ -72,7 +72,7 @@ def test_a_folder_that_is_no_vcran_output_is_refused_before_anything_runs(tmp_pa
     assert main(["sweep", str(wide), "--out", str(out), "--keep-runs", "--workers", "1"]) == 2
     err = capsys.readouterr().err
     assert err == (f"vcran sweep: {out}: exists and is not a vcran output folder (a sweep's or a run's); "
-                   "refusing to write a sweep into it (choose a new --out, or remove it)\n")
+                   "refusing to write a sweep into it (choose a new output folder, or remove it)\n")
     assert calls == []
     assert snapshot(out) == {"notes.txt": b"keep me"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mydir", "wide.toml"]

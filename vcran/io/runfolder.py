@@ -73,10 +73,10 @@ def check_out(out: Path, what: str = "run") -> None:
     a run folder) or a sweep (``what="sweep"``: missing, empty, or a sweep's or a run's folder)."""
     full, here = Path(os.path.abspath(out)), Path.cwd()
     if full == here or full in here.parents:  # "--out .": it would be renamed away under the shell
-        raise RunFolderError(f"{out}: is the folder you are in, or holds it; a {what} replaces its --out as a "
-                             f"whole: name a folder inside it (e.g. --out {what}s/first)")
+        raise RunFolderError(f"{out}: is the folder you are in, or holds it; a {what} replaces its output folder "
+                             f"as a whole: name a folder inside it (e.g. {what}s/first)")
     if out.name.endswith(INCOMPLETE):
-        raise RunFolderError(f"{out}: names an unfinished {what}'s folder; choose another --out")
+        raise RunFolderError(f"{out}: names an unfinished {what}'s folder; choose another output folder")
     if not out.exists():
         return
     if not out.is_dir():
@@ -87,7 +87,7 @@ def check_out(out: Path, what: str = "run") -> None:
         kind, replaceable = "run folder", is_run_folder
     if any(out.iterdir()) and not replaceable(out):
         raise RunFolderError(f"{out}: exists and is not a vcran {kind}; refusing to write a {what} into it "
-                             "(choose a new --out, or remove it)")
+                             "(choose a new output folder, or remove it)")
 
 
 def staging(out: Path, what: str = "run") -> Path:
