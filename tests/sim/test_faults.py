@@ -10,7 +10,7 @@ import tomllib
 import pytest
 
 from tests.conftest import ROOT, run_scenario
-from tests.sim.test_scenarios import FLEET, motion
+from tests.sim.test_scenarios import FLEET, motion, script
 from vcran.core.faults import RandomFaults
 from vcran.io.scenario_file import ScenarioError, load, parse
 from vcran.io.trace import samples
@@ -135,3 +135,31 @@ def test_s4_a_random_stream_always_advances_time():
     source = RandomFaults("motion_failure", mtbf=1e-6, start=2.0**60)
     times = [f.t for f in itertools.islice(source.stream(0, "robot_1"), 5)]
     assert all(a < b for a, b in zip([source.start, *times], times)), times
+
+
+def test_s4_a_link_down_during_another_that_outlasts_it_keeps_the_link_down_to_its_own_end(run_toml):
+    """Link downs stack like holds: the link is back when the last one ends (docs/robots.md), as the closed
+    loop's Link.outage does. The RAN ignored a link_down that began while another was in force, so the
+    robot received and published from the first one's end on, under a fault its events said lasted
+    (found by the fifth fresh-user review)."""
+    faults = "".join(f'\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "link_down"\nduration = {d}\n'
+                     for t, d in ((2.0, 2.0), (3.0, 10.0), (5.0, 1.0)))
+    out = run_toml(script(motion(5, "A", "A_m1", 1, 1, 3, 0)).replace("until_idle = true\n", "") + faults)
+    assert [(e["t"], e["event"]) for e in out.events if e["event"] in ("fault", "fault_end")] == [
+        (2.0, "fault"), (3.0, "fault"), (4.0, "fault_end"), (5.0, "fault"), (6.0, "fault_end"), (13.0, "fault_end")]
+    # the task written at 5 is read when the link is back (13), and done 3 s later
+    assert [e["t"] for e in out.of("task_queued")] == [13.0]
+    assert [e["t"] for e in out.of("task_completed")] == [16.0]
+    statuses = [r["t"] for r in out.trace() if r["dir"] == "out" and r["attr"] in ("ran_status", "assignment_status")]
+    assert not [t for t in statuses if 2.0 <= t < 13.0]
+
+
+def test_s4_until_idle_waits_for_a_link_to_be_back(run_toml):
+    """A task written while the robot's link is down is read when the link is back (docs/robots.md): with
+    until_idle the run ended at the first tick after the script was played, the robot WAITING, the task
+    never read and the link never back (found by the fifth fresh-user review)."""
+    fault = '\n[[faults]]\nt = 0.5\nrobot = "robot_1"\nkind = "link_down"\nduration = 5.0\n'
+    out = run_toml(script(motion(1, "A", "A_m1", 1, 1, 3, 0)) + fault)
+    assert [(e["t"], e["event"]) for e in out.events if e["event"] in ("fault_end", "task_queued", "task_completed")] == [
+        (5.5, "fault_end"), (5.5, "task_queued"), (8.5, "task_completed")]
+    assert out.summary["sim_time"] == 9.0

@@ -236,7 +236,7 @@ class Model:
     def _idle_stop(self) -> bool:
         if not self.scenario.settings.until_idle or self.finished.triggered:
             return self.finished.triggered
-        if self.transport.exhausted and all(r.logic.idle for r in self.robots):
+        if self.transport.exhausted and not self.ran.links_down and all(r.logic.idle for r in self.robots):
             # End after everything else of this instant (descriptions included): priority END.
             at(self.env, self.env.now, END).callbacks.append(self._finish)
             return True
