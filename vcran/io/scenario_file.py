@@ -26,6 +26,7 @@ from vcran.core.faults import MIN_MEAN, RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
+from vcran.core.polygon import polygon_problem
 from vcran.core.scenario import (
     ACTION_KINDS,
     COLLISION_MODES,
@@ -202,6 +203,9 @@ def _robot(t: Table) -> RobotConfig:
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
     actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS), what="action")
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
+    problem = polygon_problem(footprint) if footprint else None  # [] is no footprint: it never touches
+    if problem:
+        t.fail("footprint", f"{problem} (SPEC §4: a footprint is a simple polygon)")
     r = RobotConfig(
         id=rid,
         pose=t.triple("pose", (0.0, 0.0, 0.0)),
@@ -224,8 +228,9 @@ def _robot(t: Table) -> RobotConfig:
 
 def _station(t: Table) -> StationConfig:
     area = t.points("area", [])
-    if area and len(area) < 3:
-        t.fail("area", "a polygon needs at least 3 points")
+    problem = polygon_problem(area) if area else None
+    if problem:
+        t.fail("area", f"{problem} (a station's area is a simple polygon)")
     s = StationConfig(
         id=t.string("id"),
         position=t.pair("position"),
