@@ -163,3 +163,17 @@ def test_s4_until_idle_waits_for_a_link_to_be_back(run_toml):
     assert [(e["t"], e["event"]) for e in out.events if e["event"] in ("fault_end", "task_queued", "task_completed")] == [
         (5.5, "fault_end"), (5.5, "task_queued"), (8.5, "task_completed")]
     assert out.summary["sim_time"] == 9.0
+
+
+def test_s4_a_pause_never_resumed_fails_to_load_when_only_idleness_would_end_the_run():
+    """until_idle without a duration and a robot paused for good with a task: the run never ended (simulated
+    time ran on, tick by tick, until the process was killed; found by the fifth fresh-user review)."""
+    text = script(motion(1, "A", "A_m1", 1, 1, 5, 0)).replace("duration = 500.0\n", "")
+    pause = '\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "{kind}"\n'
+    with pytest.raises(ScenarioError, match=r"<test>: \[\[faults\]\]: robot_1 is paused at t = 0.5 and never resumed, "
+                                            r"and \[simulation\] has no duration"):
+        parse(tomllib.loads(text + pause.format(t=0.5, kind="pause")), "<test>")
+    # resumed later (file order does not matter: time does), or a duration to stop at: it loads
+    parse(tomllib.loads(text + pause.format(t=9.0, kind="resume") + pause.format(t=0.5, kind="pause")), "<test>")
+    parse(tomllib.loads(text.replace("until_idle = true\n", "until_idle = true\nduration = 60.0\n")
+                        + pause.format(t=0.5, kind="pause")), "<test>")

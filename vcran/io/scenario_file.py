@@ -126,6 +126,8 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     script.sort(key=lambda e: e.t)  # stable: equal times keep file order
     if settings.duration is None and not settings.until_idle:
         top.reject("[simulation]: set duration, or until_idle = true")
+    if settings.duration is None:
+        _check_resumed(top, faults)
     if cycles and settings.duration is None:
         top.reject("[simulation]: a scenario with cycles needs a duration")
     if (script or cycles) and (jobs or stream is not None or manager is not None):
@@ -143,6 +145,20 @@ def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | 
     if duration is not None and start > duration:
         what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
         t.fail("t", f"the entry {what} at t = {start:g}, after the run ends (duration = {duration:g})")
+
+
+def _check_resumed(top: Table, faults: tuple[FaultSpec, ...]) -> None:
+    """A run that ends only when idle never ends if a robot stays paused with work to do (it is never
+    idle again): refuse a pause that no later resume ends when there is no duration to stop at."""
+    paused: dict[str, float] = {}
+    for f in faults:  # in time order, file order within an instant: the order they are applied
+        if f.kind == "pause":
+            paused.setdefault(f.robot, f.t)
+        elif f.kind == "resume":
+            paused.pop(f.robot, None)
+    for robot, t in paused.items():
+        top.reject(f"[[faults]]: {robot} is paused at t = {t:g} and never resumed, and [simulation] has no duration: "
+                   "with until_idle the run would never end once the robot has work; add a resume or a duration")
 
 
 def _check_time(t: Table, time: float, duration: float | None, what: str) -> None:
