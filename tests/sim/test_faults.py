@@ -115,6 +115,11 @@ mttr = 5.0
     ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1e-7', "field 'mttr': must be at least 1e-06 s"),
     ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1.0\nstart = 1e6',  # it would draw nothing
      r"random_faults\[0\]: field 'start': the random fault source starts at t = 1e\+06, when the run has ended"),
+    # until before start drew nothing, silently (a job stream's is refused); a robot named twice is a slip
+    ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1.0\nstart = 50.0\nuntil = 20.0',
+     r"random_faults\[0\]: field 'until': 20 is not after start 50: the source would draw nothing"),
+    ('[[random_faults]]\nkind = "motion_failure"\nmtbf = 1.0\nrobots = ["robot_1", "robot_1"]',
+     r"random_faults\[0\]: field 'robots': names 'robot_1' twice"),
     ('[[faults]]\nt = 1e6\nrobot = "robot_1"\nkind = "pause"',
      r"faults\[0\]: field 't': the fault happens at t = 1e\+06, after the run ends \(duration = "),
 ])
@@ -177,3 +182,18 @@ def test_s4_a_pause_never_resumed_fails_to_load_when_only_idleness_would_end_the
     parse(tomllib.loads(text + pause.format(t=9.0, kind="resume") + pause.format(t=0.5, kind="pause")), "<test>")
     parse(tomllib.loads(text.replace("until_idle = true\n", "until_idle = true\nduration = 60.0\n")
                         + pause.format(t=0.5, kind="pause")), "<test>")
+
+
+def test_s4_two_random_sources_of_one_kind_draw_independently(run_toml):
+    """Each [[random_faults]] table is a source of its own: two of one kind for one robot (say frequent short
+    breakdowns and rare long ones) drew from one generator, so their faults came at the same instants, or
+    as scaled copies of each other (found by the fifth fresh-user review). The first source of a kind
+    draws as before, so scenarios with one source per kind run as they did."""
+    source = '\n[[random_faults]]\nkind = "breakdown"\nmtbf = {mtbf}\nmttr = 5.0\n'
+    fleet = FLEET.replace("until_idle = true\n", "")  # 500 s
+    alone = run_toml(fleet + source.format(mtbf=20.0))
+    both = run_toml(fleet + source.format(mtbf=20.0) + source.format(mtbf=20.0))
+    first = [e["t"] for e in alone.of("fault")]
+    second = sorted(set(e["t"] for e in both.of("fault")) - set(first))
+    assert first and set(first) <= {e["t"] for e in both.of("fault")}  # the first source draws as it did alone
+    assert second and len(both.of("fault")) == len(first) + len(second)

@@ -312,9 +312,11 @@ def _random_faults(t: Table, robots: set[str], end: float | None) -> RandomFault
     start = t.number("start", 0.0, minimum=0.0)
     _check_start(t, start, end, "random fault source")
     chosen = t.strings("robots", [])
-    for r in chosen:
+    for i, r in enumerate(chosen):
         if r not in robots:
             t.fail("robots", f"no robot {r!r} in this scenario")
+        if r in chosen[:i]:
+            t.fail("robots", f"names {r!r} twice")
     source = RandomFaults(
         kind=kind,
         mtbf=_mean(t, "mtbf"),
@@ -323,6 +325,8 @@ def _random_faults(t: Table, robots: set[str], end: float | None) -> RandomFault
         start=start,
         until=t.number("until", math.inf, minimum=0.0),
     )
+    if source.until <= start:  # it draws strictly after start, before until: nothing, silently
+        t.fail("until", f"{source.until:g} is not after start {start:g}: the source would draw nothing")
     t.done()
     return source
 
