@@ -41,3 +41,17 @@ def test_s4_a_simple_polygon_is_what_shapely_calls_a_valid_polygon_with_an_area(
     except ValueError:  # fewer than 3 corners: shapely cannot even make the ring
         valid = False
     assert (polygon_problem(points) is None) == valid
+
+
+@settings(max_examples=2000, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 4), st.integers(0, 4)), min_size=3, max_size=7),
+       st.integers(-2, 10), st.integers(-2, 10))
+def test_s4_covers_is_shapelys_covers_on_simple_polygons(points, x2, y2):
+    # half-integer points: on corners, on edges, inside and outside (a station's dock is checked with it)
+    from hypothesis import assume
+    from shapely.geometry import Point, Polygon
+
+    from vcran.core.polygon import covers
+
+    assume(polygon_problem(points) is None)
+    assert covers(points, x2 / 2, y2 / 2) == Polygon(points).covers(Point(x2 / 2, y2 / 2))

@@ -83,3 +83,19 @@ def _meet(a: tuple[Fraction, Fraction], b: tuple[Fraction, Fraction],
 
 def _show(p: Point) -> str:
     return f"[{p[0]:g}, {p[1]:g}]"
+
+
+def covers(points: Sequence[Point], x: float, y: float) -> bool:
+    """Whether the simple polygon ``points`` holds ``(x, y)``, its outline included (shapely's ``covers``),
+    decided exactly: on an edge, or an odd number of edges crossed by a ray to the right."""
+    p = (Fraction(x), Fraction(y))
+    exact = [(Fraction(a), Fraction(b)) for a, b in points]
+    inside = False
+    for i, a in enumerate(exact):
+        b = exact[i - 1]
+        if _side(a, b, p) == 0 and _on(a, b, p):
+            return True
+        if (a[1] > p[1]) != (b[1] > p[1]):  # the edge spans the ray's height: where does it cross?
+            cross_x = a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+            inside ^= cross_x > p[0]
+    return inside

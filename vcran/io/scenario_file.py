@@ -26,7 +26,7 @@ from vcran.core.faults import MIN_MEAN, RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
-from vcran.core.polygon import polygon_problem
+from vcran.core.polygon import covers, polygon_problem
 from vcran.core.scenario import (
     ACTION_KINDS,
     COLLISION_MODES,
@@ -262,8 +262,25 @@ def _station(t: Table) -> StationConfig:
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
+    if s.dock is not None:
+        _check_dock(t, s)
     t.done()
     return s
+
+
+def _check_dock(t: Table, s: StationConfig) -> None:
+    """The dock is where a robot stands to load or unload (or charge) at the station: one beyond its reach
+    made every such action there fail, robot after robot. Decided as the station decides reach
+    (:meth:`vcran.core.stations.Station.within_reach`): the area polygon, outline included, else the circle."""
+    assert s.dock is not None
+    x, y = s.dock[0], s.dock[1]
+    where = f"[{x:g}, {y:g}]"
+    if s.area:
+        if not covers(s.area, x, y):
+            t.fail("dock", f"{where} is outside the station's area: a robot standing there cannot load or unload")
+    elif (d := math.hypot(s.position[0] - x, s.position[1] - y)) > s.reach:
+        t.fail("dock", f"{where} is {d:g} m from the station's position [{s.position[0]:g}, {s.position[1]:g}], "
+                       f"beyond its reach {s.reach:g}: a robot standing there cannot load or unload")
 
 
 def _battery(t: Table) -> BatteryConfig:
