@@ -217,6 +217,9 @@ def _robot(t: Table) -> RobotConfig:
         if value != rid:
             t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
+    if "charge" in t.strings("actions", []):  # an action a script sends, but not one listed here
+        t.fail("actions", "'charge' is not listed among a robot's actions: a robot with [robots.battery] can charge "
+                          f"(SPEC §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
     actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS), what="action")
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
     problem = polygon_problem(footprint) if footprint else None  # [] is no footprint: it never touches
