@@ -137,6 +137,9 @@ value = '{{"type": "x", "value": {huge}}}'
         (["send", DEMO, *orion, "--factor", "inf"], "send", "--factor must be a finite number above 0, got inf"),
         (["gen", "--robots", "2", "--hours", "inf", "--seed", "1"], "gen", "--hours must be a finite number above 0, got inf"),
         (["gen", "--robots", "2", "--hours", "nan", "--seed", "1"], "gen", "--hours must be a finite number above 0, got nan"),
+        # a run shorter than the fleet's first cycle starts: vcran gen printed a file vcran run refused
+        (["gen", "--robots", "2", "--hours", "0.0001", "--seed", "1"], "gen",
+         "--hours 0.0001 is 0.36 s of simulated time; the fleet's first cycles start until 1.02 s: give at least that"),
         (["decode", str(empty)], "decode", f"{empty}: Is a directory"),
         (["live", DEMO, "--orion", "http://127.0.0.1:9", "--out", out, "--token-file", str(tmp_path / "no-token")],
          "live", f"cannot read --token-file {tmp_path / 'no-token'}: No such file or directory"),

@@ -53,7 +53,9 @@ def test_s4_bad_battery_fails_to_load_naming_the_field(table, problem):
 
 def test_s4_charge_is_not_a_configurable_capability():
     text = FLEET.replace("max_velocity = 1.0\n", 'max_velocity = 1.0\nactions = ["load", "charge"]\n', 1)
-    with pytest.raises(ScenarioError, match="unknown action 'charge'"):
+    # "unknown action 'charge'" read as if vcran had no charge action (found by the fifth fresh-user review)
+    with pytest.raises(ScenarioError, match=r"field 'actions': 'charge' is not listed among a robot's actions: "
+                                            r"a robot with \[robots.battery\] can charge"):
         parse(tomllib.loads(text), "<test>")
 
 
@@ -66,3 +68,21 @@ def test_s4_runs_replay_identically(name, tmp_path):
     assert main(["replay", str(rec / "trace.jsonl.zst"), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
     for file in ("legs.npy", "events.jsonl.zst", "summary.json"):
         assert (rec / file).read_bytes() == (tmp_path / "rep" / file).read_bytes()
+
+
+@pytest.mark.parametrize(("footprint", "problem"), [
+    # a bow tie: GEOS raised TopologyException when two robots touched, mid-run (exit 70)
+    ("[[0.5, 0.5], [-0.5, -0.5], [-0.5, 0.5], [0.5, -0.5]]", "cross or touch: not a simple polygon"),
+    ("[[0.5, 0.5], [-0.5, 0.5]]", "at least 3 different corners, got 2"),  # ValueError from shapely, exit 70
+    ("[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]", "runs back along itself"),  # no area: contacts at odd places
+])
+def test_s4_a_footprint_that_is_not_a_simple_polygon_fails_to_load(footprint, problem):
+    text = FLEET.replace("max_velocity = 1.0\n", f"max_velocity = 1.0\nfootprint = {footprint}\n", 1)
+    with pytest.raises(ScenarioError, match=r"robots\[0\]: field 'footprint': .*" + re.escape(problem)):
+        parse(tomllib.loads(text), "<test>")
+
+
+def test_s4_a_station_area_that_is_not_a_simple_polygon_fails_to_load():
+    text = FLEET.replace("parts = 3\n", "parts = 3\narea = [[2, -1], [4, 1], [2, 1], [4, -1]]\n", 1)
+    with pytest.raises(ScenarioError, match=r"stations\[0\]: field 'area': .*cross or touch"):
+        parse(tomllib.loads(text), "<test>")

@@ -6,6 +6,7 @@ the section and the field.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from collections import Counter
 
@@ -194,3 +195,22 @@ def test_station_dock_loads_with_or_without_heading():
     sc = parse(tomllib.loads(FLEET.replace('position = [0.0, 0.0]', 'position = [0.0, 0.0]\ndock = [1.0, 0.0, 3.0]')
                              .replace('position = [10.0, 0.0]', 'position = [10.0, 0.0]\ndock = [9.0, 0.0]')))
     assert [s.dock for s in sc.stations] == [(1.0, 0.0, 3.0), (9.0, 0.0, None), None]
+
+
+@pytest.mark.parametrize(("station", "problem"), [
+    # a charger's dock 5 m off: the Dispatcher sent robots there to charge, and every charge failed
+    # no_charger_in_reach (a pickup's: every load failed), the run going on as if that were the robots' fault
+    ("position = [0.0, 0.0]\ndock = [0.0, 5.0]", "[0, 5] is 5 m from the station's position [0, 0], beyond its reach 1"),
+    ("position = [0.0, 0.0]\nreach = 2.0\ndock = [2.0, 0.1]", "beyond its reach 2"),
+    ("position = [0.0, 0.0]\narea = [[-1, -1], [1, -1], [1, 1], [-1, 1]]\ndock = [1.5, 0.0]", "outside the station's area"),
+])
+def test_a_dock_where_a_robot_cannot_reach_the_station_fails_to_load(station, problem):
+    """The dock is where a robot stands to load or unload at a station (docs/scenarios.md)."""
+    with pytest.raises(ScenarioError, match=r"stations\[0\]: field 'dock': .*" + re.escape(problem)):
+        parse(tomllib.loads(FLEET.replace("position = [0.0, 0.0]", station, 1)), "<test>")
+
+
+def test_a_dock_at_the_edge_of_reach_or_area_loads():
+    for station in ("position = [0.0, 0.0]\ndock = [1.0, 0.0, 3.0]",  # exactly the reach: as within_reach says
+                    "position = [0.0, 0.0]\narea = [[-1, -1], [1, -1], [1, 1], [-1, 1]]\ndock = [1.0, 1.0]"):
+        parse(tomllib.loads(FLEET.replace("position = [0.0, 0.0]", station, 1)), "<test>")

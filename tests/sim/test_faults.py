@@ -10,7 +10,7 @@ import tomllib
 import pytest
 
 from tests.conftest import ROOT, run_scenario
-from tests.sim.test_scenarios import FLEET, motion
+from tests.sim.test_scenarios import FLEET, motion, script
 from vcran.core.faults import RandomFaults
 from vcran.io.scenario_file import ScenarioError, load, parse
 from vcran.io.trace import samples
@@ -115,6 +115,11 @@ mttr = 5.0
     ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1e-7', "field 'mttr': must be at least 1e-06 s"),
     ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1.0\nstart = 1e6',  # it would draw nothing
      r"random_faults\[0\]: field 'start': the random fault source starts at t = 1e\+06, when the run has ended"),
+    # until before start drew nothing, silently (a job stream's is refused); a robot named twice is a slip
+    ('[[random_faults]]\nkind = "breakdown"\nmtbf = 1.0\nmttr = 1.0\nstart = 50.0\nuntil = 20.0',
+     r"random_faults\[0\]: field 'until': 20 is not after start 50: the source would draw nothing"),
+    ('[[random_faults]]\nkind = "motion_failure"\nmtbf = 1.0\nrobots = ["robot_1", "robot_1"]',
+     r"random_faults\[0\]: field 'robots': names 'robot_1' twice"),
     ('[[faults]]\nt = 1e6\nrobot = "robot_1"\nkind = "pause"',
      r"faults\[0\]: field 't': the fault happens at t = 1e\+06, after the run ends \(duration = "),
 ])
@@ -135,3 +140,60 @@ def test_s4_a_random_stream_always_advances_time():
     source = RandomFaults("motion_failure", mtbf=1e-6, start=2.0**60)
     times = [f.t for f in itertools.islice(source.stream(0, "robot_1"), 5)]
     assert all(a < b for a, b in zip([source.start, *times], times)), times
+
+
+def test_s4_a_link_down_during_another_that_outlasts_it_keeps_the_link_down_to_its_own_end(run_toml):
+    """Link downs stack like holds: the link is back when the last one ends (docs/robots.md), as the closed
+    loop's Link.outage does. The RAN ignored a link_down that began while another was in force, so the
+    robot received and published from the first one's end on, under a fault its events said lasted
+    (found by the fifth fresh-user review)."""
+    faults = "".join(f'\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "link_down"\nduration = {d}\n'
+                     for t, d in ((2.0, 2.0), (3.0, 10.0), (5.0, 1.0)))
+    out = run_toml(script(motion(5, "A", "A_m1", 1, 1, 3, 0)).replace("until_idle = true\n", "") + faults)
+    assert [(e["t"], e["event"]) for e in out.events if e["event"] in ("fault", "fault_end")] == [
+        (2.0, "fault"), (3.0, "fault"), (4.0, "fault_end"), (5.0, "fault"), (6.0, "fault_end"), (13.0, "fault_end")]
+    # the task written at 5 is read when the link is back (13), and done 3 s later
+    assert [e["t"] for e in out.of("task_queued")] == [13.0]
+    assert [e["t"] for e in out.of("task_completed")] == [16.0]
+    statuses = [r["t"] for r in out.trace() if r["dir"] == "out" and r["attr"] in ("ran_status", "assignment_status")]
+    assert not [t for t in statuses if 2.0 <= t < 13.0]
+
+
+def test_s4_until_idle_waits_for_a_link_to_be_back(run_toml):
+    """A task written while the robot's link is down is read when the link is back (docs/robots.md): with
+    until_idle the run ended at the first tick after the script was played, the robot WAITING, the task
+    never read and the link never back (found by the fifth fresh-user review)."""
+    fault = '\n[[faults]]\nt = 0.5\nrobot = "robot_1"\nkind = "link_down"\nduration = 5.0\n'
+    out = run_toml(script(motion(1, "A", "A_m1", 1, 1, 3, 0)) + fault)
+    assert [(e["t"], e["event"]) for e in out.events if e["event"] in ("fault_end", "task_queued", "task_completed")] == [
+        (5.5, "fault_end"), (5.5, "task_queued"), (8.5, "task_completed")]
+    assert out.summary["sim_time"] == 9.0
+
+
+def test_s4_a_pause_never_resumed_fails_to_load_when_only_idleness_would_end_the_run():
+    """until_idle without a duration and a robot paused for good with a task: the run never ended (simulated
+    time ran on, tick by tick, until the process was killed; found by the fifth fresh-user review)."""
+    text = script(motion(1, "A", "A_m1", 1, 1, 5, 0)).replace("duration = 500.0\n", "")
+    pause = '\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "{kind}"\n'
+    with pytest.raises(ScenarioError, match=r"<test>: \[\[faults\]\]: robot_1 is paused at t = 0.5 and never resumed, "
+                                            r"and \[simulation\] has no duration"):
+        parse(tomllib.loads(text + pause.format(t=0.5, kind="pause")), "<test>")
+    # resumed later (file order does not matter: time does), or a duration to stop at: it loads
+    parse(tomllib.loads(text + pause.format(t=9.0, kind="resume") + pause.format(t=0.5, kind="pause")), "<test>")
+    parse(tomllib.loads(text.replace("until_idle = true\n", "until_idle = true\nduration = 60.0\n")
+                        + pause.format(t=0.5, kind="pause")), "<test>")
+
+
+def test_s4_two_random_sources_of_one_kind_draw_independently(run_toml):
+    """Each [[random_faults]] table is a source of its own: two of one kind for one robot (say frequent short
+    breakdowns and rare long ones) drew from one generator, so their faults came at the same instants, or
+    as scaled copies of each other (found by the fifth fresh-user review). The first source of a kind
+    draws as before, so scenarios with one source per kind run as they did."""
+    source = '\n[[random_faults]]\nkind = "breakdown"\nmtbf = {mtbf}\nmttr = 5.0\n'
+    fleet = FLEET.replace("until_idle = true\n", "")  # 500 s
+    alone = run_toml(fleet + source.format(mtbf=20.0))
+    both = run_toml(fleet + source.format(mtbf=20.0) + source.format(mtbf=20.0))
+    first = [e["t"] for e in alone.of("fault")]
+    second = sorted(set(e["t"] for e in both.of("fault")) - set(first))
+    assert first and set(first) <= {e["t"] for e in both.of("fault")}  # the first source draws as it did alone
+    assert second and len(both.of("fault")) == len(first) + len(second)

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
+import tomllib
 
 import pytest
 
 from tests.conftest import ROOT, run_scenario
-from vcran.io.scenario_file import load
+from vcran.io.scenario_file import load, parse
 
 FLEET = """
 [simulation]
@@ -363,3 +364,15 @@ def test_telemetry_of_a_busy_fleet_is_the_same_vectorised_and_leg_by_leg(tmp_pat
     assert vectorised.shape == (361, 1 + 40 * 5)
     assert np.array_equal(vectorised.view(np.uint64), leg_by_leg.view(np.uint64))
     assert len(np.unique(vectorised[:, 1])) > 2  # robot 1 was somewhere else at different ticks
+
+
+@pytest.mark.parametrize("robots", [1, 2, 50, 51])
+def test_the_shortest_fleet_vcran_gen_prints_loads(robots):
+    """vcran gen refuses --hours too short for its fleet's first cycles; what it accepts loads."""
+    from vcran.io.gen import generate
+
+    latest = 1.0 + (min(robots, 50) - 1) * 0.02
+    with pytest.raises(ValueError, match="the fleet's first cycles start until"):
+        generate(robots, math.nextafter(latest, 0.0) / 3600.0, 0)
+    hours = next(h for h in (latest / 3600.0, math.nextafter(latest / 3600.0, 1.0)) if h * 3600.0 >= latest)
+    parse(tomllib.loads(generate(robots, hours, 0)), "<gen>")

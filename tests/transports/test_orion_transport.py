@@ -442,3 +442,21 @@ def test_a_poll_period_longer_than_any_wait_polls_once_and_stops_cleanly():
     stop.set()
     thread.join(10)
     assert not thread.is_alive() and errors == [] and reads == [1]
+
+
+def test_battery_goes_to_orion_with_the_robots_other_state():
+    # SPEC §4: battery is published at the telemetry cadence, and §9: a fleet manager reads it from Orion.
+    # The live sender kept only the four RAN attributes of an entity's state, so a live fleet's battery
+    # was recorded in the trace as sent and never reached Orion (found by the fifth fresh-user review).
+    from vcran.core.messages import BatteryState
+
+    orion = FakeOrion()
+    t = transport(orion)
+    t.send(Publish(0.5, "robot_1", "battery", BatteryState(charge=0.5, capacity=1.0, percentage=0.5)))
+    t.send(Publish(0.5, "robot_1", "ran_status", RanStatus()))
+    t.send(frame(1.0))
+    assert t.sender.deliver() is None
+    first = orion.updates[0]["entities"][0]
+    assert list(first) == ["id", "type", "current_motion", "ran_status", "battery"]
+    assert first["battery"]["type"] == "sensor_msgs.BatteryState"
+    assert first["battery"]["value"]["percentage"] == {"type": "number", "value": 0.5}

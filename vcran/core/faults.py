@@ -69,17 +69,19 @@ class RandomFaults:
             out["until"] = self.until
         return out
 
-    def stream(self, seed: int, robot: str) -> Iterator[FaultSpec]:
+    def stream(self, seed: int, robot: str, n: int = 0) -> Iterator[FaultSpec]:
         """The faults of ``robot``, in time order: a failure ``Exp(mtbf)`` after the previous repair.
 
-        One ``random.Random`` per (scenario seed, kind, robot), seeded with a string (hashed with SHA-512
-        by CPython, stable across versions and independent of PYTHONHASHSEED), so adding a robot or a
-        source never shifts another robot's faults.
+        One ``random.Random`` per (scenario seed, kind, robot, ``n``), seeded with a string (hashed with
+        SHA-512 by CPython, stable across versions and independent of PYTHONHASHSEED), so adding a robot or a
+        source never shifts another robot's faults. ``n`` counts the earlier sources of this kind that
+        draw for this robot: a second source of a kind is independent of the first, not its copy (the
+        first's string has no ``n``, as before there was one).
 
         Each failure comes strictly after the previous repair ends, even where a gap is too small to
         change ``t`` in floating point (far out in time): the stream always advances.
         """
-        rng = random.Random(f"vcran-faults/{seed}/{self.kind}/{robot}")
+        rng = random.Random(f"vcran-faults/{seed}/{self.kind}/{robot}" + (f"/{n}" if n else ""))
         t = self.start
         while True:
             t = max(t + rng.expovariate(1.0 / self.mtbf), math.nextafter(t, math.inf))

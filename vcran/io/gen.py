@@ -26,8 +26,12 @@ def generate(robots: int, hours: float, seed: int) -> str:
         raise ValueError(f"--robots must be at least 1, got {robots}")
     if not (hours > 0 and math.isfinite(hours)):
         raise ValueError(f"--hours must be a finite number above 0, got {hours}")
-    rng = random.Random(seed)
     duration = hours * 3600.0
+    latest = _start(min(robots, 50) - 1)
+    if duration < latest:  # the loader refuses a cycle that starts after the run's end
+        raise ValueError(f"--hours {hours:g} is {duration:g} s of simulated time; the fleet's first cycles start "
+                         f"until {latest:g} s: give at least that")
+    rng = random.Random(seed)
     columns = math.ceil(math.sqrt(robots))
     out = [
         f"# vcran gen --robots {robots} --hours {hours:g} --seed {seed}",
@@ -57,7 +61,7 @@ def generate(robots: int, hours: float, seed: int) -> str:
         stations += ["", "[[stations]]", f'id = "pick_{i + 1}"', f"position = {_list(pick)}", "reach = 1.2",
                      "parts = 1", "capacity = 2", f"produce_every = {period!r}"]
         stations += ["", "[[stations]]", f'id = "drop_{i + 1}"', f"position = {_list(drop)}", "reach = 1.2"]
-        start = 1.0 + (i % 50) * 0.02
+        start = _start(i % 50)
         script += [
             "", "[[script]]", f"t = {start!r}", f'robot = "{rid}"', 'kind = "cycle"', f'prefix = "r{i + 1}"',
             f"every = {period!r}", f"until = {duration!r}",
@@ -65,6 +69,11 @@ def generate(robots: int, hours: float, seed: int) -> str:
             f'{{path = [{_list(via)}, {_list(at_drop)}], actions = ["unload"]}}]',
         ]
     return "\n".join(out + stations + script) + "\n"
+
+
+def _start(k: int) -> float:
+    """When robot ``k`` (of 50, repeating) starts its cycle: staggered so that a fleet's messages spread."""
+    return 1.0 + k * 0.02
 
 
 def _period(home: tuple[float, float, float], via: tuple[float, float], at_pick: tuple[float, float, float],

@@ -26,6 +26,7 @@ from vcran.core.faults import MIN_MEAN, RANDOM_KINDS, FaultSpec, RandomFaults
 from vcran.core.ids import IdError
 from vcran.core.messages import INBOUND
 from vcran.core.orion_rules import identifier_error
+from vcran.core.polygon import covers, polygon_problem
 from vcran.core.scenario import (
     ACTION_KINDS,
     COLLISION_MODES,
@@ -125,6 +126,8 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     script.sort(key=lambda e: e.t)  # stable: equal times keep file order
     if settings.duration is None and not settings.until_idle:
         top.reject("[simulation]: set duration, or until_idle = true")
+    if settings.duration is None:
+        _check_resumed(top, faults)
     if cycles and settings.duration is None:
         top.reject("[simulation]: a scenario with cycles needs a duration")
     if (script or cycles) and (jobs or stream is not None or manager is not None):
@@ -142,6 +145,20 @@ def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | 
     if duration is not None and start > duration:
         what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
         t.fail("t", f"the entry {what} at t = {start:g}, after the run ends (duration = {duration:g})")
+
+
+def _check_resumed(top: Table, faults: tuple[FaultSpec, ...]) -> None:
+    """A run that ends only when idle never ends if a robot stays paused with work to do (it is never
+    idle again): refuse a pause that no later resume ends when there is no duration to stop at."""
+    paused: dict[str, float] = {}
+    for f in faults:  # in time order, file order within an instant: the order they are applied
+        if f.kind == "pause":
+            paused.setdefault(f.robot, f.t)
+        elif f.kind == "resume":
+            paused.pop(f.robot, None)
+    for robot, t in paused.items():
+        top.reject(f"[[faults]]: {robot} is paused at t = {t:g} and never resumed, and [simulation] has no duration: "
+                   "with until_idle the run would never end once the robot has work; add a resume or a duration")
 
 
 def _check_time(t: Table, time: float, duration: float | None, what: str) -> None:
@@ -200,8 +217,14 @@ def _robot(t: Table) -> RobotConfig:
         if value != rid:
             t.fail(other, f"{value!r} differs from the robot id {rid!r}: RanLogic and AGV of one robot must carry the same id (R11)")
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
+    if "charge" in t.strings("actions", []):  # an action a script sends, but not one listed here
+        t.fail("actions", "'charge' is not listed among a robot's actions: a robot with [robots.battery] can charge "
+                          f"(SPEC §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
     actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS), what="action")
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
+    problem = polygon_problem(footprint) if footprint else None  # [] is no footprint: it never touches
+    if problem:
+        t.fail("footprint", f"{problem} (SPEC §4: a footprint is a simple polygon)")
     r = RobotConfig(
         id=rid,
         pose=t.triple("pose", (0.0, 0.0, 0.0)),
@@ -224,8 +247,9 @@ def _robot(t: Table) -> RobotConfig:
 
 def _station(t: Table) -> StationConfig:
     area = t.points("area", [])
-    if area and len(area) < 3:
-        t.fail("area", "a polygon needs at least 3 points")
+    problem = polygon_problem(area) if area else None
+    if problem:
+        t.fail("area", f"{problem} (a station's area is a simple polygon)")
     s = StationConfig(
         id=t.string("id"),
         position=t.pair("position"),
@@ -241,8 +265,25 @@ def _station(t: Table) -> StationConfig:
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
+    if s.dock is not None:
+        _check_dock(t, s)
     t.done()
     return s
+
+
+def _check_dock(t: Table, s: StationConfig) -> None:
+    """The dock is where a robot stands to load or unload (or charge) at the station: one beyond its reach
+    made every such action there fail, robot after robot. Decided as the station decides reach
+    (:meth:`vcran.core.stations.Station.within_reach`): the area polygon, outline included, else the circle."""
+    assert s.dock is not None
+    x, y = s.dock[0], s.dock[1]
+    where = f"[{x:g}, {y:g}]"
+    if s.area:
+        if not covers(s.area, x, y):
+            t.fail("dock", f"{where} is outside the station's area: a robot standing there cannot load or unload")
+    elif (d := math.hypot(s.position[0] - x, s.position[1] - y)) > s.reach:
+        t.fail("dock", f"{where} is {d:g} m from the station's position [{s.position[0]:g}, {s.position[1]:g}], "
+                       f"beyond its reach {s.reach:g}: a robot standing there cannot load or unload")
 
 
 def _battery(t: Table) -> BatteryConfig:
@@ -291,9 +332,11 @@ def _random_faults(t: Table, robots: set[str], end: float | None) -> RandomFault
     start = t.number("start", 0.0, minimum=0.0)
     _check_start(t, start, end, "random fault source")
     chosen = t.strings("robots", [])
-    for r in chosen:
+    for i, r in enumerate(chosen):
         if r not in robots:
             t.fail("robots", f"no robot {r!r} in this scenario")
+        if r in chosen[:i]:
+            t.fail("robots", f"names {r!r} twice")
     source = RandomFaults(
         kind=kind,
         mtbf=_mean(t, "mtbf"),
@@ -302,6 +345,8 @@ def _random_faults(t: Table, robots: set[str], end: float | None) -> RandomFault
         start=start,
         until=t.number("until", math.inf, minimum=0.0),
     )
+    if source.until <= start:  # it draws strictly after start, before until: nothing, silently
+        t.fail("until", f"{source.until:g} is not after start {start:g}: the source would draw nothing")
     t.done()
     return source
 

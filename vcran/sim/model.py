@@ -197,12 +197,15 @@ class Model:
         faults = Faults(self.env, {r.id: r for r in self.robots}, self.ran.link_down)
         if sc.faults:
             self.env.process(faults.play(sc.faults))
+        earlier: dict[tuple[str, str], int] = {}  # sources of a kind already drawing for a robot
         for source in sc.random_faults:
             until = min(source.until, sc.settings.duration if sc.settings.duration is not None else math.inf)
             limited = dataclasses.replace(source, until=until)
             for r in self.robots:
                 if not source.robots or r.id in source.robots:
-                    self.env.process(faults.play(limited.stream(sc.settings.seed, r.id)))
+                    n = earlier.get((source.kind, r.id), 0)
+                    earlier[source.kind, r.id] = n + 1
+                    self.env.process(faults.play(limited.stream(sc.settings.seed, r.id, n)))
 
     def _log(self, robot: RobotNode, event: Event) -> None:
         if event.NAME:  # else a ran_error whose incident was logged on its own
@@ -236,7 +239,7 @@ class Model:
     def _idle_stop(self) -> bool:
         if not self.scenario.settings.until_idle or self.finished.triggered:
             return self.finished.triggered
-        if self.transport.exhausted and all(r.logic.idle for r in self.robots):
+        if self.transport.exhausted and not self.ran.links_down and all(r.logic.idle for r in self.robots):
             # End after everything else of this instant (descriptions included): priority END.
             at(self.env, self.env.now, END).callbacks.append(self._finish)
             return True

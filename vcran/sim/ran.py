@@ -63,6 +63,8 @@ class Ran:
         #: SPEC §4 link_down: robots whose link is down -> what they missed (latest value per inbound
         #: attribute, as Orion holds it) and what they could not publish (latest per attribute, every ran_error).
         self._down: dict[str, tuple[dict[str, Inbound], dict[str, Publish], list[Publish]]] = {}
+        #: ... and when each of those links is back: the end of the latest-ending link_down in force.
+        self._up_at: dict[str, float] = {}
         #: Called after each telemetry tick's statuses (the battery's publications), if set.
         self.after_statuses: Callable[[float], None] | None = None
 
@@ -121,14 +123,25 @@ class Ran:
         ``ran_error`` in order. Its rows in the fleet's ``current_motion`` frames keep flowing (a frame is
         one record for the whole fleet; docs/robots.md). A transport with a link of its own (a closed loop)
         cuts that link instead (:meth:`Transport.outage`), so the manager misses the robot's rows as well."""
-        if self.transport.outage(robot.id, self.env.now + duration):
+        end = self.env.now + duration
+        if self.transport.outage(robot.id, end):
             return
-        if robot.id in self._down:
-            return
-        self._down[robot.id] = ({}, {}, [])
-        at(self.env, self.env.now + duration, FAULT).callbacks.append(lambda _: self._link_up(robot))
+        if robot.id not in self._down:
+            self._down[robot.id] = ({}, {}, [])
+        elif end <= self._up_at[robot.id]:
+            return  # within the link_down in force
+        self._up_at[robot.id] = end  # link downs stack: the link is back when the last one ends
+        at(self.env, end, FAULT).callbacks.append(lambda _: self._link_up(robot, end))
 
-    def _link_up(self, robot: RobotNode) -> None:
+    @property
+    def links_down(self) -> bool:
+        """Whether some robot's link is down: what it missed and what it could not publish still wait."""
+        return bool(self._down)
+
+    def _link_up(self, robot: RobotNode, end: float) -> None:
+        if self._up_at.get(robot.id) != end:
+            return  # extended by a link_down that ends later
+        del self._up_at[robot.id]
         missed, held, errors = self._down.pop(robot.id)
         now = self.env.now
         for out in [*held.values(), *errors]:
