@@ -46,6 +46,17 @@ class Outputs:
         return [r for _, r in records(trace_in(self.dir)) if r["dir"] != "end"]
 
 
+class HandClock:
+    """A clock moved by hand (``clock.now += 0.25``): what code given a clock function reads, in wall-clock
+    or monotonic seconds, without waiting."""
+
+    def __init__(self, now: float = 0.0) -> None:
+        self.now = now
+
+    def __call__(self) -> float:
+        return self.now
+
+
 def read_lines(path: Path) -> list[str]:
     """The lines of a run file, compressed (``.zst``) or not."""
     with open_input(path) as f:

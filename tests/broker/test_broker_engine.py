@@ -10,22 +10,15 @@ from typing import Any
 
 import pytest
 
+from tests.conftest import HandClock
 from vcran.broker import Broker, Outcome, Request
 
 URL = "http://127.0.0.1:9/notify"
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.now = 1_700_000_000.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 @pytest.fixture
 def broker() -> Broker:
-    return Broker(clock=Clock(), rng=random.Random(7))
+    return Broker(clock=HandClock(1_700_000_000.0), rng=random.Random(7))
 
 
 def call(broker: Broker, method: str, target: str, body: Any = None, **headers: str) -> Outcome:
@@ -354,12 +347,12 @@ def test_delivery_record_failed_then_active_again(broker: Broker) -> None:
 
 def test_subscription_list_count_and_deterministic_ids() -> None:
     def ids() -> list[str]:
-        broker = Broker(clock=Clock(), rng=random.Random(1))
+        broker = Broker(clock=HandClock(1_700_000_000.0), rng=random.Random(1))
         return [subscribe(broker) for _ in range(3)]
 
     first = ids()
     assert first == ids() and len(set(first)) == 3 and all(len(i) == 24 for i in first)
-    broker = Broker(clock=Clock(), rng=random.Random(1))
+    broker = Broker(clock=HandClock(1_700_000_000.0), rng=random.Random(1))
     for _ in range(3):
         subscribe(broker)
     listed = call(broker, "GET", "/v2/subscriptions?options=count&limit=2")
@@ -478,7 +471,7 @@ def test_values_format(broker: Broker) -> None:
 
 
 def test_oneshot_and_expired_subscriptions() -> None:
-    clock = Clock()
+    clock = HandClock(1_700_000_000.0)
     broker = Broker(clock=clock, rng=random.Random(3))
     body = {"subject": {"entities": [{"id": "r1"}]}, "notification": {"http": {"url": URL}}}
     oneshot = subscribe(broker, {**body, "status": "oneshot"})

@@ -15,7 +15,7 @@ import time
 import numpy as np
 import pytest
 
-from tests.conftest import read_lines
+from tests.conftest import HandClock, read_lines
 from tests.transports.test_live import DEMO, broker_process, vcran, wait_until  # noqa: F401 - a fixture
 from vcran.cli import main
 from vcran.commands._signals import REPEAT_WINDOW, StopSignals, Terminated
@@ -49,19 +49,9 @@ def test_run_stops_at_a_signal_with_complete_outputs(tmp_path, signum, code, del
     assert main(["replay", str(out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
-class Clock:
-    """``time.monotonic`` as the signal handlers see it, moved by hand."""
-
-    def __init__(self) -> None:
-        self.now = 1000.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 @pytest.fixture
 def clock(monkeypatch):
-    c = Clock()
+    c = HandClock(1000.0)
     monkeypatch.setattr("vcran.commands._signals.time.monotonic", c)
     return c
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.conftest import ROOT, HandClock
 from transports.scripted import ScriptedTransport
 from vcran.cli import main
 from vcran.io import progress as progress_module
@@ -22,14 +22,6 @@ DEMO = ROOT / "scenarios" / "demo.toml"
 class FakeTerminal(io.StringIO):
     def isatty(self) -> bool:
         return True
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def test_no_bar_unless_the_stream_is_a_terminal_and_not_quiet() -> None:
@@ -87,7 +79,7 @@ def test_progress_callback_sees_the_run_and_changes_nothing(tmp_path: Path) -> N
 
 
 def test_bar_redraws_at_most_once_per_interval_and_renders_its_figures() -> None:
-    clock, terminal = FakeClock(), FakeTerminal()
+    clock, terminal = HandClock(100.0), FakeTerminal()
     bar = ProgressBar(terminal, 100.0, min_interval=0.2, clock=clock)
     bar(10.0, 1)
     assert terminal.getvalue() == ""  # not before one interval: a short run shows nothing
@@ -103,12 +95,12 @@ def test_bar_redraws_at_most_once_per_interval_and_renders_its_figures() -> None
 
 
 def test_bar_without_duration_shows_time_only() -> None:
-    bar = ProgressBar(FakeTerminal(), None, clock=FakeClock())
+    bar = ProgressBar(FakeTerminal(), None, clock=HandClock(100.0))
     assert bar.render(3600.0, 12, 2.0) == "3,600 s simulated, 1,800x real time, 12 tasks done"
 
 
 def test_throttle() -> None:
-    clock = FakeClock()
+    clock = HandClock(100.0)
     due = Throttle(1.0, clock)
     ticks = []
     for _ in range(30):
@@ -129,7 +121,7 @@ def test_live_status_renders_every_state_in_order() -> None:
 
 def test_status_line_rewrites_in_place_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("COLUMNS", "40")
-    clock, terminal = FakeClock(), FakeTerminal()
+    clock, terminal = HandClock(100.0), FakeTerminal()
     line = StatusLine(terminal, min_interval=0.25, clock=clock)
     clock.now += 0.3
     line.update(STATUS)
@@ -143,7 +135,7 @@ def test_status_line_rewrites_in_place_on_a_terminal(monkeypatch: pytest.MonkeyP
 
 
 def test_status_line_writes_whole_lines_elsewhere_and_seldom() -> None:
-    clock, log = FakeClock(), io.StringIO()
+    clock, log = HandClock(100.0), io.StringIO()
     line = StatusLine(log, log_interval=10.0, clock=clock)
     for _ in range(40):  # 40 updates over 20 s
         clock.now += 0.5

@@ -5,19 +5,12 @@ from __future__ import annotations
 
 import io
 
+from tests.conftest import HandClock
 from vcran.sweep.progress import Progress
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 def test_a_log_gets_a_line_every_ten_seconds_with_the_eta_of_the_runs_left():
-    stream, clock = io.StringIO(), Clock()
+    stream, clock = io.StringIO(), HandClock()
     progress = Progress(stream, 10, clock=clock)
     clock.now = 5.0
     progress.update(failed=False)
@@ -32,7 +25,7 @@ def test_a_log_gets_a_line_every_ten_seconds_with_the_eta_of_the_runs_left():
 
 
 def test_long_durations_read_as_minutes_and_hours_and_quiet_prints_nothing():
-    stream, clock = io.StringIO(), Clock()
+    stream, clock = io.StringIO(), HandClock()
     progress = Progress(stream, 4000, "examples", clock=clock)
     progress.done = 1000
     assert progress.render(75.0) == "1,000/4,000 examples, 0 failed, ETA 3:45, 1:15 elapsed"
