@@ -90,11 +90,16 @@ def check_out(out: Path, what: str = "run") -> None:
                              "(choose a new output folder, or remove it)")
 
 
+def incomplete(out: Path) -> Path:
+    """``<out>.incomplete``: where a run or a sweep into ``out`` is written until it is complete."""
+    return out.with_name(out.name + INCOMPLETE)
+
+
 def staging(out: Path, what: str = "run") -> Path:
     """A fresh, empty ``<out>.incomplete`` beside ``out`` (checked with :func:`check_out` first); ``what``
     (``"run"`` or ``"sweep"``) is what will be written there."""
     check_out(out, what)
-    work = out.with_name(out.name + INCOMPLETE)
+    work = incomplete(out)
     try:
         if work.exists():
             shutil.rmtree(work)  # an earlier interrupted run into the same --out

@@ -15,7 +15,7 @@ import os
 import shutil
 from pathlib import Path
 
-from vcran.io.runfolder import INCOMPLETE, SWEEP_FORMATS, check_out, publish, staging
+from vcran.io.runfolder import SWEEP_FORMATS, check_out, publish, staging
 from vcran.sweep.spec import Sweep
 from vcran.sweep.table import write_tables
 from vcran.sweep.worker import Row
@@ -35,11 +35,6 @@ def open_folder(out: Path) -> Path:
     """A fresh, empty ``out.incomplete`` to write the sweep in; :class:`vcran.RunFolderError` (nothing
     written) when ``out`` is a folder vcran did not write, the folder you are in or one that holds it."""
     return staging(out, "sweep")
-
-
-def staged(out: Path) -> Path:
-    """Where the sweep into ``out`` is written until it is complete."""
-    return out.with_name(out.name + INCOMPLETE)
 
 
 def check(out: Path) -> None:

@@ -17,7 +17,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from vcran.sweep.folder import carry_runs, check, check_format, finish, open_folder, run_folder, staged
+from vcran.io.runfolder import incomplete
+from vcran.sweep.folder import carry_runs, check, check_format, finish, open_folder, run_folder
 from vcran.sweep.pool import Pool, open_pool
 from vcran.sweep.spec import RunSpec, Sweep, load
 from vcran.sweep.table import columns, csv_text
@@ -60,9 +61,9 @@ class SweepResult:
         check_format(fmt)
         out = Path(out)
         mine = self._holds_its_rows(self.folder)
-        if self.interrupted and mine and self.folder == staged(out).resolve():
+        if self.interrupted and mine and self.folder == incomplete(out).resolve():
             check(out)  # its own unfinished folder, runs and rows: written again where it is
-            work = staged(out)
+            work = incomplete(out)
         else:
             work = open_folder(out)
             if not self.interrupted and mine and self.folder == out.resolve():
