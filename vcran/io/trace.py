@@ -243,6 +243,14 @@ def zst_cut_off(path: Path) -> bool:
     return pos > size or size == 0
 
 
+def check_whole(path: Path) -> None:
+    """A ValueError when the zstd file ``path`` of a finished run is cut off (:func:`zst_cut_off`): read
+    as it is, it would pass for a shorter run. A plain (format 1) file is taken as it is."""
+    if path.suffix == ".zst" and zst_cut_off(path):
+        raise ValueError(f"{path}: cut off: the zstd stream ends before its end (the file was truncated or its "
+                         "run killed)")
+
+
 def open_input(path: Path) -> IO[bytes]:
     """Read ``path``, decompressing a ``.zst`` file as it is read."""
     if path.suffix != ".zst":
@@ -507,9 +515,8 @@ def event_records(path: Path, *, cut_off: bool = False) -> Iterator[Any]:
     """The events of ``events.jsonl.zst`` (or format 1's ``events.jsonl``), fields without a value left out
     (a line that is JSON but no object is passed through, for the caller to name). ``cut_off``: the
     recording was killed; it ends at its last whole line."""
-    if not cut_off and path.suffix == ".zst" and zst_cut_off(path):
-        raise ValueError(f"{path}: cut off: the zstd stream ends before its end (the file was truncated or its "
-                         "run killed)")
+    if not cut_off:
+        check_whole(path)
     with open_input(path) as f:
         for n, line in enumerate(whole_lines(f) if cut_off else f, start=1):
             try:

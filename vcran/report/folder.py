@@ -22,6 +22,7 @@ import numpy as np
 from vcran.io.trace import (
     LEGS_FILE,
     TRACE_FILE,
+    check_whole,
     event_records,
     events_beside,
     read_header,
@@ -29,7 +30,6 @@ from vcran.io.trace import (
     robots_of,
     samples,
     trace_in,
-    zst_cut_off,
 )
 
 FILES = ("summary.json",)  # and a trace with its events and leg log (or format 1's telemetry)
@@ -133,8 +133,7 @@ def read_run(path: Path) -> Run:
     if missing:
         raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
     with _reading(trace):
-        if trace.suffix == ".zst" and zst_cut_off(trace):  # a finished run's trace (it has a summary), cut short
-            raise ValueError(f"{trace}: cut off: the zstd stream ends before its end (the file was truncated)")
+        check_whole(trace)  # a finished run's trace (it has a summary), cut short
         header = read_header(trace)
         ids = robots_of(header)
         configs = {r["id"]: r for r in header["fleet"]["robots"]}
