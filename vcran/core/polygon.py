@@ -35,7 +35,7 @@ def _problem(points: tuple[Point, ...]) -> str | None:
     edges = [(exact[i], exact[(i + 1) % n]) for i in range(n)]
     for i in range(n):  # an outline running straight back along itself (a spike)
         (a, b), (_, c) = edges[i], edges[(i + 1) % n]
-        if _cross(a, b, c) == 0 and _dot(a, b, c) < 0:
+        if _side(a, b, c) == 0 and _dot(a, b, c) < 0:
             return f"its outline runs back along itself at corner {(i + 1) % n} {_show(corners[(i + 1) % n])}"
     boxes = [(min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1])) for a, b in edges]
     for i in range(n):
@@ -52,16 +52,12 @@ def _problem(points: tuple[Point, ...]) -> str | None:
     return None
 
 
-def _cross(a: tuple[Fraction, Fraction], b: tuple[Fraction, Fraction], c: tuple[Fraction, Fraction]) -> Fraction:
-    """Twice the signed area of triangle a, b, c: > 0 left turn, < 0 right turn, 0 on one line."""
-    return (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
-
-
 def _dot(a: tuple[Fraction, Fraction], b: tuple[Fraction, Fraction], c: tuple[Fraction, Fraction]) -> Fraction:
     return (b[0] - a[0]) * (c[0] - b[0]) + (b[1] - a[1]) * (c[1] - b[1])
 
 
 def _side(a: tuple[Fraction, Fraction], b: tuple[Fraction, Fraction], c: tuple[Fraction, Fraction]) -> int:
+    """The turn a, b, c: 1 left, -1 right, 0 on one line (the sign of twice the triangle's signed area)."""
     v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
     return (v > 0) - (v < 0)
 
