@@ -34,6 +34,7 @@ def r7_bug(monkeypatch):
     monkeypatch.setattr(RanLogic, "on_timer", on_timer)
 
 
+@pytest.mark.pure_core
 def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
     saved = tmp_path / "fail.toml"
     assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(saved)]) == 1
@@ -56,6 +57,7 @@ def test_a_save_that_cannot_be_written_is_refused_before_the_search(tmp_path, ca
     assert "--max-ops must be at least 1" in capsys.readouterr().err
 
 
+@pytest.mark.pure_core
 def test_a_finding_that_cannot_be_saved_is_still_printed(r7_bug, tmp_path, capsys):
     unwritable = tmp_path / ("x" * 300 + ".toml")  # its folder exists; the name is too long to create
     assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(unwritable)]) == 1

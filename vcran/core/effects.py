@@ -232,3 +232,9 @@ class Failed(ErrorReport):
 
 
 Effect = Command | Event
+
+
+class LocalProtocolError(RuntimeError):
+    """The driver misused RanLogic (time going backwards, a completion nobody dispatched). Defined here, not
+    in :mod:`vcran.core.ranlogic` (which re-exports it): that module is compiled, and a compiled class cannot
+    extend a built-in exception."""

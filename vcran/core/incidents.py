@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from vcran.core.effects import Event
+from vcran.core.effects import ErrorReport, Event
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,3 +83,11 @@ class Collision(Event):
 
     def fields(self) -> dict[str, Any]:
         return {"other": self.other, "x": self.x, "y": self.y}
+
+
+@dataclass(frozen=True, slots=True)
+class Published(ErrorReport):
+    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own. (Defined here,
+    not in :mod:`vcran.sim.robot`, which is compiled: a compiled class cannot extend a slotted Python one.)"""
+
+    NAME = ""

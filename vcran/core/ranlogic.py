@@ -29,6 +29,7 @@ from vcran.core.effects import (
     Effect,
     ErrorReport,
     Failed,
+    LocalProtocolError,
     MotionFinished,
     Reason,
     Rejected,
@@ -79,10 +80,6 @@ QUEUE_SHOWN = 50
 # Statuses are built from RanLogic's own, already valid state: no re-validation (vcran.core.schema.unchecked).
 _ran_status = unchecked(RanStatus)
 _task_end = unchecked(TaskEnd)
-
-
-class LocalProtocolError(RuntimeError):
-    """The driver misused RanLogic (time going backwards, a completion nobody dispatched)."""
 
 
 class RanLogic:

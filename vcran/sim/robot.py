@@ -34,7 +34,6 @@ from vcran.core.effects import (
     DispatchAction,
     DispatchPath,
     Effect,
-    ErrorReport,
     Event,
     Reason,
     SkipMotion,
@@ -42,7 +41,7 @@ from vcran.core.effects import (
     StopAfterLeg,
 )
 from vcran.core.ids import Id
-from vcran.core.incidents import BatteryEmpty, BatterySwapped
+from vcran.core.incidents import BatteryEmpty, BatterySwapped, Published
 from vcran.core.messages import ActionAssignment, ActionKind, CancelTask, Message, MotionAssignment, PolygonStamped
 from vcran.core.motion import FleetKinematics, Leg, Limits
 from vcran.core.ranlogic import RanLogic
@@ -597,14 +596,7 @@ class RobotNode:
     def report(self, code: str, message: str, severity: str = "warning") -> None:
         """Publish a ``ran_error`` for a §4 incident RanLogic does not see itself."""
         count = self.logic.count_error()
-        self._log(self, _Published(code, message, severity, count=count))
-
-
-@dataclass(frozen=True, slots=True)
-class _Published(ErrorReport):
-    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
-
-    NAME = ""
+        self._log(self, Published(code, message, severity, count=count))
 
 
 # --- RanLogic's dispatch tables ---------------------------------------------------------------------------
