@@ -332,17 +332,25 @@ def test_notification_correlator_follows_the_request(broker: Broker) -> None:
     assert outcome.notifications[0].header("Fiware-Correlator") == "abc; cbnotif=1"
 
 
-def test_delivery_record_failed_then_active_again(broker: Broker) -> None:
+def test_delivery_record_failure_then_success(broker: Broker) -> None:
+    """Orion 4.7 keeps the status ``active`` and counts failures in ``failsCounter`` (``failed`` was
+    dropped in 3.4.0: orion-api.md "Ambiguous subscription status failed not used"; functional test
+    1960_failure_stats_in_db_and_notifications/failure_stats_in_db_and_notifications.test, step 03).
+    Times are whole seconds (cache/subCache.h keeps int64_t), so they end in ``.000Z``."""
     subscription = subscribe(broker)
     notified = call(broker, "POST", "/v2/entities", robot("r1", a=1)).notifications
     broker.delivery_result(notified[0], None, "Couldn't connect to server")
     shown = call(broker, "GET", f"/v2/subscriptions/{subscription}").response.json()
-    assert shown["status"] == "failed"
+    assert shown["status"] == "active"
     assert shown["notification"]["timesSent"] == 1
+    assert shown["notification"]["failsCounter"] == 1
     assert shown["notification"]["lastFailureReason"] == "Couldn't connect to server"
+    assert shown["notification"]["lastFailure"] == "2023-11-14T22:13:20.000Z"
+    assert shown["notification"]["lastNotification"] == "2023-11-14T22:13:20.000Z"
     broker.delivery_result(notified[0], 404)
     shown = call(broker, "GET", f"/v2/subscriptions/{subscription}").response.json()
     assert (shown["status"], shown["notification"]["lastSuccessCode"]) == ("active", 404)
+    assert "failsCounter" not in shown["notification"]
 
 
 def test_subscription_list_count_and_deterministic_ids() -> None:

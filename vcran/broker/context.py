@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from vcran.broker.model import BUILTIN_ATTRIBUTES, Change, Entity, iso_time
+from vcran.broker.model import BUILTIN_ATTRIBUTES, Change, Entity
 from vcran.broker.protocol import (
     ENTITY_NOT_FOUND,
     NgsiError,
@@ -155,7 +155,7 @@ class Context:
                 ("User-Agent", NOTIFICATION_USER_AGENT),
             ]
             body = render_json(subscription.payload(entity, changed))
-            subscription.sent(iso_time(now))
+            subscription.sent(now)
             self.notifications.append(
                 Notification(subscription.id, self.scope.tenant, subscription.url, tuple(headers), body)
             )

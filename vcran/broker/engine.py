@@ -22,7 +22,6 @@ from urllib.parse import parse_qsl, unquote, urlsplit
 
 from vcran.broker import batch, entities
 from vcran.broker.context import Context, Tenant
-from vcran.broker.model import iso_time
 from vcran.broker.protocol import (
     SUBSCRIPTION_NOT_FOUND,
     NgsiError,
@@ -132,7 +131,7 @@ class Broker:
         tenant = self._tenants.get(notification.tenant)
         subscription = tenant.subscriptions.get(notification.subscription_id) if tenant else None
         if subscription is not None:
-            subscription.delivered(iso_time(self._clock()), status_code, reason)
+            subscription.delivered(self._clock(), status_code, reason)
 
     # --- checks, in Orion's order ---
 

@@ -17,11 +17,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Any
 from urllib.parse import urlsplit
 
-from vcran.broker.model import Change, Entity, render_entity
+from vcran.broker.model import Change, Entity, iso_time, render_entity
 from vcran.broker.protocol import bad_request, not_implemented
 from vcran.broker.scope import EntitySelector, parse_selector, path_covers
 from vcran.core.orion_rules import has_forbidden_chars
@@ -48,20 +48,22 @@ class Subscription:
     only_changed_attrs: bool = False
     metadata: tuple[str, ...] | None = None
     status: str = "active"
-    expires: str | None = None
-    throttling: int | None = None
+    expires: int | None = None  # whole seconds since the epoch, as Orion keeps it
+    throttling: int = 0
     times_sent: int = 0
-    last_notification: str | None = None
-    last_success: str | None = None
+    # The delivery record, in whole seconds as Orion keeps it (cache/subCache.h: int64_t), so that it
+    # renders as ``....000Z``.
+    last_notification: int | None = None
+    last_success: int | None = None
     last_success_code: int | None = None
-    last_failure: str | None = None
+    last_failure: int | None = None
     last_failure_reason: str | None = None
     fails_counter: int = 0  # consecutive failed deliveries; a success resets it (Orion's failsCounter)
 
     # --- triggering ---
 
     def expired(self, now: float) -> bool:
-        return self.expires is not None and _parse_time(self.expires) <= now
+        return self.expires is not None and self.expires < int(now)  # mongoGetSubscriptions.cpp setStatus
 
     def triggered_by(self, entity: Entity, changes: Mapping[str, Change], *, forced: bool, now: float) -> bool:
         if self.status not in ("active", "oneshot") or self.expired(now):
@@ -94,42 +96,40 @@ class Subscription:
 
     # --- delivery record ---
 
-    def sent(self, when: str) -> None:
+    def sent(self, when: float) -> None:
         self.times_sent += 1
-        self.last_notification = when
+        self.last_notification = int(when)
         if self.status == "oneshot":
             self.status = "inactive"
 
-    def delivered(self, when: str, status_code: int | None, reason: str) -> None:
+    def delivered(self, when: float, status_code: int | None, reason: str) -> None:
         """Record a delivery's outcome: any HTTP answer is a success (Orion keeps its code), no answer
-        is a failure, counted in ``failsCounter`` and showing the subscription ``failed``, until the next
-        success."""
+        is a failure, counted in ``failsCounter`` until the next success. The status stays ``active``:
+        Orion 3.4 dropped ``failed`` (orion-api.md, "Ambiguous subscription status failed not used")."""
         if status_code is None:
-            self.last_failure, self.last_failure_reason = when, reason
+            self.last_failure, self.last_failure_reason = int(when), reason
             self.fails_counter += 1
         else:
-            self.last_success, self.last_success_code, self.fails_counter = when, status_code, 0
+            self.last_success, self.last_success_code, self.fails_counter = int(when), status_code, 0
 
     # --- representation ---
 
     def render(self, now: float) -> dict[str, Any]:
+        """As Orion's ``Subscription::toJson`` (apiTypesV2/Subscription.cpp): an empty description, a
+        zero throttling and an empty metadata list are left out; times are whole seconds."""
         out: dict[str, Any] = {"id": self.id}
-        if self.description is not None:
+        if self.description:
             out["description"] = self.description
         if self.expires is not None:
-            out["expires"] = self.expires
-        status = self.status
-        if self.expired(now):
-            status = "expired"
-        elif self.fails_counter and status == "active":
-            status = "failed"
-        out["status"] = status
+            out["expires"] = iso_time(self.expires)
+        out["status"] = "expired" if self.expired(now) else self.status
         condition = {"attrs": list(self.condition_attrs), "notifyOnMetadataChange": self.notify_on_metadata_change}
         out["subject"] = {"entities": [s.render() for s in self.entities], "condition": condition}
         notification: dict[str, Any] = {}
         if self.times_sent:
             notification["timesSent"] = self.times_sent
-            notification["lastNotification"] = self.last_notification
+        if self.last_notification is not None:
+            notification["lastNotification"] = iso_time(self.last_notification)
         if self.except_attrs:
             notification["exceptAttrs"] = list(self.except_attrs)
         else:
@@ -137,12 +137,12 @@ class Subscription:
         notification["onlyChangedAttrs"] = self.only_changed_attrs
         notification["attrsFormat"] = self.attrs_format
         notification["http"] = {"url": self.url}
-        if self.metadata is not None:
+        if self.metadata:
             notification["metadata"] = list(self.metadata)
         for key, value in (
-            ("lastFailure", self.last_failure),
+            ("lastFailure", None if self.last_failure is None else iso_time(self.last_failure)),
             ("lastFailureReason", self.last_failure_reason),
-            ("lastSuccess", self.last_success),
+            ("lastSuccess", None if self.last_success is None else iso_time(self.last_success)),
             ("lastSuccessCode", self.last_success_code),
             ("failsCounter", self.fails_counter or None),
         ):
@@ -150,7 +150,7 @@ class Subscription:
                 notification[key] = value
         notification["covered"] = False
         out["notification"] = notification
-        if self.throttling is not None:
+        if self.throttling > 0:
             out["throttling"] = self.throttling
         return out
 
@@ -158,8 +158,13 @@ class Subscription:
 # --- parsing ---------------------------------------------------------------------------------------------
 
 
-def _parse_time(text: str) -> float:
-    return datetime.fromisoformat(text).timestamp()
+def _parse_time(text: str) -> int:
+    """An ISO 8601 time as Orion reads ``expires`` (common/globals.cpp parse8601Time): no zone means
+    UTC, and the fraction of a second is dropped (Orion keeps whole seconds)."""
+    moment = datetime.fromisoformat(text)
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=UTC)
+    return int(moment.timestamp() // 1)
 
 
 def _string(obj: dict[str, Any], key: str) -> str | None:
@@ -279,10 +284,9 @@ def parse_subscription(payload: Any, *, update: bool = False) -> dict[str, Any]:
             fields["expires"] = None
         else:
             try:
-                _parse_time(expires)
+                fields["expires"] = _parse_time(expires)
             except ValueError:
                 raise bad_request("expires has an invalid format") from None
-            fields["expires"] = expires
     status = _string(payload, "status")
     if status is not None:
         if status not in STATUSES:
