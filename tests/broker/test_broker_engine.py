@@ -504,3 +504,18 @@ def test_the_engine_imports_neither_sockets_nor_httpx() -> None:
     code = "import sys, vcran.broker; print(sorted({'httpx', 'http.server', 'socket'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_throttling_skips_notifications_within_its_seconds() -> None:
+    """Orion's "Check 1: timing" (mongoBackend/MongoCommonUpdate.cpp): with ``throttling: N`` nothing is
+    sent while ``N > now - lastNotification``, in whole seconds; a skipped change is not sent later."""
+    clock = HandClock(1_700_000_000.5)
+    broker = Broker(clock=clock, rng=random.Random(3))
+    subscribe(broker, {"subject": {"entities": [{"id": "r1"}]}, "notification": {"http": {"url": URL}},
+                       "throttling": 5})
+    assert len(call(broker, "POST", "/v2/entities", robot("r1", a=1)).notifications) == 1
+    clock.now += 4.4  # 1_700_000_004.9: four whole seconds later
+    assert call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}).notifications == ()
+    clock.now += 0.2  # 1_700_000_005.1: five whole seconds after the last notification
+    assert len(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 3}}).notifications) == 1
+    assert call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 4}}).notifications == ()

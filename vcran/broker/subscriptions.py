@@ -10,7 +10,8 @@ notification is sent when a subscription is created, nor when an entity or attri
 The payload carries the entity with ``notification.attrs`` in that order (all attributes when empty;
 ``exceptAttrs`` removes some; ``onlyChangedAttrs`` keeps the changed ones), not only the changed one.
 
-Accepted and shown but not acted upon: ``throttling``, ``notification.metadata`` (metadata filter).
+A subscription with ``throttling`` sends nothing within that many seconds of its last notification, as
+Orion does. Accepted and shown but not acted upon: ``notification.metadata`` (metadata filter).
 """
 
 from __future__ import annotations
@@ -73,9 +74,16 @@ class Subscription:
         if not any(selector.matches(entity) for selector in self.entities):
             return False
         changed = self.changed_names(changes, forced=forced)
-        if self.condition_attrs:
-            return any(name in changed for name in self.condition_attrs)
-        return bool(changed)
+        if not (any(name in changed for name in self.condition_attrs) if self.condition_attrs else changed):
+            return False
+        return not self.throttled(now)
+
+    def throttled(self, now: float) -> bool:
+        """Orion's throttling (mongoBackend/MongoCommonUpdate.cpp, "Check 1"): a notification within
+        ``throttling`` seconds of the last one is not sent, counted in whole seconds."""
+        if self.throttling <= 0 or self.last_notification is None:
+            return False
+        return self.throttling > int(now) - self.last_notification
 
     def changed_names(self, changes: Mapping[str, Change], *, forced: bool) -> set[str]:
         return {
