@@ -404,8 +404,10 @@ def test_http_layer_errors_from_headers_alone(broker: Broker) -> None:
     "target, status, description",
     [
         ("/v2/entities?options=nope", 400, "Invalid value for URI param /options/"),
-        ("/v2/entities?limit=0", 400, "Bad pagination limit: /0/ [a value of ZERO is unacceptable]"),
-        ("/v2/entities?limit=x", 400, "Bad pagination limit: /x/ [must be a decimal number]"),
+        ("/v2/entities?limit=x", 400, "Bad pagination limit: /x/ [must be a positive integer number]"),
+        ("/v2/entities?limit=-1", 400, "Bad pagination limit: /-1/ [must be a positive integer number]"),
+        ("/v2/entities?offset=x", 400, "Bad pagination offset: /x/ [must be a decimal number]"),
+        ("/v2/entities?limit=1001", 400, "Bad pagination limit: /1001/ [max: 1000]"),
         ("/v2/entities?attrs=", 400, "Empty right-hand-side for URI param /attrs/"),
         ("/v2/entities?type=a%3Cb", 400, "invalid character in URI parameter"),
         ("/v2/entities?q=a>1", 501, "vcran broker does not implement the URI parameter 'q'"),

@@ -75,3 +75,26 @@ def test_a_failing_subscription_stays_active_with_whole_second_times(client: htt
     assert shown["notification"]["failsCounter"] == 1
     for key in ("lastNotification", "lastFailure"):
         assert shown["notification"][key].endswith(".000Z")
+
+
+# --- pagination -------------------------------------------------------------------------------------------
+
+
+def test_limit_zero_counts_without_listing(client: httpx.Client) -> None:
+    """functional test 1041_GET_v2_entities_options_count/get_entities_option_count_multitenant.test,
+    step 05: ``GET /v2/entities?limit=0&options=count`` is 200, ``[]``, ``Fiware-Total-Count: 1``; the
+    same loop guard stops subscription lists (mongoBackend/mongoGetSubscriptions.cpp)."""
+    assert client.post("/v2/entities", json={"id": "r1", "type": "ROBOT"}).status_code == 201
+    created(client.post("/v2/subscriptions", json=subscription()))
+    for path in ("/v2/entities", "/v2/subscriptions"):
+        answer = client.get(f"{path}?limit=0&options=count")
+        assert (answer.status_code, answer.json(), answer.headers["Fiware-Total-Count"]) == (200, [], "1")
+    answer = client.post("/v2/op/query?limit=0&options=count", json={"entities": [{"idPattern": ".*"}]})
+    assert (answer.status_code, answer.json(), answer.headers["Fiware-Total-Count"]) == (200, [], "1")
+
+
+def test_a_limit_that_is_no_number_has_orion_s_words(client: httpx.Client) -> None:
+    """rest/rest.cpp ``uriArgumentGet``: limit "must be a positive integer number", offset "must be a
+    decimal number"."""
+    bad(client.get("/v2/entities?limit=2x"), "Bad pagination limit: /2x/ [must be a positive integer number]")
+    bad(client.get("/v2/subscriptions?offset=-1"), "Bad pagination offset: /-1/ [must be a decimal number]")
