@@ -131,7 +131,7 @@ def test_op_update_key_values_option(broker: Broker) -> None:
 @pytest.mark.parametrize(
     "body, description",
     [
-        ({"entities": [robot("r1")]}, "actionType is missing"),
+        ({"entities": [robot("r1")]}, "Invalid JSON payload, mandatory field /actionType/ not found"),
         ({"actionType": "upsert", "entities": [robot("r1")]}, None),
         ({"actionType": "append", "entities": []}, "empty entities vector"),
     ],

@@ -7,6 +7,7 @@ commit (c678400ba, the 4.7.0 release's code) or one of its functional tests
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from typing import Any
 
@@ -98,3 +99,204 @@ def test_a_limit_that_is_no_number_has_orion_s_words(client: httpx.Client) -> No
     decimal number"."""
     bad(client.get("/v2/entities?limit=2x"), "Bad pagination limit: /2x/ [must be a positive integer number]")
     bad(client.get("/v2/subscriptions?offset=-1"), "Bad pagination offset: /-1/ [must be a decimal number]")
+
+
+# --- subscription payloads ----------------------------------------------------------------------------------
+
+URL = "http://localhost:1234"
+SUBJECT = {"entities": [{"id": "xxx", "type": "special"}]}
+NOTIFICATION = {"http": {"url": URL}}
+
+
+@pytest.mark.parametrize("body, description", [
+    # 1316_create_subscription/post_subs_errors.test, steps 01-03, 06-09
+    ({"subject": {"entities": [{"type": "T"}]}, "notification": NOTIFICATION},
+     "/entities/ vector item does not have /id/ nor /idPattern/"),
+    ({"subject": {"entities": {"id": "xxx"}}, "notification": NOTIFICATION}, "/entities/ is not an array"),
+    ({"subject": {"entities": [{"id": "one", "idPattern": "two"}]}, "notification": NOTIFICATION},
+     "/entities/ vector item has both /id/ and /idPattern/"),
+    ({"notification": NOTIFICATION}, "no subject for subscription specified"),
+    ({"subject": SUBJECT}, "no notification for subscription specified"),
+    ({"subject": {**SUBJECT, "condition": {}}, "notification": NOTIFICATION}, "condition is empty"),
+    ({"subject": SUBJECT, "notification": {"http": {"url": "http://"}}}, "Invalid URL parsing notification url"),
+    # 1947_1972_invalid_subs_crash/1947_1972_invalid_subs_crash.test, steps 01-09, 15-17
+    ({"subject": {"entities": [{"id": {"x": "y"}}]}, "notification": NOTIFICATION},
+     "/entities/ vector item /id/ is not a string"),
+    ({"subject": {"entities": [{"idPattern": 1}]}, "notification": NOTIFICATION},
+     "/entities/ vector item /idPattern/ is not a string"),
+    ({"subject": {"entities": [{"id": "xxx", "type": 1}]}, "notification": NOTIFICATION},
+     "/entities/ vector item type is not a string"),
+    ({"subject": [SUBJECT], "notification": NOTIFICATION}, "subject is not an object"),
+    ({"subject": SUBJECT, "notification": [{}]}, "notification is not an object"),
+    ({"subject": SUBJECT, "notification": NOTIFICATION, "expires": ["1991-04-05T14:00:00.00Z"]},
+     "expires is not a string"),
+    ({"subject": {**SUBJECT, "condition": []}, "notification": NOTIFICATION}, "condition is not an object"),
+    ({"subject": {**SUBJECT, "condition": {"attrs": 0}}, "notification": NOTIFICATION},
+     "the field /attrs/ must be a JSON array"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "attrs": "temperature"}},
+     "the field /attrs/ must be a JSON array"),
+    ({"subject": SUBJECT, "notification": {"http": {"url": {"url": URL}}}}, "url http notification is not a string"),
+    ({"subject": SUBJECT, "notification": NOTIFICATION, "throttling": [2.5]}, "throttling is not an int"),
+    # jsonParseV2/parseSubscription.cpp, parseEntitiesVector.cpp, parseStringVector.cpp, errorMessages.h
+    ({"subject": {"entities": []}, "notification": NOTIFICATION}, "subject entities is empty"),
+    ({"subject": SUBJECT, "notification": {"httpCustom": {"url": URL}, **NOTIFICATION}},
+     "only one of http, httpCustom, mqtt, mqttCustom, kafka or kafkaCustom is allowed"),
+    ({"subject": SUBJECT, "notification": {"attrs": []}},
+     "http, httpCustom, mqtt, mqttCustom, kafka or kafkaCustom is missing"),
+    ({"subject": SUBJECT, "notification": {"http": {}}}, "url http notification is missing"),
+    ({"subject": SUBJECT, "notification": {"http": {"url": "mqtt://localhost:1883"}}},
+     "mqtt URL cannot be used in http notifications"),
+    ({"subject": SUBJECT, "notification": NOTIFICATION, "status": "failed"},
+     "status is not valid: it has to be either active, inactive or oneshot"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "attrsFormat": "legacy"}},
+     "invalid attrsFormat, accepted values: normalized, simplifiedNormalized, keyValues, simplifiedkeyValues, "
+     "values"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "attrs": ["a", "b", "a"]}}, "duplicated item /a/ in array"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "attrs": ["a b"]}}, "forbidden characters in attribute name"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "attrs": [""]}},
+     "empty string found in string vector /attrs/"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "attrs": [1]}},
+     "only JSON Strings allowed in string vector /attrs/"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "onlyChangedAttrs": "yes"}}, "onlyChangedAttrs is not a bool"),
+    ({"subject": SUBJECT, "notification": {**NOTIFICATION, "maxFailsLimit": 0}},
+     "maxFailsLimit must be greater than zero"),
+    ({"subject": SUBJECT, "notification": {"http": {"url": URL, "timeout": -1}}},
+     "timeout field must be an integer between 0 and 1800000"),
+    ({"subject": {"entities": [{"id": ""}]}, "notification": NOTIFICATION}, "/entities/ element id is empty"),
+    ({"subject": {"entities": [{"id": "a/b"}]}, "notification": NOTIFICATION},
+     "forbidden characters in /entities/ vector item /id/"),
+    ({"subject": SUBJECT, "notification": NOTIFICATION, "description": None}, "description is not a string"),
+])  # fmt: skip
+def test_subscription_payload_errors_have_orion_s_words(client: httpx.Client, body: dict, description: str) -> None:
+    bad(client.post("/v2/subscriptions", json=body), description)
+
+
+@pytest.mark.parametrize("body", [[SUBJECT], "x", 1])
+def test_a_subscription_payload_that_is_no_object_is_a_parse_error(client: httpx.Client, body: Any) -> None:
+    """1316_create_subscription/post_subs_errors.test step 04: "Errors found in incoming JSON buffer"."""
+    bad(client.post("/v2/subscriptions", json=body), "Errors found in incoming JSON buffer", "ParseError")
+
+
+def test_negative_throttling_is_accepted_and_means_none(client: httpx.Client) -> None:
+    """parseSubscription.cpp takes any int64 (getInt64Opt); Subscription::toJson shows it only above 0."""
+    sid = created(client.post("/v2/subscriptions", json=subscription(throttling=-5)))
+    assert "throttling" not in client.get(f"/v2/subscriptions/{sid}").json()
+
+
+def test_http_timeout_is_shown_and_bounds_the_delivery(client: httpx.Client, broker) -> None:
+    """apiTypesV2/HttpInfo.cpp shows ``timeout`` when above 0; a listener slower than it is a failure
+    ("Timeout was reached", libcurl's words)."""
+    import threading
+
+    release = threading.Event()
+    slow = Listener(gate=release)
+    try:
+        sid = created(client.post("/v2/subscriptions", json={"subject": {"entities": [{"id": "r1"}]},
+                                                             "notification": {"http": {"url": slow.url, "timeout": 200}}}))
+        assert client.get(f"/v2/subscriptions/{sid}").json()["notification"]["http"] == {"url": slow.url, "timeout": 200}
+        assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 1}}).status_code == 201
+        assert broker.wait_notifications(timeout=10)
+        shown = client.get(f"/v2/subscriptions/{sid}").json()["notification"]
+        assert (shown["failsCounter"], shown["lastFailureReason"]) == (1, "Timeout was reached")
+    finally:
+        release.set()
+        slow.stop()
+
+
+def test_max_fails_limit_deactivates_after_that_many_failures(client: httpx.Client, broker) -> None:
+    """3541_subscription_max_fails_limit/http_subscription_passes_to_inactive_state_after_limit_of_failed_
+    connection_attemps.test: with ``maxFailsLimit: 5`` the status is ``active`` at failsCounter 5 and
+    ``inactive`` at 6 (cache/subCache.cpp: ``failsCounter >= maxFailsLimit`` before counting)."""
+    dead = Listener()
+    dead.stop()
+    sid = created(client.post("/v2/subscriptions", json={"subject": {"entities": [{"id": "r1"}]},
+                                                         "notification": {"http": {"url": dead.url}, "maxFailsLimit": 2}}))
+    assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 0}}).status_code == 201
+    for value in (1, 2):
+        assert broker.wait_notifications(timeout=10)
+        shown = client.get(f"/v2/subscriptions/{sid}").json()
+        assert (shown["status"], shown["notification"]["maxFailsLimit"]) == ("active", 2)
+        assert client.patch("/v2/entities/r1/attrs", json={"a": {"value": value}}).status_code == 204
+    assert broker.wait_notifications(timeout=10)
+    shown = client.get(f"/v2/subscriptions/{sid}").json()
+    assert (shown["status"], shown["notification"]["failsCounter"]) == ("inactive", 3)
+    assert client.patch("/v2/entities/r1/attrs", json={"a": {"value": 9}}).status_code == 204
+    assert broker.wait_notifications(timeout=10)
+    assert client.get(f"/v2/subscriptions/{sid}").json()["notification"]["timesSent"] == 3
+
+
+def test_a_notification_without_attrs_format_resets_it_on_update(client: httpx.Client) -> None:
+    """parseSubscription.cpp parseNotification: a ``notification`` without ``attrsFormat`` sets the
+    default (normalized), on PATCH too."""
+    sid = created(client.post("/v2/subscriptions", json={"subject": SUBJECT,
+                                                         "notification": {**NOTIFICATION, "attrsFormat": "keyValues"}}))
+    assert client.patch(f"/v2/subscriptions/{sid}", json={"notification": NOTIFICATION}).status_code == 204
+    assert client.get(f"/v2/subscriptions/{sid}").json()["notification"]["attrsFormat"] == "normalized"
+
+
+# --- batch payloads -----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("path, body, description", [
+    # jsonParseV2/parseBatchUpdate.cpp and parseEntityObject.cpp
+    ("/v2/op/update", {}, "empty payload"),
+    ("/v2/op/update", {"entities": []}, "Invalid JSON payload, mandatory field /actionType/ not found"),
+    ("/v2/op/update", {"actionType": "append"}, "Invalid JSON payload, mandatory field /entities/ not found"),
+    ("/v2/op/update", {"actionType": "nope", "entities": [{"id": "r1"}]},
+     "invalid update action type: right ones are: append, appendStric, delete, replace, update"),
+    ("/v2/op/update", {"actionType": "append", "entities": {"id": "r1"}}, "not a JSON array"),
+    ("/v2/op/update", {"actionType": "append", "entities": ["r1"]}, "entity is not a JSON object"),
+    ("/v2/op/update", {"actionType": "append", "entities": [{"type": "T"}]}, "nor /id/ nor /idPattern/ present"),
+    ("/v2/op/update", {"actionType": "append", "entities": [{"id": "r1"}], "options": "upsert"},
+     "Unrecognized field in JSON payload: /options/"),
+    # jsonParseV2/parseBatchQuery.cpp
+    ("/v2/op/query", {}, "empty payload"),
+    ("/v2/op/query", {"limit": 5}, "Invalid JSON payload, no relevant fields found"),
+    ("/v2/op/query", {"entities": [{"idPattern": ".*"}], "limit": 5}, "Unrecognized field in JSON payload: /limit/"),
+    ("/v2/op/query", {"entities": {"idPattern": ".*"}}, "not a JSON array"),
+    ("/v2/op/query", {"attrs": "a"}, "the field /attrs/ must be a JSON array"),
+    ("/v2/op/query", {"attrs": [1]}, "only JSON Strings allowed in attrs list"),
+    ("/v2/op/query", {"entities": [{"id": "r1", "idPattern": "r"}]}, "both /id/ and /idPattern/ present"),
+    ("/v2/op/query", {"entities": [{"id": "r1", "a": {"value": 1}}]}, "no attributes allowed in Entity in this payload"),
+    ("/v2/op/query", {"entities": [{"id": 1}]}, "Invalid JSON type for entity id"),
+    ("/v2/op/query", {"entities": [{"id": "a b"}]}, "Invalid characters in entity id"),
+])  # fmt: skip
+def test_batch_payload_errors_have_orion_s_words(client: httpx.Client, path: str, body: dict, description: str) -> None:
+    bad(client.post(path, json=body), description)
+
+
+@pytest.mark.parametrize("path", ["/v2/op/update", "/v2/op/query"])
+def test_a_batch_payload_that_is_no_object_is_a_parse_error(client: httpx.Client, path: str) -> None:
+    """parseBatchUpdate.cpp / parseBatchQuery.cpp: ``!document.IsObject()`` is ERROR_PARSE."""
+    bad(client.post(path, json=[{"id": "r1"}]), "Errors found in incoming JSON buffer", "ParseError")
+
+
+def test_id_pattern_in_op_update_is_not_implemented_as_in_orion(client: httpx.Client) -> None:
+    """parseEntityObject.cpp returns ERROR_NOTIMPLEMENTED for idPattern when it is not allowed;
+    parseBatchUpdate.cpp answers it 501 ``{"error": "NotImplemented", "description": "NotImplemented"}``."""
+    answer = client.post("/v2/op/update", json={"actionType": "delete", "entities": [{"idPattern": ".*"}]})
+    bad(answer, "NotImplemented", "NotImplemented", 501)
+
+
+# --- patterns -------------------------------------------------------------------------------------------------
+
+
+def test_patterns_match_anywhere_in_the_id_as_orion_s_regex_search(client: httpx.Client, broker) -> None:
+    """Orion matches idPattern/typePattern with MongoDB's ``$regex`` (mongoBackend/MongoGlobal.cpp
+    appendRegex) and ``regexec`` (cache/subCache.cpp), both unanchored: ``obot`` matches ``robot_1``."""
+    listener = Listener()
+    try:
+        body = {"subject": {"entities": [{"idPattern": "obot", "typePattern": "OBO"}]},
+                "notification": {"http": {"url": listener.url}}}
+        created(client.post("/v2/subscriptions", json=body))
+        for entity_id in ("robot_1", "other"):
+            assert client.post("/v2/entities", json={"id": entity_id, "type": "ROBOT", "a": {"value": 1}}).status_code == 201
+        assert [e["id"] for e in client.get("/v2/entities?idPattern=obot").json()] == ["robot_1"]
+        assert [e["id"] for e in client.get("/v2/entities?typePattern=OBO").json()] == ["robot_1", "other"]
+        assert [e["id"] for e in client.get("/v2/entities?idPattern=^obot").json()] == []
+        query = {"entities": [{"idPattern": "_1", "typePattern": "^R"}]}
+        assert [e["id"] for e in client.post("/v2/op/query", json=query).json()] == ["robot_1"]
+        assert broker.wait_notifications(timeout=10)
+        assert [json.loads(n.body)["data"][0]["id"] for n in listener.take()] == ["robot_1"]
+    finally:
+        listener.stop()

@@ -154,7 +154,8 @@ class Context:
             body = render_json(subscription.payload(entity, changed))
             subscription.sent(now)
             self.notifications.append(
-                Notification(subscription.id, self.scope.tenant, subscription.url, tuple(headers), body)
+                Notification(subscription.id, self.scope.tenant, subscription.url, tuple(headers), body,
+                             subscription.timeout / 1000 if subscription.timeout else None)
             )
 
 

@@ -189,8 +189,8 @@ def list_entities(ctx: Context) -> Response:
         if ctx.scope.sees(e.service_path)
         and (ids is None or e.id in ids)
         and (types is None or e.type in types)
-        and (id_re is None or id_re.fullmatch(e.id))
-        and (type_re is None or type_re.fullmatch(e.type))
+        and (id_re is None or id_re.search(e.id))
+        and (type_re is None or type_re.search(e.type))
     ]
     return entity_page(ctx, matches, ctx.attrs_param())
 

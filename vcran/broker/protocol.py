@@ -91,13 +91,15 @@ class Response:
 
 @dataclass(frozen=True, slots=True)
 class Notification:
-    """One HTTP POST that a subscription asks for: the subscription's ``url``, headers and body."""
+    """One HTTP POST that a subscription asks for: the subscription's ``url``, headers and body;
+    ``timeout`` in seconds when the subscription set its own (``http.timeout``), else None."""
 
     subscription_id: str
     tenant: str
     url: str
     headers: Headers
     body: bytes
+    timeout: float | None = None
 
     def header(self, name: str) -> str | None:
         return header_value(self.headers, name)

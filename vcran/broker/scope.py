@@ -21,8 +21,9 @@ from typing import Any
 from vcran.broker.model import Entity
 from vcran.broker.protocol import Request, bad_request
 from vcran.core.orion_rules import (
+    IDENTIFIER_MAX,
     SERVICE_PATH_MAX_PATHS,
-    identifier_error,
+    is_identifier,
     service_path_error,
     split_service_paths,
     tenant_error,
@@ -95,7 +96,9 @@ class Scope:
 @dataclass(frozen=True, slots=True)
 class EntitySelector:
     """One element of a subscription's ``subject.entities`` or of an ``op/query``'s ``entities``:
-    exactly one of id/idPattern, at most one of type/typePattern; patterns match the whole string."""
+    exactly one of id/idPattern, at most one of type/typePattern. A pattern matches anywhere in the
+    string, as Orion's matching does (``regexec`` in cache/subCache.cpp, MongoDB's ``$regex`` in
+    mongoBackend/MongoGlobal.cpp): ``robot`` matches ``robot_1``; anchor it (``^robot$``) for more."""
 
     id: str | None = None
     id_pattern: str | None = None
@@ -105,11 +108,11 @@ class EntitySelector:
     def matches(self, entity: Entity) -> bool:
         if self.id is not None and entity.id != self.id:
             return False
-        if self.id_pattern is not None and not re.fullmatch(self.id_pattern, entity.id):
+        if self.id_pattern is not None and not re.search(self.id_pattern, entity.id):
             return False
         if self.type is not None and entity.type != self.type:
             return False
-        return self.type_pattern is None or bool(re.fullmatch(self.type_pattern, entity.type))
+        return self.type_pattern is None or bool(re.search(self.type_pattern, entity.type))
 
     def render(self) -> dict[str, str]:
         keys = (("id", self.id), ("idPattern", self.id_pattern), ("type", self.type))
@@ -119,32 +122,97 @@ class EntitySelector:
         return out
 
 
+def compiles(pattern: str) -> bool:
+    try:
+        re.compile(pattern)
+    except (re.error, OverflowError, RecursionError):  # a{99999999999}: too large a repetition
+        return False
+    return True
+
+
 def check_pattern(raw: Any, what: str) -> str:
     """A regular expression from a request (``idPattern``/``typePattern``), checked to compile."""
     if not isinstance(raw, str):
         raise bad_request(f"Invalid JSON type for entity {what}")
-    try:
-        re.compile(raw)
-    except (re.error, OverflowError, RecursionError):  # a{99999999999}: too large a repetition
-        raise bad_request(f"Invalid regex for entity {what}") from None
-    if not raw:
+    if not raw or not compiles(raw):
         raise bad_request(f"Invalid regex for entity {what}")
     return str(raw)
 
 
-def parse_selector(raw: Any) -> EntitySelector:
+def parse_subscription_selector(raw: Any) -> EntitySelector:
+    """A ``subject.entities`` element, with the checks and words of Orion's
+    jsonParseV2/parseEntitiesVector.cpp (in its order)."""
     if not isinstance(raw, dict):
-        raise bad_request("entities element is not an object")
-    if ("id" in raw) == ("idPattern" in raw):
-        raise bad_request("entities element must have exactly one of /id/ and /idPattern/")
+        raise bad_request("/entities/ vector item is not an object")
+    if "id" not in raw and "idPattern" not in raw:
+        raise bad_request("/entities/ vector item does not have /id/ nor /idPattern/")
+    if "id" in raw and "idPattern" in raw:
+        raise bad_request("/entities/ vector item has both /id/ and /idPattern/")
     if "type" in raw and "typePattern" in raw:
-        raise bad_request("entities element has both /type/ and /typePattern/")
-    for key, kind in (("id", "entity id"), ("type", "entity type")):
-        if key in raw and (error := identifier_error(kind, raw[key])) is not None:
-            raise bad_request(error)
-    return EntitySelector(
-        id=raw.get("id"),
-        id_pattern=check_pattern(raw["idPattern"], "idPattern") if "idPattern" in raw else None,
-        type=raw.get("type"),
-        type_pattern=check_pattern(raw["typePattern"], "typePattern") if "typePattern" in raw else None,
-    )
+        raise bad_request("/entities/ element has both /type/ and /typePattern/")
+    fields: dict[str, str] = {}
+    for key, field, what in (("id", "id", "/id/"), ("idPattern", "id_pattern", "/idPattern/"),
+                             ("type", "type", "type"), ("typePattern", "type_pattern", "/typePattern/")):
+        if key not in raw:
+            continue
+        value = raw[key]
+        if not isinstance(value, str):
+            raise bad_request(f"/entities/ vector item {what} is not a string")
+        if key == "id":
+            if not value:
+                raise bad_request("/entities/ element id is empty")
+            if not is_identifier(value):
+                raise bad_request("forbidden characters in /entities/ vector item /id/")
+            if len(value) > IDENTIFIER_MAX:
+                raise bad_request("max id length exceeded in /entities/ vector item /id/")
+        elif key == "type":
+            if value and not is_identifier(value):
+                raise bad_request("forbidden characters in /entities/ vector item /type/")
+            if len(value) > IDENTIFIER_MAX:
+                raise bad_request("max type length exceeded in /entities/ vector item /type/")
+            if not value:
+                raise bad_request("entity type length: 0, min length supported: 1")
+        else:
+            if not value:
+                raise bad_request(f"/entities/ vector item /{key}/ is empty")
+            if not compiles(value):
+                raise bad_request(f"Invalid regex for entity {key}")
+        fields[field] = value
+    return EntitySelector(**fields)
+
+
+def parse_query_selector(raw: Any) -> EntitySelector:
+    """An ``op/query`` ``entities`` element, with the checks and words of Orion's
+    jsonParseV2/parseEntityObject.cpp and ``Entity::check`` (apiTypesV2/Entity.cpp)."""
+    if not isinstance(raw, dict):
+        raise bad_request("entity is not a JSON object")
+    if "id" in raw and "idPattern" in raw:
+        raise bad_request("both /id/ and /idPattern/ present")
+    if "id" not in raw and "idPattern" not in raw:
+        raise bad_request("nor /id/ nor /idPattern/ present")
+    for key, value in raw.items():
+        if key in ("id", "type"):
+            if not isinstance(value, str):
+                raise bad_request(f"Invalid JSON type for entity {key}")
+            if key == "type" and not value:
+                raise bad_request("entity type length: 0, min length supported: 1")
+            if value and not is_identifier(value):
+                raise bad_request(f"Invalid characters in entity {key}")
+        elif key in ("idPattern", "typePattern"):
+            if not isinstance(value, str):
+                raise bad_request(f"Invalid JSON type for entity {key}")
+            if not compiles(value):
+                raise bad_request(f"Invalid regex for entity {key}")
+        else:
+            raise bad_request("no attributes allowed in Entity in this payload")
+    if not raw.get("id") and not raw.get("idPattern"):
+        raise bad_request("id and idPattern cannot be both empty at the same time")
+    for key in ("id", "idPattern"):
+        if len(raw.get(key) or "") > IDENTIFIER_MAX:
+            raise bad_request(f"entity {key} length: {len(raw[key])}, max length supported: {IDENTIFIER_MAX}")
+    if raw.get("typePattern") == "":
+        raise bad_request("type and typePattern cannot be both empty at the same time")
+    for key in ("type", "typePattern"):
+        if len(raw.get(key) or "") > IDENTIFIER_MAX:
+            raise bad_request(f"entity {key} length: {len(raw[key])}, max length supported: {IDENTIFIER_MAX}")
+    return EntitySelector(raw.get("id"), raw.get("idPattern"), raw.get("type"), raw.get("typePattern"))

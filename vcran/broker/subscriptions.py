@@ -23,9 +23,9 @@ from typing import Any
 from urllib.parse import urlsplit
 
 from vcran.broker.model import Change, Entity, iso_time, render_entity
-from vcran.broker.protocol import bad_request, not_implemented
-from vcran.broker.scope import EntitySelector, parse_selector, path_covers
-from vcran.core.orion_rules import has_forbidden_chars
+from vcran.broker.protocol import bad_request, not_implemented, parse_error
+from vcran.broker.scope import EntitySelector, parse_subscription_selector, path_covers
+from vcran.core.orion_rules import has_forbidden_chars, is_identifier
 
 ATTRS_FORMATS = ("normalized", "keyValues", "values")
 STATUSES = ("active", "inactive", "oneshot")
@@ -40,6 +40,7 @@ class Subscription:
     service_path: str
     entities: tuple[EntitySelector, ...]
     url: str
+    timeout: int = 0  # http.timeout, milliseconds; 0: the broker's default (Orion's -httpTimeout)
     description: str | None = None
     condition_attrs: tuple[str, ...] = ()
     notify_on_metadata_change: bool = True
@@ -60,6 +61,7 @@ class Subscription:
     last_failure: int | None = None
     last_failure_reason: str | None = None
     fails_counter: int = 0  # consecutive failed deliveries; a success resets it (Orion's failsCounter)
+    max_fails_limit: int = 0  # notification.maxFailsLimit; 0: none
 
     # --- triggering ---
 
@@ -116,6 +118,8 @@ class Subscription:
         Orion 3.4 dropped ``failed`` (orion-api.md, "Ambiguous subscription status failed not used")."""
         if status_code is None:
             self.last_failure, self.last_failure_reason = int(when), reason
+            if 0 < self.max_fails_limit <= self.fails_counter:  # cache/subCache.cpp: maxFailsReached
+                self.status = "inactive"
             self.fails_counter += 1
         else:
             self.last_success, self.last_success_code, self.fails_counter = int(when), status_code, 0
@@ -144,7 +148,7 @@ class Subscription:
             notification["attrs"] = list(self.attrs)
         notification["onlyChangedAttrs"] = self.only_changed_attrs
         notification["attrsFormat"] = self.attrs_format
-        notification["http"] = {"url": self.url}
+        notification["http"] = {"url": self.url, **({"timeout": self.timeout} if self.timeout > 0 else {})}
         if self.metadata:
             notification["metadata"] = list(self.metadata)
         for key, value in (
@@ -152,6 +156,7 @@ class Subscription:
             ("lastFailureReason", self.last_failure_reason),
             ("lastSuccess", None if self.last_success is None else iso_time(self.last_success)),
             ("lastSuccessCode", self.last_success_code),
+            ("maxFailsLimit", self.max_fails_limit or None),
             ("failsCounter", self.fails_counter or None),
         ):
             if value is not None:
@@ -164,6 +169,17 @@ class Subscription:
 
 
 # --- parsing ---------------------------------------------------------------------------------------------
+#
+# In the order and with the words of Orion's jsonParseV2/parseSubscription.cpp (functional tests
+# 1316_create_subscription/post_subs_errors.test and 1947_1972_invalid_subs_crash show most of them).
+
+#: Notification kinds Orion accepts, of which this broker implements ``http``.
+NOTIFICATION_KINDS = ("http", "httpCustom", "mqtt", "mqttCustom", "kafka", "kafkaCustom")
+#: ``attrsFormat`` values Orion accepts (common/RenderFormat.cpp stringToRenderFormat) but this broker
+#: cannot render: answered 501.
+UNSUPPORTED_FORMATS = ("uniqueValues", "custom", "simplifiedNormalized", "simplifiedKeyValues")
+#: Orion's largest ``http.timeout``, in milliseconds (common/limits.h MAX_HTTP_TIMEOUT).
+MAX_HTTP_TIMEOUT = 1_800_000
 
 
 def _parse_time(text: str) -> int:
@@ -175,21 +191,30 @@ def _parse_time(text: str) -> int:
     return int(moment.timestamp() // 1)
 
 
-def _string(obj: dict[str, Any], key: str) -> str | None:
-    value = obj.get(key)
-    if value is not None and not isinstance(value, str):
-        raise bad_request(f"{key} is not a string")
+def _typed(obj: dict[str, Any], key: str, kind: type, what: str, description: str = "") -> Any:
+    """Orion's ``getStringOpt``/``getBoolOpt``/``getInt64Opt`` (jsonParseV2/utilsParse.cpp): None when
+    absent, else the value, which must have the JSON type (``null`` has none of them)."""
+    if key not in obj:
+        return None
+    value = obj[key]
+    if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+        raise bad_request(f"{description or key} is not {what}")
     return value
 
 
-def _string_list(raw: Any, what: str) -> tuple[str, ...]:
+def _string_vector(raw: Any, name: str) -> tuple[str, ...]:
+    """Orion's parseStringVector (jsonParseV2/parseStringVector.cpp) for attribute name lists."""
     if not isinstance(raw, list):
-        raise bad_request(f"{what} is not an array")
-    for item in raw:
+        raise bad_request(f"the field /{name}/ must be a JSON array")
+    for i, item in enumerate(raw):
         if not isinstance(item, str):
-            raise bad_request(f"{what} element is not a string")
-        if has_forbidden_chars(item):
-            raise bad_request(f"forbidden characters in {what}")
+            raise bad_request(f"only JSON Strings allowed in string vector /{name}/")
+        if item in raw[i + 1 :]:
+            raise bad_request(f"duplicated item /{item}/ in array")
+        if item and not is_identifier(item):
+            raise bad_request("forbidden characters in attribute name")
+        if not item:
+            raise bad_request(f"empty string found in string vector /{name}/")
     return tuple(raw)
 
 
@@ -199,70 +224,97 @@ def _subject(raw: Any) -> dict[str, Any]:
     if "entities" not in raw:
         raise bad_request("no subject entities specified")
     entities = raw["entities"]
-    if not isinstance(entities, list) or not entities:
-        raise bad_request("subject entities must be a non-empty array")
-    fields: dict[str, Any] = {"entities": tuple(parse_selector(e) for e in entities)}
+    if not isinstance(entities, list):
+        raise bad_request("/entities/ is not an array")
+    selectors = tuple(dict.fromkeys(parse_subscription_selector(e) for e in entities))  # Orion drops repeats
+    if not selectors:
+        raise bad_request("subject entities is empty")
+    fields: dict[str, Any] = {"entities": selectors}
     if "condition" in raw:
         condition = raw["condition"]
         if not isinstance(condition, dict):
             raise bad_request("condition is not an object")
         if not condition:
             raise bad_request("condition is empty")
-        if "expression" in condition:
-            raise not_implemented("subscription condition expressions (q, mq, geo)")
+        if "attrs" in condition:
+            fields["condition_attrs"] = _string_vector(condition["attrs"], "attrs")
+        for key in ("jexlExpression", "expression"):
+            if key in condition:
+                raise not_implemented(f"subscription condition {key} (q, mq, geo, JEXL)")
         if "alterationTypes" in condition:
             raise not_implemented("subscription condition alterationTypes")
-        if "attrs" in condition:
-            fields["condition_attrs"] = _string_list(condition["attrs"], "attrs")
-        if "notifyOnMetadataChange" in condition:
-            flag = condition["notifyOnMetadataChange"]
-            if not isinstance(flag, bool):
-                raise bad_request("notifyOnMetadataChange is not a bool")
+        flag = _typed(condition, "notifyOnMetadataChange", bool, "a bool")
+        if flag is not None:
             fields["notify_on_metadata_change"] = flag
     return fields
+
+
+def _http(http: Any) -> dict[str, Any]:
+    if not isinstance(http, dict):
+        raise bad_request("http notification is not an object")
+    if "url" not in http:
+        raise bad_request("url http notification is missing")
+    url = _typed(http, "url", str, "a string", "url http notification")
+    if has_forbidden_chars(url):
+        raise bad_request("forbidden characters in http field /url/")
+    timeout = _typed(http, "timeout", int, "an int")
+    if timeout is not None and not 0 <= timeout <= MAX_HTTP_TIMEOUT:
+        raise bad_request(f"timeout field must be an integer between 0 and {MAX_HTTP_TIMEOUT}")
+    parts = urlsplit(url)
+    if parts.scheme == "mqtt":
+        raise bad_request("mqtt URL cannot be used in http notifications")
+    if parts.scheme == "kafka":
+        raise bad_request("kafka URL cannot be used in http notifications")
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        raise bad_request("Invalid URL parsing notification url")
+    return {"url": url, "timeout": timeout or 0}
 
 
 def _notification(raw: Any) -> dict[str, Any]:
     if not isinstance(raw, dict):
         raise bad_request("notification is not an object")
-    if "http" in raw and "httpCustom" in raw:
-        raise bad_request("notification has http and httpCustom")
-    if "httpCustom" in raw or "mqtt" in raw or "mqttCustom" in raw:
-        raise not_implemented("notification.httpCustom and MQTT notifications")
-    if "http" not in raw:
-        raise bad_request("http notification is missing")
-    http = raw["http"]
-    if not isinstance(http, dict):
-        raise bad_request("http notification is not an object")
-    url = http.get("url")
-    if not isinstance(url, str):
-        raise bad_request("url http notification is missing or not a string")
-    if has_forbidden_chars(url):
-        raise bad_request("forbidden characters in http field /url/")
-    parts = urlsplit(url)
-    if parts.scheme not in ("http", "https") or not parts.hostname:
-        raise bad_request("Invalid URL parsing notification url")
-    fields: dict[str, Any] = {"url": url}
+    kinds = [kind for kind in NOTIFICATION_KINDS if kind in raw]
+    if len(kinds) > 1:
+        raise bad_request("only one of http, httpCustom, mqtt, mqttCustom, kafka or kafkaCustom is allowed")
+    if not kinds:
+        raise bad_request("http, httpCustom, mqtt, mqttCustom, kafka or kafkaCustom is missing")
+    if kinds[0] != "http":
+        raise not_implemented("notification.httpCustom, MQTT and Kafka notifications")
+    fields = _http(raw["http"])
     if "attrs" in raw and "exceptAttrs" in raw:
         raise bad_request("http notification has attrs and exceptAttrs")
     if "attrs" in raw:
-        fields["attrs"] = _string_list(raw["attrs"], "attrs")
+        fields["attrs"] = _string_vector(raw["attrs"], "attrs")
         fields["except_attrs"] = ()
     elif "exceptAttrs" in raw:
-        fields["except_attrs"] = _string_list(raw["exceptAttrs"], "exceptAttrs")
+        fields["except_attrs"] = _string_vector(raw["exceptAttrs"], "exceptAttrs")
         if not fields["except_attrs"]:
             raise bad_request("http notification has exceptAttrs is empty")
         fields["attrs"] = ()
-    if "onlyChangedAttrs" in raw:
-        if not isinstance(raw["onlyChangedAttrs"], bool):
-            raise bad_request("onlyChangedAttrs is not a bool")
-        fields["only_changed_attrs"] = raw["onlyChangedAttrs"]
+    only_changed = _typed(raw, "onlyChangedAttrs", bool, "a bool")
+    if only_changed is not None:
+        fields["only_changed_attrs"] = only_changed
+    covered = _typed(raw, "covered", bool, "a bool")
+    if covered:
+        if not fields.get("attrs"):
+            raise bad_request("covered true cannot be used if notification attributes list is empty")
+        raise not_implemented("notification.covered")
     if "metadata" in raw:
-        fields["metadata"] = _string_list(raw["metadata"], "metadata")
-    if "attrsFormat" in raw:
-        if raw["attrsFormat"] not in ATTRS_FORMATS:
-            raise bad_request("invalid attrsFormat, accepted values: legacy, normalized, keyValues, values")
-        fields["attrs_format"] = raw["attrsFormat"]
+        fields["metadata"] = _string_vector(raw["metadata"], "metadata")
+    attrs_format = _typed(raw, "attrsFormat", str, "a string")
+    if attrs_format is None:
+        attrs_format = "normalized"  # Orion resets it whenever a notification is given, on update too
+    elif attrs_format in UNSUPPORTED_FORMATS:
+        raise not_implemented(f"attrsFormat {attrs_format}")
+    elif attrs_format not in ATTRS_FORMATS:
+        raise bad_request("invalid attrsFormat, accepted values: normalized, simplifiedNormalized, keyValues, "
+                          "simplifiedkeyValues, values")
+    fields["attrs_format"] = attrs_format
+    max_fails = _typed(raw, "maxFailsLimit", int, "an int")
+    if max_fails is not None:
+        if max_fails <= 0:
+            raise bad_request("maxFailsLimit must be greater than zero")
+        fields["max_fails_limit"] = max_fails
     return fields
 
 
@@ -270,13 +322,13 @@ def parse_subscription(payload: Any, *, update: bool = False) -> dict[str, Any]:
     """The fields a create (all required ones) or update (any subset) request sets, as keyword
     arguments of :class:`Subscription`; raises the error Orion gives for a malformed payload."""
     if not isinstance(payload, dict):
-        raise bad_request("not a JSON object")
+        raise parse_error()
     if not payload:
         raise bad_request("empty payload")
     fields: dict[str, Any] = {}
-    description = _string(payload, "description")
+    description = _typed(payload, "description", str, "a string")
     if description is not None:
-        if len(description) > MAX_DESCRIPTION:
+        if len(description.encode()) > MAX_DESCRIPTION:
             raise bad_request("max description length exceeded")
         if has_forbidden_chars(description):
             raise bad_request("forbidden characters in description")
@@ -286,7 +338,7 @@ def parse_subscription(payload: Any, *, update: bool = False) -> dict[str, Any]:
             fields.update(parse(payload[key]))
         elif not update:
             raise bad_request(f"no {what} for subscription specified")
-    expires = _string(payload, "expires")
+    expires = _typed(payload, "expires", str, "a string")
     if expires is not None:
         if expires == "":
             fields["expires"] = None
@@ -295,14 +347,12 @@ def parse_subscription(payload: Any, *, update: bool = False) -> dict[str, Any]:
                 fields["expires"] = _parse_time(expires)
             except ValueError:
                 raise bad_request("expires has an invalid format") from None
-    status = _string(payload, "status")
+    status = _typed(payload, "status", str, "a string")
     if status is not None:
         if status not in STATUSES:
-            raise bad_request("status is not valid: it has to be either active or inactive")
+            raise bad_request("status is not valid: it has to be either active, inactive or oneshot")
         fields["status"] = status
-    if "throttling" in payload:
-        throttling = payload["throttling"]
-        if isinstance(throttling, bool) or not isinstance(throttling, int) or throttling < 0:
-            raise bad_request("throttling must be a non-negative integer")
-        fields["throttling"] = throttling
+    throttling = _typed(payload, "throttling", int, "an int")
+    if throttling is not None:
+        fields["throttling"] = throttling  # Orion takes any int; zero or less means none
     return fields
