@@ -300,3 +300,90 @@ def test_patterns_match_anywhere_in_the_id_as_orion_s_regex_search(client: httpx
         assert [json.loads(n.body)["data"][0]["id"] for n in listener.take()] == ["robot_1"]
     finally:
         listener.stop()
+
+
+# --- entity and attribute payloads ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("path, body, description", [
+    # jsonParseV2/parseEntity.cpp
+    ("/v2/entities", {"type": "ROBOT"}, "entity id length: 0, min length supported: 1"),
+    ("/v2/entities", {"id": 1}, "Invalid JSON type for entity id"),
+    ("/v2/entities", {"id": "r1", "type": ""}, "entity type length: 0, min length supported: 1"),
+    ("/v2/entities/r1/attrs", {}, "empty payload"),
+    # jsonParseV2/parseContextAttribute.cpp parseContextAttributeObject
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "unit": "m"}}, "unrecognized property for context attribute"),
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "type": 5}}, "invalid JSON type for attribute type"),
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "type": ""}}, "attribute type length: 0, min length supported: 1"),
+    # jsonParseV2/parseMetadataVector.cpp and parseMetadata.cpp
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "metadata": []}}, "metadata not a JSON object"),
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "metadata": {"m": 1}}}, "metadata must be a JSON object"),
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "metadata": {"m": {"value": 1, "x": 2}}}},
+     "invalid JSON field for attribute metadata"),
+    ("/v2/entities", {"id": "r1", "a": {"value": 1, "metadata": {"m": {"type": [], "value": 1}}}},
+     "invalid JSON type for attribute metadata type"),
+    # Entity::check (apiTypesV2/Entity.cpp) runs after the attributes are parsed
+    ("/v2/entities", {"id": "r" * 257, "a": {"value": 1, "x": 1}}, "unrecognized property for context attribute"),
+    ("/v2/entities", {"id": "r" * 257}, "entity id length: 257, max length supported: 256"),
+    ("/v2/entities", {"id": "r1", "type": "a b"}, "Invalid characters in entity type"),
+    ("/v2/op/update", {"actionType": "append", "entities": [{"id": ""}]},
+     "id and idPattern cannot be both empty at the same time"),
+])  # fmt: skip
+def test_entity_payload_errors_have_orion_s_words(client: httpx.Client, path: str, body: dict, description: str) -> None:
+    if path.endswith("/attrs"):
+        assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 1}}).status_code == 201
+        for method in ("POST", "PATCH", "PUT"):  # parseEntity.cpp: membersFound == 0
+            bad(client.request(method, path, json=body), description)
+        assert client.get("/v2/entities/r1").json()["a"]["value"] == 1  # PUT {} did not drop the attributes
+        return
+    bad(client.post(path, json=body), description)
+    assert client.get("/v2/entities").json() == []
+
+
+@pytest.mark.parametrize("method, path", [("POST", "/v2/entities"), ("POST", "/v2/entities/r1/attrs"),
+                                          ("PATCH", "/v2/entities/r1/attrs"), ("PUT", "/v2/entities/r1/attrs/a")])
+def test_a_body_that_is_no_object_is_a_parse_error(client: httpx.Client, method: str, path: str) -> None:
+    """parseEntity.cpp and parseContextAttribute.cpp: ``!document.IsObject()`` is ERROR_PARSE."""
+    assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 1}}).status_code == 201
+    bad(client.request(method, path, json=[1]), "Errors found in incoming JSON buffer", "ParseError")
+
+
+def test_compound_metadata_values_are_not_checked_for_forbidden_characters(client: httpx.Client) -> None:
+    """Metadata::check (ngsi/Metadata.cpp) checks a metadata value only when it is a string; attribute
+    values are checked however deep (CompoundValueNode::check)."""
+    body = {"id": "r1", "a": {"value": 1, "metadata": {"m": {"value": {"note": "a<b"}}}}}
+    assert client.post("/v2/entities", json=body).status_code == 201
+    bad(client.post("/v2/entities", json={"id": "r2", "a": {"value": 1, "metadata": {"m": {"value": "a<b"}}}}),
+        "Invalid characters in metadata value")
+
+
+def test_text_unrestricted_metadata_lifts_the_check(client: httpx.Client) -> None:
+    """ContextAttribute::check: a boolean metadata ``TextUnrestricted: true`` lifts the forbidden-character
+    check as the type ``TextUnrestricted`` does."""
+    body = {"id": "r1", "a": {"value": "a<b", "metadata": {"TextUnrestricted": {"value": True}}}}
+    assert client.post("/v2/entities", json=body).status_code == 201
+    assert client.get("/v2/entities/r1/attrs/a").json()["value"] == "a<b"
+
+
+def _nested(levels: int) -> Any:
+    value: Any = 1
+    for _ in range(levels):
+        value = {"v": value}
+    return value
+
+
+@pytest.mark.parametrize("where", ["value", "metadata"])
+def test_values_nested_deeper_than_orion_s_limit_are_parse_errors(client: httpx.Client, where: str) -> None:
+    """3605_killer_request_apiv2/killer_request_apiv2_deeply_nested_attr.test (and ..._metadata.test):
+    400 ParseError "attribute or metadata value has overpassed maximum nesting limit: 50"; 51 levels of
+    objects (depth 0 to 50, parseCompoundCommon.cpp ``deep > MAX_JSON_NESTING``) are fine."""
+    def entity(entity_id: str, levels: int) -> dict[str, Any]:
+        if where == "value":
+            return {"id": entity_id, "a": {"value": _nested(levels)}}
+        return {"id": entity_id, "a": {"value": 1, "metadata": {"m": {"value": _nested(levels)}}}}
+
+    assert client.post("/v2/entities", json=entity("r1", 51)).status_code == 201
+    bad(client.post("/v2/entities", json=entity("r2", 52)),
+        "attribute or metadata value has overpassed maximum nesting limit: 50", "ParseError")
+    bad(client.post("/v2/entities?options=keyValues", json={"id": "r3", "a": _nested(52)}),
+        "attribute or metadata value has overpassed maximum nesting limit: 50", "ParseError")

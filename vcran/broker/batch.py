@@ -97,7 +97,7 @@ def _batch_entity(raw: Any, key_values: bool) -> EntityInput:
         raise bad_request("nor /id/ nor /idPattern/ present")
     if "idPattern" in raw:
         raise NgsiError(501, "NotImplemented", "NotImplemented")
-    return parse_entity(raw, key_values=key_values)
+    return parse_entity(raw, key_values=key_values, batch=True)
 
 
 def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -> None:

@@ -274,7 +274,7 @@ def get_attr(ctx: Context, entity_id: str, name: str) -> Response:
 
 
 def put_attr(ctx: Context, entity_id: str, name: str) -> Response:
-    given = parse_attribute(name, ctx.body)
+    given = parse_attribute(name, ctx.body, whole_body=True)
     entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
     _require_attribute(entity, name)
     ctx.changed(entity, entity.write({name: given}, override_metadata=_override(ctx)))
