@@ -387,3 +387,13 @@ def test_values_nested_deeper_than_orion_s_limit_are_parse_errors(client: httpx.
         "attribute or metadata value has overpassed maximum nesting limit: 50", "ParseError")
     bad(client.post("/v2/entities?options=keyValues", json={"id": "r3", "a": _nested(52)}),
         "attribute or metadata value has overpassed maximum nesting limit: 50", "ParseError")
+
+
+def test_upsert_answers_204_when_it_creates_too(client: httpx.Client) -> None:
+    """serviceRoutinesV2/postEntities.cpp: with ``options=upsert`` the success code is SccNoContent;
+    functional test 3215_upsert_op/upsert_op_as_create.test step 01: 204 and ``Location``."""
+    answer = client.post("/v2/entities?options=upsert", json={"id": "E", "type": "T", "A": {"value": 1}})
+    assert (answer.status_code, answer.headers["Location"]) == (204, "/v2/entities/E?type=T")
+    answer = client.post("/v2/entities?options=upsert", json={"id": "E", "type": "T", "B": {"value": 3}})
+    assert (answer.status_code, answer.headers["Location"]) == (204, "/v2/entities/E?type=T")
+    assert client.get("/v2/entities/E?options=keyValues").json() == {"id": "E", "type": "T", "A": 1, "B": 3}
