@@ -187,13 +187,15 @@ def test_queries_see_exactly_their_service_paths(broker: Broker, path: str | Non
     assert [e["id"] for e in listed] == visible
 
 
-def test_writes_without_service_path_find_entities_in_any_path(broker: Broker) -> None:
+def test_writes_without_service_path_find_entities_only_in_the_root_path(broker: Broker) -> None:
+    """Orion's postUpdateContext.cpp writes in ``/`` when the header is absent: functional test
+    3640_PATCH_update_with_wrong_servicepath step 09 answers 404 for an entity in ``/Level_1``."""
     ok(call(broker, "POST", "/v2/entities", robot("r1", a=1), Fiware_ServicePath="/a"), 201)
-    ok(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}))
+    error(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}), 404, "NotFound")
     error(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 3}}, Fiware_ServicePath="/b"), 404, "NotFound")
-    notified = []
+    error(call(broker, "DELETE", "/v2/entities/r1"), 404, "NotFound")
     subscribe(broker, Fiware_ServicePath="/a/#")
-    notified = call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 4}}).notifications
+    notified = call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 4}}, Fiware_ServicePath="/a").notifications
     assert [n.header("Fiware-Servicepath") for n in notified] == ["/a"]
 
 
@@ -211,10 +213,21 @@ def test_bad_scope_headers(broker: Broker, headers: dict[str, str], description:
     error(call(broker, "GET", "/v2/entities", **headers), 400, "BadRequest", description)
 
 
-def test_a_write_names_one_plain_service_path(broker: Broker) -> None:
-    for path in ("/a,/b", "/a/#"):
-        outcome = call(broker, "POST", "/v2/entities", robot("r1"), Fiware_ServicePath=path)
-        error(outcome, 400, "BadRequest", "Bad Character in Service-Path")
+@pytest.mark.parametrize("method, target, path, description", [
+    # serviceRoutinesV2/postUpdateContext.cpp and common/string.cpp servicePathCheck
+    ("POST", "/v2/entities", "/a,/b", "more than one service path in context update request"),
+    ("POST", "/v2/entities", "/a/#", "Bad Character in Service-Path"),
+    # rest/rest.cpp servicePathCheck; functional tests 3640_PATCH_update_with_wrong_servicepath (steps 07,
+    # 08) and 3071_DELETE_with_wrong_servicepath (steps 05, 06)
+    ("PATCH", "/v2/entities/r1/attrs", "/#", "servicepath with wildcard # is not allowed in patch update request"),
+    ("PATCH", "/v2/entities/r1/attrs", "/a, /b", "more than one servicepath in patch update request is not allowed"),
+    ("DELETE", "/v2/entities/r1", "/#", "servicepath with wildcard # is not allowed in DELETE operation"),
+    ("DELETE", "/v2/entities/r1", "/a,/b", "more than one servicepath is not allowed in DELETE operation"),
+])  # fmt: skip
+def test_a_write_names_one_plain_service_path(broker: Broker, method: str, target: str, path: str,
+                                              description: str) -> None:
+    body = robot("r1") if method == "POST" else {"a": {"value": 1}} if method == "PATCH" else None
+    error(call(broker, method, target, body, Fiware_ServicePath=path), 400, "BadRequest", description)
 
 
 # --- subscriptions and notifications ---------------------------------------------------------------------

@@ -397,3 +397,35 @@ def test_upsert_answers_204_when_it_creates_too(client: httpx.Client) -> None:
     answer = client.post("/v2/entities?options=upsert", json={"id": "E", "type": "T", "B": {"value": 3}})
     assert (answer.status_code, answer.headers["Location"]) == (204, "/v2/entities/E?type=T")
     assert client.get("/v2/entities/E?options=keyValues").json() == {"id": "E", "type": "T", "A": 1, "B": 3}
+
+
+# --- service paths and subscriptions ---------------------------------------------------------------------
+
+
+def test_subscription_reads_filter_on_the_first_service_path(client: httpx.Client) -> None:
+    """functional test 3945_servicepath_ignored_in_get_subs: a subscription made in another path is 404
+    by id; lists filter on the header's first path unless it is ``/#`` (mongoGetSubscriptions.cpp)."""
+    foo = created(client.post("/v2/subscriptions", json=subscription(), headers={"Fiware-ServicePath": "/foo"}))
+    bar = created(client.post("/v2/subscriptions", json=subscription(), headers={"Fiware-ServicePath": "/bar"}))
+    assert client.get(f"/v2/subscriptions/{foo}", headers={"Fiware-ServicePath": "/foo"}).status_code == 200
+    bad(client.get(f"/v2/subscriptions/{bar}", headers={"Fiware-ServicePath": "/foo"}),
+        "The requested subscription has not been found. Check id", "NotFound", 404)
+    assert client.get(f"/v2/subscriptions/{bar}").status_code == 200
+    listed = client.get("/v2/subscriptions", headers={"Fiware-ServicePath": "/foo,/bar"}).json()
+    assert [s["id"] for s in listed] == [foo]
+    assert [s["id"] for s in client.get("/v2/subscriptions", headers={"Fiware-ServicePath": "/#"}).json()] == [foo, bar]
+
+
+def test_a_subscription_takes_one_service_path(client: httpx.Client) -> None:
+    """serviceRoutinesV2/postSubscriptions.cpp: "max *one* service-path allowed for subscriptions (%lu given)"."""
+    bad(client.post("/v2/subscriptions", json=subscription(), headers={"Fiware-ServicePath": "/a,/b"}),
+        "max *one* service-path allowed for subscriptions (2 given)")
+
+
+def test_patching_a_subscription_moves_it_to_the_patch_s_service_path(client: httpx.Client) -> None:
+    """mongoBackend/mongoUpdateSubscription.cpp: ``setServicePath`` with the PATCH's own path (``/#``
+    without the header) on every update."""
+    sid = created(client.post("/v2/subscriptions", json=subscription(), headers={"Fiware-ServicePath": "/foo"}))
+    assert client.patch(f"/v2/subscriptions/{sid}", json={"description": "moved"}).status_code == 204
+    assert client.get(f"/v2/subscriptions/{sid}", headers={"Fiware-ServicePath": "/foo"}).status_code == 404
+    assert client.get(f"/v2/subscriptions/{sid}", headers={"Fiware-ServicePath": "/#"}).json()["description"] == "moved"

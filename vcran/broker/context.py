@@ -116,9 +116,9 @@ class Context:
         return found
 
     def writable(self, entity_id: str, entity_type: str | None) -> Entity | None:
-        """Write semantics: the entity in the write's path (any path when the header is absent)."""
+        """Write semantics: the entity in the write's one path (``/`` when the header is absent)."""
         path = self.scope.write_path()
-        return _single([e for e in self._named(entity_id, entity_type) if path in (None, e.service_path)])
+        return _single([e for e in self._named(entity_id, entity_type) if e.service_path == path])
 
     def find_for_write(self, entity_id: str, entity_type: str | None) -> Entity:
         found = self.writable(entity_id, entity_type)

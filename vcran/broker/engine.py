@@ -39,7 +39,7 @@ from vcran.broker.protocol import (
     parse_error,
     parse_json,
 )
-from vcran.broker.scope import Scope
+from vcran.broker.scope import EVERYTHING, Scope
 from vcran.broker.subscriptions import Subscription, parse_subscription
 from vcran.core.orion_rules import FORBIDDEN_CHARS, MAX_REQUEST_BYTES, has_forbidden_chars
 
@@ -236,12 +236,12 @@ class Broker:
         return empty_response(201, (("Location", f"/v2/subscriptions/{subscription.id}"),))
 
     def _list_subscriptions(self, ctx: Context) -> Response:
-        """The tenant's subscriptions; with a Fiware-ServicePath, only those created with exactly it."""
+        """The tenant's subscriptions; with a Fiware-ServicePath other than ``/#``, only those created
+        with exactly its first path (mongoGetSubscriptions.cpp mongoListSubscriptions)."""
         limit, offset = ctx.page_bounds()
+        path = ctx.scope.subscription_filter()
         subscriptions = [
-            s
-            for s in ctx.tenant().subscriptions.values()
-            if not ctx.scope.paths or s.service_path == ctx.scope.subscription_path()
+            s for s in ctx.tenant().subscriptions.values() if path in (None, EVERYTHING) or s.service_path == path
         ]
         now = self._clock()
         body = [s.render(now) for s in subscriptions[offset : offset + limit]]
@@ -255,11 +255,21 @@ class Broker:
         return subscription
 
     def _get_subscription(self, ctx: Context, subscription_id: str) -> Response:
-        return json_response(self._subscription(ctx, subscription_id).render(self._clock()))
+        """With a Fiware-ServicePath, found only in exactly its first path (mongoGetSubscription;
+        functional test 3945_servicepath_ignored_in_get_subs, step 05)."""
+        subscription = self._subscription(ctx, subscription_id)
+        path = ctx.scope.subscription_filter()
+        if path is not None and subscription.service_path != path:
+            raise not_found(SUBSCRIPTION_NOT_FOUND)
+        return json_response(subscription.render(self._clock()))
 
     def _patch_subscription(self, ctx: Context, subscription_id: str) -> Response:
+        """Orion's mongoUpdateSubscription sets the subscription's service path to the PATCH's own
+        (``/#`` without the header), whatever else the PATCH changes."""
         subscription = self._subscription(ctx, subscription_id)
-        for name, value in parse_subscription(ctx.body, update=True).items():
+        fields = parse_subscription(ctx.body, update=True)
+        subscription.service_path = ctx.scope.subscription_path()
+        for name, value in fields.items():
             setattr(subscription, name, value)
         return empty_response()
 

@@ -40,7 +40,7 @@ from vcran.broker.protocol import (
     not_found,
     unprocessable,
 )
-from vcran.broker.scope import ROOT_PATH, check_pattern
+from vcran.broker.scope import check_pattern
 
 
 def location(entity: Entity) -> Headers:
@@ -101,7 +101,7 @@ def _override(ctx: Context) -> bool:
 def create(ctx: Context, given: EntityInput) -> Entity:
     """Create an entity in the write's service path (``/`` by default) and notify for it."""
     now = ctx.clock()
-    entity = Entity(given.id, given.type or DEFAULT_ENTITY_TYPE, ctx.scope.write_path() or ROOT_PATH,
+    entity = Entity(given.id, given.type or DEFAULT_ENTITY_TYPE, ctx.scope.write_path(),
                     created=now, modified=now)
     changes = entity.write(given.attrs)
     ctx.tenant(create=True).add(entity)
@@ -197,7 +197,7 @@ def list_entities(ctx: Context) -> Response:
 
 def create_entity(ctx: Context) -> Response:
     given = parse_entity(ctx.body, key_values="keyValues" in ctx.options)
-    path = ctx.scope.write_path() or ROOT_PATH
+    path = ctx.scope.write_path()
     existing = ctx.tenant().entities.get((path, given.id, given.type or DEFAULT_ENTITY_TYPE))
     if existing is not None:
         if "upsert" not in ctx.options:

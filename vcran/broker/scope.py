@@ -7,8 +7,8 @@ Orion's rules (manual: multitenancy, service_path; confirmed by the recordings):
 - an entity belongs to exactly one service path, ``/`` when created without the header;
 - a query without the header sees every path (``/#``); ``/a`` sees only ``/a``, not ``/a/b`` nor ``/``;
   ``/a/#`` sees ``/a`` and everything below it; a comma-separated list sees the union;
-- a write names one plain path; without the header it creates in ``/`` and finds existing entities
-  in any path;
+- a write names one plain path, ``/`` without the header, and finds existing entities only there (Orion's
+  postUpdateContext.cpp; PATCH and DELETE refuse ``#`` and lists with their own words, rest.cpp);
 - a subscription's path selects the entities it watches, ``/#`` when created without the header.
 """
 
@@ -54,17 +54,27 @@ class Scope:
     @classmethod
     def of(cls, request: Request) -> Scope:
         """Read the headers; a malformed service path is an error here, a malformed tenant later
-        (:meth:`check_tenant`), in the order Orion reports them."""
+        (:meth:`check_tenant`), in the order Orion reports them (rest/rest.cpp servicePathCheck, whose
+        PATCH and DELETE refuse several paths and a recursive ``#``, whatever the resource)."""
         header = request.header("Fiware-ServicePath")
         paths: tuple[str, ...] = ()
         if header is not None and header.strip():
             paths = tuple(split_service_paths(header))
             if len(paths) > SERVICE_PATH_MAX_PATHS:
                 raise bad_request("too many service paths - a maximum of ten service paths is allowed")
+            verb = {"PATCH": "in patch update request", "DELETE": "in DELETE operation"}.get(request.method)
             for path in paths:
                 error = service_path_error(path)
+                if error is not None and (not path.startswith("/") or path.startswith("//")):
+                    raise bad_request(error)
+                if verb is not None and len(paths) > 1:
+                    raise bad_request("more than one servicepath in patch update request is not allowed"
+                                      if request.method == "PATCH"
+                                      else "more than one servicepath is not allowed in DELETE operation")
                 if error is not None:
                     raise bad_request(error)
+                if verb is not None and (path == EVERYTHING or path.endswith("/#")):
+                    raise bad_request(f"servicepath with wildcard # is not allowed {verb}")
         return cls((request.header("Fiware-Service") or "").lower(), paths)
 
     def check_tenant(self) -> None:
@@ -76,21 +86,29 @@ class Scope:
         """Query semantics: does this request see an entity in ``entity_path``?"""
         return any(path_covers(p, entity_path) for p in self.paths or (EVERYTHING,))
 
-    def write_path(self) -> str | None:
-        """The one path a write names (None: no header), after Orion's stricter check for writes."""
+    def write_path(self) -> str:
+        """The one path a write names, ``/`` without the header: Orion's postUpdateContext.cpp, through
+        which every entity write goes, sets the root path then, so a write without the header finds
+        only entities in ``/`` (functional test 3640_PATCH_update_with_wrong_servicepath, step 09)."""
         if not self.paths:
-            return None
+            return ROOT_PATH
         if len(self.paths) > 1:
-            raise bad_request("Bad Character in Service-Path")
+            raise bad_request("more than one service path in context update request")
         error = update_service_path_error(self.paths[0])
         if error is not None:
             raise bad_request(error)
         return self.paths[0]
 
     def subscription_path(self) -> str:
+        """The path a subscription is created (or PATCHed: mongoUpdateSubscription.cpp) with."""
         if len(self.paths) > 1:
-            raise bad_request("max *one* service-path allowed for subscriptions")
+            raise bad_request(f"max *one* service-path allowed for subscriptions ({len(self.paths)} given)")
         return self.paths[0] if self.paths else EVERYTHING
+
+    def subscription_filter(self) -> str | None:
+        """The path subscription reads filter on: the header's first, as Orion's getSubscription.cpp
+        and getAllSubscriptions.cpp pass ``servicePathV[0]``; None without the header."""
+        return self.paths[0] if self.paths else None
 
 
 @dataclass(frozen=True, slots=True)
