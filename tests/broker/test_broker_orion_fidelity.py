@@ -429,3 +429,16 @@ def test_patching_a_subscription_moves_it_to_the_patch_s_service_path(client: ht
     assert client.patch(f"/v2/subscriptions/{sid}", json={"description": "moved"}).status_code == 204
     assert client.get(f"/v2/subscriptions/{sid}", headers={"Fiware-ServicePath": "/foo"}).status_code == 404
     assert client.get(f"/v2/subscriptions/{sid}", headers={"Fiware-ServicePath": "/#"}).json()["description"] == "moved"
+
+
+# --- HTTP layer -------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value, shown", [("Application/JSON", "Application/JSON"),
+                                          ("application/json ;charset=utf-8", "application/json ")])
+def test_content_type_is_compared_as_sent(client: httpx.Client, value: str, shown: str) -> None:
+    """rest/rest.cpp: the header is cut at ``;`` and compared with ``!= "application/json"`` as is."""
+    answer = client.post("/v2/entities", content=b'{"id": "r1"}', headers={"Content-Type": value})
+    bad(answer, f"not supported content type: {shown}", "UnsupportedMediaType", 415)
+    answer = client.post("/v2/entities", content=b'{"id": "r1"}', headers={"Content-Type": "application/json; charset=utf-8"})
+    assert answer.status_code == 201

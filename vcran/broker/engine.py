@@ -31,9 +31,9 @@ from vcran.broker.protocol import (
     Response,
     accepted_media,
     bad_request,
+    body_media_type,
     empty_response,
     json_response,
-    media_type,
     not_found,
     not_implemented,
     parse_error,
@@ -150,7 +150,7 @@ class Broker:
         scope = Scope.of(request)
         route, args = self._resolve(path)
         takes_text = route == ("v2", "entities", "*", "attrs", "*", "value") and request.method == "PUT"
-        content_type = media_type(request.header("Content-Type"))
+        content_type = body_media_type(request.header("Content-Type"))
         if length:
             _check_content_type(content_type, takes_text)
         if request.method in ("POST", "PUT", "PATCH") and not length:
