@@ -442,3 +442,29 @@ def test_content_type_is_compared_as_sent(client: httpx.Client, value: str, show
     bad(answer, f"not supported content type: {shown}", "UnsupportedMediaType", 415)
     answer = client.post("/v2/entities", content=b'{"id": "r1"}', headers={"Content-Type": "application/json; charset=utf-8"})
     assert answer.status_code == 201
+
+
+@pytest.mark.parametrize("text, value", [
+    ("TRUE", True), ("False", False), ("NULL", None), ('"', ""), ("0x1A", 26), (" 7 ", 7), ("5.", 5),
+])  # fmt: skip
+def test_text_plain_values_read_as_orion_s_text_parse(client: httpx.Client, text: str, value: Any) -> None:
+    """parse/textParse.cpp textParseAttributeValue: three spellings of each constant; a leading quote
+    starts a string; numbers as C's ``strtod`` reads them (common/string.cpp str2double)."""
+    assert client.post("/v2/entities", json={"id": "r1", "a": {"value": "x"}}).status_code == 201
+    answer = client.put("/v2/entities/r1/attrs/a/value", content=text.encode(), headers={"Content-Type": "text/plain"})
+    assert answer.status_code == 204, answer.text
+    assert client.get("/v2/entities/r1/attrs/a").json()["value"] == value
+
+
+@pytest.mark.parametrize("text, description", [
+    ('"abc', "Missing citation-mark at end of string"),
+    ("1_000", "attribute value type not recognized"),
+    ("1e400", "attribute value type not recognized"),
+    ("1e-400", "attribute value type not recognized"),
+])
+def test_text_plain_values_orion_refuses(client: httpx.Client, text: str, description: str) -> None:
+    """textParse.cpp; str2double fails on text strtod leaves over and on ERANGE (over- and underflow)."""
+    assert client.post("/v2/entities", json={"id": "r1", "a": {"value": "x"}}).status_code == 201
+    bad(client.put("/v2/entities/r1/attrs/a/value", content=text.encode(), headers={"Content-Type": "text/plain"}),
+        description)
+    assert client.get("/v2/entities/r1/attrs/a").json()["value"] == "x"

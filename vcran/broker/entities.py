@@ -9,6 +9,7 @@ A write that applies in part still applies the part and notifies for it, then an
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -304,17 +305,54 @@ def get_value(ctx: Context, entity_id: str, name: str) -> Response:
     return Response(200, (("Content-Type", "text/plain"),), render_json(value))
 
 
+#: What C's ``strtod`` reads in full (Orion's str2double, common/string.cpp): decimal or hexadecimal
+#: floats, ``inf``/``infinity``/``nan``, surrounding whitespace; not Python's ``1_000``.
+_STRTOD = re.compile(
+    r"\s*[+-]?(?:(?P<dec>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<hex>0[xX](?:[0-9a-fA-F]+\.?[0-9a-fA-F]*|\.[0-9a-fA-F]+)"
+    r"(?:[pP][+-]?\d+)?)|(?P<special>inf(?:inity)?|nan))\s*",
+    re.IGNORECASE,
+)
+
+
+def _strtod(text: str) -> float | None:
+    """The double ``strtod`` reads from all of ``text``, or None where Orion's str2double fails
+    (text left over, or ERANGE: overflow, or underflow of a non-zero number to zero)."""
+    match = _STRTOD.fullmatch(text)
+    if match is None:
+        return None
+    body = text.strip()
+    if match["hex"]:
+        sign = -1.0 if body.startswith("-") else 1.0
+        digits = body.lstrip("+-")
+        try:
+            number = sign * float.fromhex(digits if "p" in digits.lower() else digits + "p0")
+        except OverflowError:
+            return None
+    else:
+        number = float(body)
+    if match["special"]:
+        return number
+    mantissa = (match["dec"] or match["hex"]).lower().split("e")[0] if match["dec"] else match["hex"].lower()
+    nonzero = any(c not in "0.x" for c in mantissa.split("p")[0])
+    if math.isinf(number) or (number == 0 and nonzero):
+        return None
+    return number
+
+
 def _plain_text_value(text: str) -> object:
-    """A ``text/plain`` value: ``"quoted"`` is a string, else true/false/null or a number."""
-    if len(text) >= 2 and text.startswith('"') and text.endswith('"'):
+    """A ``text/plain`` value as Orion's textParseAttributeValue (parse/textParse.cpp) reads it:
+    ``"quoted"`` is a string (taken as it is, no escapes), ``true``/``True``/``TRUE`` (and false, null
+    alike) the constants, else a number as ``strtod`` reads it."""
+    if text.startswith('"'):
+        if not text.endswith('"'):
+            raise bad_request("Missing citation-mark at end of string")
         return text[1:-1]
-    constants: dict[str, object] = {"true": True, "false": False, "null": None}
-    if text in constants:
-        return constants[text]
-    try:
-        number = float(text)
-    except ValueError:
-        raise bad_request("attribute value type not recognized") from None
+    for word, constant in (("true", True), ("false", False), ("null", None)):
+        if text in (word, word.capitalize(), word.upper()):
+            return constant
+    number = _strtod(text)
+    if number is None:
+        raise bad_request("attribute value type not recognized")
     return int(number) if number.is_integer() and abs(number) < 2**53 else number
 
 
