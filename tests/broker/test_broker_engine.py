@@ -329,10 +329,15 @@ def test_forced_update_notifies_without_a_change(broker: Broker) -> None:
     assert len(outcome.notifications) == 1
 
 
-def test_deletes_and_inactive_subscriptions_do_not_notify(broker: Broker) -> None:
+def test_entity_deletes_and_inactive_subscriptions_do_not_notify(broker: Broker) -> None:
+    """An attribute's deletion notifies with the attributes left (functional test
+    3956_delete_attribute_notif_fail); an entity's deletion does not (default alterationTypes
+    ``entityCreate, entityChange``, orion-api.md)."""
     ok(call(broker, "POST", "/v2/entities", robot("r1", a=1, b=1)), 201)
     subscription = subscribe(broker)
-    assert call(broker, "DELETE", "/v2/entities/r1/attrs/b").notifications == ()
+    notified = call(broker, "DELETE", "/v2/entities/r1/attrs/b").notifications
+    assert [n.json()["data"][0] for n in notified] == [{"id": "r1", "type": "ROBOT",
+                                                         "a": {"type": "Number", "value": 1, "metadata": {}}}]
     ok(call(broker, "PATCH", f"/v2/subscriptions/{subscription}", {"status": "inactive"}))
     assert call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}).notifications == ()
     assert call(broker, "DELETE", "/v2/entities/r1").notifications == ()

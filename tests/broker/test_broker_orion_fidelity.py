@@ -468,3 +468,38 @@ def test_text_plain_values_orion_refuses(client: httpx.Client, text: str, descri
     bad(client.put("/v2/entities/r1/attrs/a/value", content=text.encode(), headers={"Content-Type": "text/plain"}),
         description)
     assert client.get("/v2/entities/r1/attrs/a").json()["value"] == "x"
+
+
+# --- notifications ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("deleted, condition, notified", [
+    ("B", ["B", "C"], True),   # 0000_subs_attrs_deletion/delete_attribute_in_condition.test
+    ("B", [], True),           # 0000_subs_attrs_deletion/delete_attribute_in_empty_condition.test
+    ("A", ["B", "C"], False),  # 0000_subs_attrs_deletion/delete_attribute_not_in_condition.test
+])
+@pytest.mark.parametrize("how", ["DELETE", "op/update"])
+def test_deleting_an_attribute_notifies_as_a_change_of_it(client: httpx.Client, broker, deleted: str,
+                                                         condition: list[str], notified: bool, how: str) -> None:
+    """Orion's tests above: the notification carries the attributes left; timesSent counts it. An
+    ``op/update`` ``delete`` naming attributes deletes them the same way."""
+    listener = Listener()
+    try:
+        entity = {"id": "E1", "type": "T", "A": {"value": 1}, "B": {"value": 2}, "C": {"value": 3}}
+        assert client.post("/v2/entities", json=entity).status_code == 201
+        body = {"subject": {"entities": [{"idPattern": "E.*"}], "condition": {"attrs": condition}},
+                "notification": {"http": {"url": listener.url}, "attrs": ["A", "B", "C"]}}
+        sid = created(client.post("/v2/subscriptions", json=body))
+        if how == "DELETE":
+            answer = client.delete(f"/v2/entities/E1/attrs/{deleted}")
+        else:
+            answer = client.post("/v2/op/update", json={"actionType": "delete",
+                                                        "entities": [{"id": "E1", "type": "T", deleted: {}}]})
+        assert answer.status_code == 204
+        assert broker.wait_notifications(timeout=10)
+        got = [json.loads(n.body)["data"][0] for n in listener.take()]
+        left = [name for name in "ABC" if name != deleted]
+        assert [sorted(set(d) - {"id", "type"}) for d in got] == ([left] if notified else [])
+        assert client.get(f"/v2/subscriptions/{sid}").json()["notification"].get("timesSent", 0) == int(notified)
+    finally:
+        listener.stop()

@@ -150,12 +150,18 @@ def replace(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput]) 
     ctx.changed(entity, changes)
 
 
+#: What deleting an attribute is to subscriptions: a change of it. Orion notifies as for an update,
+#: with the attributes left (functional tests 0000_subs_attrs_deletion/*.test and
+#: 3956_delete_attribute_notif_fail/delete_attribute_notif_fail.test).
+DELETED = Change(value=True, metadata=True)
+
+
 def delete_attrs(ctx: Context, entity: Entity, key: str, names: list[str], report: WriteReport) -> None:
     report.missing_attrs(key, [name for name in names if name not in entity.attrs])
-    for name in names:
-        if entity.attrs.pop(name, None) is not None:
-            report.applied = True
-            entity.modified = ctx.clock()
+    deleted = {name: DELETED for name in names if entity.attrs.pop(name, None) is not None}
+    if deleted:
+        report.applied = True
+        ctx.changed(entity, deleted)
 
 
 # --- /v2/entities --------------------------------------------------------------------------------------
@@ -288,7 +294,7 @@ def delete_attr(ctx: Context, entity_id: str, name: str) -> Response:
     entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
     _require_attribute(entity, name)
     del entity.attrs[name]
-    entity.modified = ctx.clock()
+    ctx.changed(entity, {name: DELETED})
     return empty_response()
 
 
