@@ -503,3 +503,26 @@ def test_deleting_an_attribute_notifies_as_a_change_of_it(client: httpx.Client, 
         assert client.get(f"/v2/subscriptions/{sid}").json()["notification"].get("timesSent", 0) == int(notified)
     finally:
         listener.stop()
+
+
+# --- batch failures ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("entities, answer", [
+    # the first failure sets status and words, later ones are appended (OrionError::fillOrAppend), a
+    # missing entity after the first without " - " (MongoCommonUpdate.cpp: ", " + enStr + " [entity itself]")
+    ([{"id": "x1"}, {"id": "x2"}], (404, "NotFound", "do not exist: x1 - [entity itself], x2 [entity itself]")),
+    # coverage: not found, then all attributes failed, stays a failure of the first kind (mongoUpdateContext.cpp)
+    ([{"id": "x1"}, {"id": "r1", "nope": {"value": 1}}],
+     (404, "NotFound", "do not exist: x1 - [entity itself], r1 - [ nope ]")),
+    ([{"id": "r1", "nope": {"value": 1}}, {"id": "x1"}],
+     (422, "Unprocessable", "do not exist: r1 - [ nope ], x1 [entity itself]")),
+    # something applied: PartialUpdate, with the words of the first failure
+    ([{"id": "x1"}, {"id": "r1", "a": {"value": 2}}],
+     (422, "PartialUpdate", "do not exist: x1 - [entity itself]")),
+])  # fmt: skip
+def test_batch_failures_compose_as_orion_s(client: httpx.Client, entities: list, answer: tuple) -> None:
+    assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 1}}).status_code == 201
+    got = client.post("/v2/op/update", json={"actionType": "update", "entities": entities})
+    status, error, description = answer
+    bad(got, description, error, status)

@@ -106,7 +106,7 @@ def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -
     if entity is None:
         if action in ("append", "appendStrict"):
             create(ctx, given)
-            report.applied = True
+            report.success()
         else:
             report.missing_entity(key)
         return
@@ -118,12 +118,12 @@ def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -
         update(ctx, entity, key, given.attrs, report)
     elif action == "replace":
         replace(ctx, entity, given.attrs)
-        report.applied = True
+        report.success()
     elif given.attrs:
         delete_attrs(ctx, entity, key, list(given.attrs), report)
     else:
         ctx.tenant().remove(entity)
-        report.applied = True
+        report.success()
 
 
 def op_query(ctx: Context) -> Response:

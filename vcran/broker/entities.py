@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from vcran.broker.context import Context
 from vcran.broker.jsontext import render_json
@@ -53,43 +53,68 @@ def entity_key(entity_id: str, entity_type: str | None) -> str:
     return entity_id if entity_type is None else f"{entity_id}/{entity_type}"
 
 
+#: How one entity of a write went (Orion's UpdateCoverage, mongoBackend/MongoCommonUpdate.cpp).
+SUCCESS, PARTIAL, ATTRS_FAILED, NOT_FOUND = "success", "partial", "attrs failed", "not found"
+
+
+def _combined(total: str | None, entity: str) -> str:
+    """Orion's mongoUpdateContext.cpp: the coverage of a whole write from its entities', in order."""
+    if total is None or total == PARTIAL:
+        return entity if total is None else PARTIAL
+    if total == SUCCESS:
+        return SUCCESS if entity == SUCCESS else PARTIAL
+    if total == ATTRS_FAILED:
+        return ATTRS_FAILED if entity in (ATTRS_FAILED, NOT_FOUND) else PARTIAL
+    return NOT_FOUND if entity == NOT_FOUND else ATTRS_FAILED if entity == ATTRS_FAILED else PARTIAL
+
+
 @dataclass(slots=True)
 class WriteReport:
-    """What parts of a write did not apply, turned into Orion's answer once the write is done."""
+    """What parts of a write did not apply, turned into Orion's answer once the write is done.
 
-    applied: bool = False
-    missing: list[str] = field(default_factory=list)  # "key - [ a, b ]" or "key - [entity itself]"
-    existing: list[str] = field(default_factory=list)
-    only_entities_missing: bool = True
+    As Orion's ``OrionError::fillOrAppend``: the first failure sets the status, the error name and the
+    description; later ones only append ``, E2 - [ A ]`` (``, E2 [entity itself]`` for a missing
+    entity, without the dash). A write that applied in part is 422 ``PartialUpdate`` whatever the first
+    failure was (mongoUpdateContext.cpp)."""
+
+    coverage: str | None = None
+    status: int = 0
+    error: str = ""
+    description: str = ""
+
+    def _failed(self, status: int, error: str, first: str, later: str) -> None:
+        if self.status:
+            self.description += later
+        else:
+            self.status, self.error, self.description = status, error, first
+
+    def success(self) -> None:
+        self.coverage = _combined(self.coverage, SUCCESS)
 
     def missing_entity(self, key: str) -> None:
-        self.missing.append(f"{key} - [entity itself]")
+        self._failed(404, "NotFound", f"do not exist: {key} - [entity itself]", f", {key} [entity itself]")
+        self.coverage = _combined(self.coverage, NOT_FOUND)
 
-    def missing_attrs(self, key: str, names: list[str]) -> None:
+    def _attrs(self, prefix: str, key: str, names: list[str], total: int) -> None:
         if names:
-            self.missing.append(f"{key} - [ {', '.join(names)} ]")
-            self.only_entities_missing = False
+            listed = f"{key} - [ {', '.join(names)} ]"
+            self._failed(422, "Unprocessable", prefix + listed, ", " + listed)
+        self.coverage = _combined(self.coverage, SUCCESS if not names else ATTRS_FAILED if len(names) == total
+                                  else PARTIAL)
 
-    def existing_attrs(self, key: str, names: list[str]) -> None:
-        if names:
-            self.existing.append(f"{key} - [ {', '.join(names)} ]")
-            self.only_entities_missing = False
+    def missing_attrs(self, key: str, names: list[str], total: int) -> None:
+        self._attrs("do not exist: ", key, names, total)
+
+    def existing_attrs(self, key: str, names: list[str], total: int) -> None:
+        self._attrs("one or more of the attributes in the request already exist: ", key, names, total)
 
     def response(self) -> Response:
         """204 when everything applied, else the error for what did not (raised)."""
-        if not self.missing and not self.existing:
+        if not self.status:
             return empty_response()
-        parts = []
-        if self.missing:
-            parts.append("do not exist: " + ", ".join(self.missing))
-        if self.existing:
-            parts.append("one or more of the attributes in the request already exist: " + ", ".join(self.existing))
-        description = "; ".join(parts)
-        if self.applied:
-            raise NgsiError(422, "PartialUpdate", description)
-        if self.only_entities_missing:
-            raise not_found(description)
-        raise unprocessable(description)
+        if self.coverage == PARTIAL:
+            raise NgsiError(422, "PartialUpdate", self.description)
+        raise NgsiError(self.status, self.error, self.description)
 
 
 # --- write semantics shared with op/update ------------------------------------------------------------
@@ -113,7 +138,7 @@ def create(ctx: Context, given: EntityInput) -> Entity:
 def append(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput], report: WriteReport) -> None:
     """Update the attributes that exist, add the others (``append`` / ``POST .../attrs``)."""
     ctx.changed(entity, entity.write(inputs, override_metadata=_override(ctx)))
-    report.applied = True
+    report.success()
 
 
 def append_strict(
@@ -122,19 +147,17 @@ def append_strict(
     """Add the attributes that do not exist yet; those that do are an error (``appendStrict``)."""
     existing = [name for name in inputs if name in entity.attrs]
     new = {name: given for name, given in inputs.items() if name not in entity.attrs}
-    report.existing_attrs(key, existing)
+    report.existing_attrs(key, existing, len(inputs))
     if new:
         ctx.changed(entity, entity.write(new, override_metadata=_override(ctx)))
-        report.applied = True
 
 
 def update(ctx: Context, entity: Entity, key: str, inputs: Mapping[str, AttributeInput], report: WriteReport) -> None:
     """Update the attributes that exist; those that do not are an error (``update`` / ``PATCH``)."""
-    report.missing_attrs(key, [name for name in inputs if name not in entity.attrs])
+    report.missing_attrs(key, [name for name in inputs if name not in entity.attrs], len(inputs))
     present = {name: given for name, given in inputs.items() if name in entity.attrs}
     if present:
         ctx.changed(entity, entity.write(present, override_metadata=_override(ctx)))
-        report.applied = True
 
 
 def replace(ctx: Context, entity: Entity, inputs: Mapping[str, AttributeInput]) -> None:
@@ -157,10 +180,9 @@ DELETED = Change(value=True, metadata=True)
 
 
 def delete_attrs(ctx: Context, entity: Entity, key: str, names: list[str], report: WriteReport) -> None:
-    report.missing_attrs(key, [name for name in names if name not in entity.attrs])
+    report.missing_attrs(key, [name for name in names if name not in entity.attrs], len(names))
     deleted = {name: DELETED for name in names if entity.attrs.pop(name, None) is not None}
     if deleted:
-        report.applied = True
         ctx.changed(entity, deleted)
 
 
