@@ -526,3 +526,14 @@ def test_batch_failures_compose_as_orion_s(client: httpx.Client, entities: list,
     got = client.post("/v2/op/update", json={"actionType": "update", "entities": entities})
     status, error, description = answer
     bad(got, description, error, status)
+
+
+def test_too_long_an_entity_key_is_refused(client: httpx.Client) -> None:
+    """functional test 1289_exceed_mongo_key_limit/exceed_mongo_key_limit.test: id and type of 255
+    characters in a ten-level service path are 400 "Too long entity id/type/servicePath combination"
+    (serviceRoutinesV2/postEntities.cpp legalEntityLength: the sum plus 10 must stay under 1024)."""
+    path = "/" + "/".join(["12345678901234567890123456789012345678901234567890"] * 10) + "/"
+    entity = {"id": "i" * 255, "type": "t" * 255, "temp": "29"}
+    answer = client.post("/v2/entities?options=keyValues", json=entity, headers={"Fiware-ServicePath": path})
+    bad(answer, "Too long entity id/type/servicePath combination")
+    assert client.get("/v2/entities", headers={"Fiware-ServicePath": path[:-1]}).json() == []

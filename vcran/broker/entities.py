@@ -224,8 +224,16 @@ def list_entities(ctx: Context) -> Response:
     return entity_page(ctx, matches, ctx.attrs_param())
 
 
+#: Orion's limit on id + type + Fiware-ServicePath (MongoDB's key size), with its structural overhead
+#: (serviceRoutinesV2/postEntities.cpp legalEntityLength).
+MAX_ENTITY_KEY = 1024 - 10
+
+
 def create_entity(ctx: Context) -> Response:
     given = parse_entity(ctx.body, key_values="keyValues" in ctx.options)
+    header = ctx.request.header("Fiware-ServicePath") or ""
+    if len(header) + len(given.id) + len(given.type or DEFAULT_ENTITY_TYPE) >= MAX_ENTITY_KEY:
+        raise bad_request("Too long entity id/type/servicePath combination")
     path = ctx.scope.write_path()
     existing = ctx.tenant().entities.get((path, given.id, given.type or DEFAULT_ENTITY_TYPE))
     if existing is not None:
