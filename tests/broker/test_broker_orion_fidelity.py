@@ -537,3 +537,13 @@ def test_too_long_an_entity_key_is_refused(client: httpx.Client) -> None:
     answer = client.post("/v2/entities?options=keyValues", json=entity, headers={"Fiware-ServicePath": path})
     bad(answer, "Too long entity id/type/servicePath combination")
     assert client.get("/v2/entities", headers={"Fiware-ServicePath": path[:-1]}).json() == []
+
+
+def test_an_id_list_is_matched_as_orion_s_regex(client: httpx.Client) -> None:
+    """serviceRoutinesV2/getEntities.cpp builds ``^id1$|^id2$`` from ``id=id1,id2`` and matches it as a
+    pattern: a dot in an id matches any character."""
+    for entity_id in ("robot.1", "robot_1", "robot_10"):
+        assert client.post("/v2/entities", json={"id": entity_id}).status_code == 201
+    assert [e["id"] for e in client.get("/v2/entities?id=robot.1").json()] == ["robot.1", "robot_1"]
+    assert [e["id"] for e in client.get("/v2/entities?id=robot_10,robot.1").json()] == ["robot.1", "robot_1",
+                                                                                       "robot_10"]

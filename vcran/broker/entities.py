@@ -41,7 +41,7 @@ from vcran.broker.protocol import (
     not_found,
     unprocessable,
 )
-from vcran.broker.scope import check_pattern
+from vcran.broker.scope import check_pattern, compiles
 
 
 def location(entity: Entity) -> Headers:
@@ -211,6 +211,10 @@ def list_entities(ctx: Context) -> Response:
     if types is not None and type_pattern is not None:
         raise bad_request("Incompatible parameters: type, typePattern")
     id_re = re.compile(check_pattern(id_pattern, "idPattern")) if id_pattern is not None else None
+    if ids is not None and compiles(listed := "|".join(f"^{i}$" for i in ids if i)):
+        # Orion turns an id list into the regex ^a$|^b$ (serviceRoutinesV2/getEntities.cpp), so an id
+        # is a pattern: id=robot.1 also lists robot_1.
+        id_re, ids = re.compile(listed), None
     type_re = re.compile(check_pattern(type_pattern, "typePattern")) if type_pattern is not None else None
     matches = [
         e
