@@ -547,3 +547,12 @@ def test_an_id_list_is_matched_as_orion_s_regex(client: httpx.Client) -> None:
     assert [e["id"] for e in client.get("/v2/entities?id=robot.1").json()] == ["robot.1", "robot_1"]
     assert [e["id"] for e in client.get("/v2/entities?id=robot_10,robot.1").json()] == ["robot.1", "robot_1",
                                                                                        "robot_10"]
+
+
+def test_repeated_type_parameters_add_up(client: httpx.Client) -> None:
+    """rest/rest.cpp uriArgumentGet pushes every ``type`` into uriParamTypes (getEntities.cpp queries
+    them all); other repeated parameters keep their last value (``ciP->uriParam[key] = value``)."""
+    for entity_id, entity_type in (("r1", "A"), ("r2", "B"), ("r3", "C")):
+        assert client.post("/v2/entities", json={"id": entity_id, "type": entity_type}).status_code == 201
+    assert [e["id"] for e in client.get("/v2/entities?type=A&type=C").json()] == ["r1", "r3"]
+    assert [e["id"] for e in client.get("/v2/entities?limit=1&limit=2").json()] == ["r1", "r2"]
