@@ -556,3 +556,9 @@ def test_repeated_type_parameters_add_up(client: httpx.Client) -> None:
         assert client.post("/v2/entities", json={"id": entity_id, "type": entity_type}).status_code == 201
     assert [e["id"] for e in client.get("/v2/entities?type=A&type=C").json()] == ["r1", "r3"]
     assert [e["id"] for e in client.get("/v2/entities?limit=1&limit=2").json()] == ["r1", "r2"]
+
+
+def test_a_single_entity_read_takes_the_last_type(client: httpx.Client) -> None:
+    """getEntity.cpp reads ``uriParam["type"]``, the last value given."""
+    assert client.post("/v2/entities", json={"id": "r1", "type": "B"}).status_code == 201
+    assert client.get("/v2/entities/r1?type=A&type=B").status_code == 200

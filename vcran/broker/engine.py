@@ -330,9 +330,7 @@ def _params(query: str) -> dict[str, str]:
             raise bad_request("invalid character in URI parameter")
         if key in UNSUPPORTED_PARAMS:
             raise not_implemented(f"the URI parameter {key!r}")
-        # A repeated parameter keeps its last value, but repeated ``type``s add up: Orion's uriArgumentGet
-        # (rest/rest.cpp) appends each to uriParamTypes, which getEntities.cpp queries.
-        params[key] = f"{params[key]},{value}" if key == "type" and key in params else value
+        params[key] = value  # a repeated parameter keeps its last value, as in Orion's uriArgumentGet
     return params
 
 

@@ -13,6 +13,7 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
+from urllib.parse import parse_qsl, urlsplit
 
 from vcran.broker.context import Context
 from vcran.broker.jsontext import render_json
@@ -203,8 +204,17 @@ def _param_list(ctx: Context, name: str) -> list[str] | None:
     return value.split(",") if value is not None else None
 
 
+def _types_param(ctx: Context) -> list[str] | None:
+    """Every ``type`` of the query string: Orion's uriArgumentGet (rest/rest.cpp) appends each repeated
+    ``type`` to uriParamTypes, which getEntities.cpp queries (other parameters keep their last value)."""
+    if "type" not in ctx.params:
+        return None
+    query = urlsplit(ctx.request.target).query
+    return [t for key, value in parse_qsl(query, keep_blank_values=True) if key == "type" for t in value.split(",")]
+
+
 def list_entities(ctx: Context) -> Response:
-    ids, types = _param_list(ctx, "id"), _param_list(ctx, "type")
+    ids, types = _param_list(ctx, "id"), _types_param(ctx)
     id_pattern, type_pattern = ctx.params.get("idPattern"), ctx.params.get("typePattern")
     if ids is not None and id_pattern is not None:
         raise bad_request("Incompatible parameters: id, IdPattern")
