@@ -562,3 +562,41 @@ def test_a_single_entity_read_takes_the_last_type(client: httpx.Client) -> None:
     """getEntity.cpp reads ``uriParam["type"]``, the last value given."""
     assert client.post("/v2/entities", json={"id": "r1", "type": "B"}).status_code == 201
     assert client.get("/v2/entities/r1?type=A&type=B").status_code == 200
+
+
+# --- DateTime values ------------------------------------------------------------------------------------------
+
+PARTIAL_DATES = ["2016-10-01", "2016-10-01T00", "2016-10-01T00Z", "2016-10-01T00:00", "2016-10-01T00:00Z",
+                 "2016-10-01T00:00:00", "2016-10-01T00:00:00Z", "2016-10-01T00:00:00.000",
+                 "2016-10-01T00:00:00.000Z", "2016-10-01T0000", "2016-10-01T0000Z", "2016-10-01T000000",
+                 "2016-10-01T000000Z", "2016-10-01T000000.000", "2016-10-01T000000.000Z",
+                 "2016-10-01T02:00:00+02:00", "2016-09-30T23:00:00-0100"]
+
+
+def test_date_time_values_read_back_as_orion_prints_them(client: httpx.Client) -> None:
+    """functional test 2631_partial_datetimes/partial_datetime_creation.test: every partial form reads
+    back ``2016-10-01T00:00:00.000Z`` (parse8601Time, isodate2str); zones are applied (globals.cpp
+    timezoneOffset); milliseconds are kept (1039_ngsiv2_date_support/basic_dates_support.test)."""
+    entity: dict[str, Any] = {"id": "E", "type": "T"}
+    entity |= {f"A{i}": {"value": text, "type": "DateTime"} for i, text in enumerate(PARTIAL_DATES)}
+    entity["ms"] = {"value": "2050-04-05T14:00:00.123Z", "type": "DateTime",
+                    "metadata": {"at": {"value": "2018-12-03T13:21:42.456Z", "type": "ISO8601"}}}
+    entity["none"] = {"value": None, "type": "DateTime"}
+    assert client.post("/v2/entities", json=entity).status_code == 201
+    got = client.get("/v2/entities/E?options=keyValues").json()
+    assert {got[f"A{i}"] for i in range(len(PARTIAL_DATES))} == {"2016-10-01T00:00:00.000Z"}
+    assert (got["ms"], got["none"]) == ("2050-04-05T14:00:00.123Z", None)
+    assert client.get("/v2/entities/E/attrs/ms").json()["metadata"]["at"]["value"] == "2018-12-03T13:21:42.456Z"
+
+
+@pytest.mark.parametrize("attribute, description", [
+    ({"value": "foo", "type": "DateTime"}, "date has invalid format in attribute value"),
+    ({"value": 5, "type": "DateTime"}, "date has invalid format in attribute value"),
+    ({"value": "2016-02-30T00:00:00Z", "type": "DateTime"}, "date has invalid format in attribute value"),
+    ({"value": "2016-10-01Z", "type": "DateTime"}, "date has invalid format in attribute value"),
+    ({"value": 1, "metadata": {"at": {"value": "bar", "type": "DateTime"}}}, "date has invalid format in metadata value"),
+])  # fmt: skip
+def test_date_time_values_orion_refuses(client: httpx.Client, attribute: dict, description: str) -> None:
+    """parseContextAttribute.cpp and parseMetadata.cpp: parse8601Time answering -1 is refused (1039 step 01)."""
+    bad(client.post("/v2/entities", json={"id": "E", "A": attribute}), description)
+    assert client.get("/v2/entities").json() == []

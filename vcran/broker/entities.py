@@ -411,6 +411,6 @@ def put_value(ctx: Context, entity_id: str, name: str) -> Response:
     value = _plain_text_value(ctx.text) if ctx.text is not None else ctx.body
     entity = ctx.find_for_write(entity_id, ctx.params.get("type"))
     _require_attribute(entity, name)
-    given = parse_attribute(name, {"value": value, "type": entity.attrs[name].type})
+    given = parse_attribute(name, {"value": value, "type": entity.attrs[name].type}, dates=False)
     ctx.changed(entity, entity.write({name: given}))
     return empty_response()

@@ -18,11 +18,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from typing import Any
 
+from vcran.broker.dates import DATE_TYPES, iso_time, parse_time
 from vcran.broker.jsontext import as_double, render_json
-from vcran.broker.protocol import NgsiError, bad_request, parse_error
+from vcran.broker.protocol import NgsiError, bad_request, not_implemented, parse_error
 from vcran.core.orion_rules import IDENTIFIER_MAX, default_attribute_type, has_forbidden_chars, is_identifier
 
 #: Attribute type that skips the forbidden-character check on the value (Orion's escape hatch).
@@ -31,12 +31,6 @@ TEXT_UNRESTRICTED = "TextUnrestricted"
 DEFAULT_ENTITY_TYPE = "Thing"
 #: Builtin attributes, shown only when named, after the entity's own attributes.
 BUILTIN_ATTRIBUTES = ("dateCreated", "dateModified")
-
-
-def iso_time(t: float) -> str:
-    """Orion's timestamp format: UTC, milliseconds, ``Z``."""
-    moment = datetime.fromtimestamp(t, UTC)
-    return moment.strftime("%Y-%m-%dT%H:%M:%S.") + f"{moment.microsecond // 1000:03d}Z"
 
 
 @dataclass(frozen=True, slots=True)
@@ -176,6 +170,21 @@ def _check_nesting(value: Any) -> None:
                         f"attribute or metadata value has overpassed maximum nesting limit: {MAX_JSON_NESTING}")
 
 
+def _date_value(value: Any, value_type: str | None, kind: str) -> Any:
+    """A ``DateTime`` (or ``ISO8601``) value as Orion keeps it: a time, read by parse8601Time and
+    printed back by isodate2str (parseContextAttribute.cpp, parseMetadata.cpp; functional tests
+    1039_ngsiv2_date_support/basic_dates_support.test, 2631_partial_datetimes). ``null`` stays null;
+    anything that is not such a time is refused."""
+    if value_type not in DATE_TYPES or value is None:
+        return value
+    if kind == "attribute" and isinstance(value, dict) and len(value) == 1 and next(iter(value)) in ("$max", "$min"):
+        raise not_implemented("update operators ($max, $min) on DateTime attributes")
+    moment = parse_time(value) if isinstance(value, str) else None
+    if moment is None:
+        raise bad_request(f"date has invalid format in {kind} value")
+    return iso_time(moment)
+
+
 def _parse_metadata(raw: Any) -> dict[str, Metadata]:
     if not isinstance(raw, dict):
         raise bad_request("metadata not a JSON object")
@@ -195,7 +204,8 @@ def _parse_metadata(raw: Any) -> dict[str, Metadata]:
                 value = as_double(field_value)
             else:
                 raise bad_request("invalid JSON field for attribute metadata")
-        metadata[name] = Metadata(md_type if md_type is not None else default_attribute_type(value), value)
+        metadata[name] = Metadata(md_type if md_type is not None else default_attribute_type(value),
+                                  _date_value(value, md_type, "metadata"))
     return metadata
 
 
@@ -208,9 +218,12 @@ def _check_metadata(metadata: Mapping[str, Metadata]) -> None:
             raise bad_request("Invalid characters in metadata value")
 
 
-def parse_attribute(name: Any, raw: Any, *, key_values: bool = False, whole_body: bool = False) -> AttributeInput:
+def parse_attribute(
+    name: Any, raw: Any, *, key_values: bool = False, whole_body: bool = False, dates: bool = True
+) -> AttributeInput:
     """One attribute of a request payload, parsed and checked as Orion does. ``whole_body``: ``raw`` is
-    a request's whole body (``PUT .../attrs/{name}``), which must be an object or is a ParseError."""
+    a request's whole body (``PUT .../attrs/{name}``), which must be an object or is a ParseError.
+    ``dates=False``: a ``DateTime`` value is kept as written (``PUT .../value`` does not parse it)."""
     if key_values:
         _check_nesting(raw)
         given = AttributeInput(as_double(raw))
@@ -234,7 +247,7 @@ def parse_attribute(name: Any, raw: Any, *, key_values: bool = False, whole_body
                 metadata = _parse_metadata(field_value)
             else:
                 raise bad_request("unrecognized property for context attribute")
-        given = AttributeInput(value, attr_type, metadata)
+        given = AttributeInput(_date_value(value, attr_type, "attribute") if dates else value, attr_type, metadata)
     _check_name("attribute name", name)
     if given.type is not None:
         _check_name("attribute type", given.type)

@@ -19,11 +19,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from typing import Any
 from urllib.parse import urlsplit
 
-from vcran.broker.model import Change, Entity, iso_time, render_entity
+from vcran.broker.dates import iso_time, parse_time
+from vcran.broker.model import Change, Entity, render_entity
 from vcran.broker.protocol import bad_request, not_implemented, parse_error
 from vcran.broker.scope import EntitySelector, parse_subscription_selector, path_covers
 from vcran.core.orion_rules import has_forbidden_chars, is_identifier
@@ -183,15 +183,6 @@ UNSUPPORTED_FORMATS = ("uniqueValues", "custom", "simplifiedNormalized", "simpli
 MAX_HTTP_TIMEOUT = 1_800_000
 
 
-def _parse_time(text: str) -> int:
-    """An ISO 8601 time as Orion reads ``expires`` (common/globals.cpp parse8601Time): no zone means
-    UTC, and the fraction of a second is dropped (Orion keeps whole seconds)."""
-    moment = datetime.fromisoformat(text)
-    if moment.tzinfo is None:
-        moment = moment.replace(tzinfo=UTC)
-    return int(moment.timestamp() // 1)
-
-
 def _typed(obj: dict[str, Any], key: str, kind: type, what: str, description: str = "") -> Any:
     """Orion's ``getStringOpt``/``getBoolOpt``/``getInt64Opt`` (jsonParseV2/utilsParse.cpp): None when
     absent, else the value, which must have the JSON type (``null`` has none of them)."""
@@ -344,10 +335,10 @@ def parse_subscription(payload: Any, *, update: bool = False) -> dict[str, Any]:
         if expires == "":
             fields["expires"] = None
         else:
-            try:
-                fields["expires"] = _parse_time(expires)
-            except ValueError:
-                raise bad_request("expires has an invalid format") from None
+            moment = parse_time(expires)  # common/globals.cpp parse8601Time; Orion keeps whole seconds
+            if moment is None:
+                raise bad_request("expires has an invalid format")
+            fields["expires"] = int(moment)
     status = _typed(payload, "status", str, "a string")
     if status is not None:
         if status not in STATUSES:
