@@ -600,3 +600,15 @@ def test_date_time_values_orion_refuses(client: httpx.Client, attribute: dict, d
     """parseContextAttribute.cpp and parseMetadata.cpp: parse8601Time answering -1 is refused (1039 step 01)."""
     bad(client.post("/v2/entities", json={"id": "E", "A": attribute}), description)
     assert client.get("/v2/entities").json() == []
+
+
+@pytest.mark.parametrize("value", [{"$inc": 1}, {"$push": 3, "x": 1}, {"$max": "2020-01-01T00:00:00Z"}])
+def test_update_operators_are_not_stored_as_values(client: httpx.Client, value: Any) -> None:
+    """Orion applies an object value whose first key is an update operator (mongoBackend/dbConstants.h
+    UPDATE_OPERATORS_ALL, ngsi/ContextAttribute.cpp); this broker says it does not, rather than store it."""
+    assert client.post("/v2/entities", json={"id": "E", "A": {"value": 1}}).status_code == 201
+    answer = client.patch("/v2/entities/E/attrs", json={"A": {"value": value, "type": "DateTime"}})
+    assert (answer.status_code, answer.json()["error"]) == (501, "NotImplemented")
+    answer = client.patch("/v2/entities/E/attrs?options=keyValues", json={"A": value})
+    assert (answer.status_code, answer.json()["error"]) == (501, "NotImplemented")
+    assert client.get("/v2/entities/E/attrs/A/value").json() == 1

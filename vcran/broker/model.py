@@ -170,6 +170,17 @@ def _check_nesting(value: Any) -> None:
                         f"attribute or metadata value has overpassed maximum nesting limit: {MAX_JSON_NESTING}")
 
 
+#: Orion's update operators (mongoBackend/dbConstants.h UPDATE_OPERATORS_ALL): an object value whose
+#: first key is one of them is an operation on the stored value (ContextAttribute.cpp), not a value.
+UPDATE_OPERATORS = frozenset({"$inc", "$min", "$max", "$mul", "$push", "$pull", "$set", "$unset", "$addToSet",
+                              "$pullAll"})
+
+
+def _check_not_an_operator(value: Any) -> None:
+    if isinstance(value, dict) and value and next(iter(value)) in UPDATE_OPERATORS:
+        raise not_implemented(f"update operators ({next(iter(value))}) in attribute values")
+
+
 def _date_value(value: Any, value_type: str | None, kind: str) -> Any:
     """A ``DateTime`` (or ``ISO8601``) value as Orion keeps it: a time, read by parse8601Time and
     printed back by isodate2str (parseContextAttribute.cpp, parseMetadata.cpp; functional tests
@@ -177,8 +188,6 @@ def _date_value(value: Any, value_type: str | None, kind: str) -> Any:
     anything that is not such a time is refused."""
     if value_type not in DATE_TYPES or value is None:
         return value
-    if kind == "attribute" and isinstance(value, dict) and len(value) == 1 and next(iter(value)) in ("$max", "$min"):
-        raise not_implemented("update operators ($max, $min) on DateTime attributes")
     moment = parse_time(value) if isinstance(value, str) else None
     if moment is None:
         raise bad_request(f"date has invalid format in {kind} value")
@@ -247,7 +256,9 @@ def parse_attribute(
                 metadata = _parse_metadata(field_value)
             else:
                 raise bad_request("unrecognized property for context attribute")
+        _check_not_an_operator(value)
         given = AttributeInput(_date_value(value, attr_type, "attribute") if dates else value, attr_type, metadata)
+    _check_not_an_operator(given.value)
     _check_name("attribute name", name)
     if given.type is not None:
         _check_name("attribute type", given.type)
