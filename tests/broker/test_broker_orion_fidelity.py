@@ -612,3 +612,13 @@ def test_update_operators_are_not_stored_as_values(client: httpx.Client, value: 
     answer = client.patch("/v2/entities/E/attrs?options=keyValues", json={"A": value})
     assert (answer.status_code, answer.json()["error"]) == (501, "NotImplemented")
     assert client.get("/v2/entities/E/attrs/A/value").json() == 1
+
+
+def test_a_date_time_value_reads_as_text_without_quotes(client: httpx.Client) -> None:
+    """ngsi/ContextAttribute.cpp: a DateTime value is a number printed by isodate2str, so ``GET .../value``
+    as text gives it bare; a string (``PUT .../value`` stores text as written) keeps its quotes."""
+    assert client.post("/v2/entities", json={"id": "E", "A": {"value": "2016-10-01", "type": "DateTime"}}).status_code == 201
+    assert client.get("/v2/entities/E/attrs/A/value").content == b"2016-10-01T00:00:00.000Z"
+    answer = client.put("/v2/entities/E/attrs/A/value", content=b'"2016-10-01"', headers={"Content-Type": "text/plain"})
+    assert answer.status_code == 204
+    assert client.get("/v2/entities/E/attrs/A/value").content == b'"2016-10-01"'

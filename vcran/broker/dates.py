@@ -29,6 +29,14 @@ _TIME = re.compile(
 )
 
 
+class Moment(str):
+    """A time value as Orion keeps it (a number, printed by isodate2str): JSON shows it as a string, and
+    ``GET .../value`` as text shows it without quotes (ngsi/ContextAttribute.cpp), unlike a string. A
+    moment and a string of the same text are different values."""
+
+    __slots__ = ()
+
+
 def _float32(x: float) -> float:
     """``x`` as a C ``float``: parse8601Time keeps seconds in one."""
     return float(struct.unpack("f", struct.pack("f", x))[0])

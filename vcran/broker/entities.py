@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from urllib.parse import parse_qsl, urlsplit
 
 from vcran.broker.context import Context
+from vcran.broker.dates import Moment
 from vcran.broker.jsontext import render_json
 from vcran.broker.model import (
     DEFAULT_ENTITY_TYPE,
@@ -352,7 +353,8 @@ def get_value(ctx: Context, entity_id: str, name: str) -> Response:
         return json_response(value)
     if not {"*/*", "text/*", "text/plain"}.intersection(accepted_media(ctx.request)):
         raise NgsiError(406, "NotAcceptable", "accepted MIME types: text/plain")
-    return Response(200, (("Content-Type", "text/plain"),), render_json(value))
+    text = value.encode() if isinstance(value, Moment) else render_json(value)  # a time without quotes
+    return Response(200, (("Content-Type", "text/plain"),), text)
 
 
 #: What C's ``strtod`` reads in full (Orion's str2double, common/string.cpp): decimal or hexadecimal

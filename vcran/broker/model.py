@@ -20,7 +20,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from vcran.broker.dates import DATE_TYPES, iso_time, parse_time
+from vcran.broker.dates import DATE_TYPES, Moment, iso_time, parse_time
 from vcran.broker.jsontext import as_double, render_json
 from vcran.broker.protocol import NgsiError, bad_request, not_implemented, parse_error
 from vcran.core.orion_rules import IDENTIFIER_MAX, default_attribute_type, has_forbidden_chars, is_identifier
@@ -191,7 +191,7 @@ def _date_value(value: Any, value_type: str | None, kind: str) -> Any:
     moment = parse_time(value) if isinstance(value, str) else None
     if moment is None:
         raise bad_request(f"date has invalid format in {kind} value")
-    return iso_time(moment)
+    return Moment(iso_time(moment))
 
 
 def _parse_metadata(raw: Any) -> dict[str, Metadata]:
