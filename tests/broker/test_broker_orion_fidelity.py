@@ -622,3 +622,12 @@ def test_a_date_time_value_reads_as_text_without_quotes(client: httpx.Client) ->
     answer = client.put("/v2/entities/E/attrs/A/value", content=b'"2016-10-01"', headers={"Content-Type": "text/plain"})
     assert answer.status_code == 204
     assert client.get("/v2/entities/E/attrs/A/value").content == b'"2016-10-01"'
+
+
+def test_repeated_options_add_up(client: httpx.Client) -> None:
+    """rest/ConnectionInfo.cpp uriParamOptionsParse sets every option of every ``options`` parameter in
+    one map, and checks the forbidden pairs on it."""
+    assert client.post("/v2/entities", json={"id": "E", "A": {"value": 1}}).status_code == 201
+    answer = client.get("/v2/entities?options=count&options=keyValues")
+    assert (answer.json(), answer.headers["Fiware-Total-Count"]) == ([{"id": "E", "type": "Thing", "A": 1}], "1")
+    bad(client.get("/v2/entities?options=keyValues&options=values"), "Invalid value for URI param /options/")

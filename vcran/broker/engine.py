@@ -167,7 +167,7 @@ class Broker:
                 "Orion accepts no payload for GET/DELETE requests. HTTP header Content-Type is thus forbidden"
             )
         params = _params(target.query)
-        options = _options(params)
+        options = _options(target.query) if "options" in params else frozenset()
         body: Any = None
         text: str | None = None
         if length and request.method in ("POST", "PUT", "PATCH"):
@@ -334,11 +334,12 @@ def _params(query: str) -> dict[str, str]:
     return params
 
 
-def _options(params: dict[str, str]) -> frozenset[str]:
-    """The ``options`` list as Orion splits it: leading commas skipped, any other empty item invalid."""
-    if "options" not in params:
-        return frozenset()
-    options = frozenset(params["options"].lstrip(",").split(","))
+def _options(query: str) -> frozenset[str]:
+    """The ``options`` lists as Orion splits them: leading commas skipped, any other empty item invalid;
+    a repeated ``options`` adds up (rest/ConnectionInfo.cpp uriParamOptionsParse sets each in one map)."""
+    options = frozenset(
+        item for key, value in parse_qsl(query) if key == "options" for item in value.lstrip(",").split(",")
+    )
     if not options <= KNOWN_OPTIONS or any(a in options and b in options for a, b in EXCLUSIVE_OPTIONS):
         raise bad_request("Invalid value for URI param /options/")
     return options
