@@ -131,7 +131,7 @@ def test_op_update_key_values_option(broker: Broker) -> None:
 @pytest.mark.parametrize(
     "body, description",
     [
-        ({"entities": [robot("r1")]}, "actionType is missing"),
+        ({"entities": [robot("r1")]}, "Invalid JSON payload, mandatory field /actionType/ not found"),
         ({"actionType": "upsert", "entities": [robot("r1")]}, None),
         ({"actionType": "append", "entities": []}, "empty entities vector"),
     ],
@@ -187,13 +187,15 @@ def test_queries_see_exactly_their_service_paths(broker: Broker, path: str | Non
     assert [e["id"] for e in listed] == visible
 
 
-def test_writes_without_service_path_find_entities_in_any_path(broker: Broker) -> None:
+def test_writes_without_service_path_find_entities_only_in_the_root_path(broker: Broker) -> None:
+    """Orion's postUpdateContext.cpp writes in ``/`` when the header is absent: functional test
+    3640_PATCH_update_with_wrong_servicepath step 09 answers 404 for an entity in ``/Level_1``."""
     ok(call(broker, "POST", "/v2/entities", robot("r1", a=1), Fiware_ServicePath="/a"), 201)
-    ok(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}))
+    error(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}), 404, "NotFound")
     error(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 3}}, Fiware_ServicePath="/b"), 404, "NotFound")
-    notified = []
+    error(call(broker, "DELETE", "/v2/entities/r1"), 404, "NotFound")
     subscribe(broker, Fiware_ServicePath="/a/#")
-    notified = call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 4}}).notifications
+    notified = call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 4}}, Fiware_ServicePath="/a").notifications
     assert [n.header("Fiware-Servicepath") for n in notified] == ["/a"]
 
 
@@ -211,10 +213,21 @@ def test_bad_scope_headers(broker: Broker, headers: dict[str, str], description:
     error(call(broker, "GET", "/v2/entities", **headers), 400, "BadRequest", description)
 
 
-def test_a_write_names_one_plain_service_path(broker: Broker) -> None:
-    for path in ("/a,/b", "/a/#"):
-        outcome = call(broker, "POST", "/v2/entities", robot("r1"), Fiware_ServicePath=path)
-        error(outcome, 400, "BadRequest", "Bad Character in Service-Path")
+@pytest.mark.parametrize("method, target, path, description", [
+    # serviceRoutinesV2/postUpdateContext.cpp and common/string.cpp servicePathCheck
+    ("POST", "/v2/entities", "/a,/b", "more than one service path in context update request"),
+    ("POST", "/v2/entities", "/a/#", "Bad Character in Service-Path"),
+    # rest/rest.cpp servicePathCheck; functional tests 3640_PATCH_update_with_wrong_servicepath (steps 07,
+    # 08) and 3071_DELETE_with_wrong_servicepath (steps 05, 06)
+    ("PATCH", "/v2/entities/r1/attrs", "/#", "servicepath with wildcard # is not allowed in patch update request"),
+    ("PATCH", "/v2/entities/r1/attrs", "/a, /b", "more than one servicepath in patch update request is not allowed"),
+    ("DELETE", "/v2/entities/r1", "/#", "servicepath with wildcard # is not allowed in DELETE operation"),
+    ("DELETE", "/v2/entities/r1", "/a,/b", "more than one servicepath is not allowed in DELETE operation"),
+])  # fmt: skip
+def test_a_write_names_one_plain_service_path(broker: Broker, method: str, target: str, path: str,
+                                              description: str) -> None:
+    body = robot("r1") if method == "POST" else {"a": {"value": 1}} if method == "PATCH" else None
+    error(call(broker, method, target, body, Fiware_ServicePath=path), 400, "BadRequest", description)
 
 
 # --- subscriptions and notifications ---------------------------------------------------------------------
@@ -316,10 +329,15 @@ def test_forced_update_notifies_without_a_change(broker: Broker) -> None:
     assert len(outcome.notifications) == 1
 
 
-def test_deletes_and_inactive_subscriptions_do_not_notify(broker: Broker) -> None:
+def test_entity_deletes_and_inactive_subscriptions_do_not_notify(broker: Broker) -> None:
+    """An attribute's deletion notifies with the attributes left (functional test
+    3956_delete_attribute_notif_fail); an entity's deletion does not (default alterationTypes
+    ``entityCreate, entityChange``, orion-api.md)."""
     ok(call(broker, "POST", "/v2/entities", robot("r1", a=1, b=1)), 201)
     subscription = subscribe(broker)
-    assert call(broker, "DELETE", "/v2/entities/r1/attrs/b").notifications == ()
+    notified = call(broker, "DELETE", "/v2/entities/r1/attrs/b").notifications
+    assert [n.json()["data"][0] for n in notified] == [{"id": "r1", "type": "ROBOT",
+                                                         "a": {"type": "Number", "value": 1, "metadata": {}}}]
     ok(call(broker, "PATCH", f"/v2/subscriptions/{subscription}", {"status": "inactive"}))
     assert call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}).notifications == ()
     assert call(broker, "DELETE", "/v2/entities/r1").notifications == ()
@@ -332,17 +350,25 @@ def test_notification_correlator_follows_the_request(broker: Broker) -> None:
     assert outcome.notifications[0].header("Fiware-Correlator") == "abc; cbnotif=1"
 
 
-def test_delivery_record_failed_then_active_again(broker: Broker) -> None:
+def test_delivery_record_failure_then_success(broker: Broker) -> None:
+    """Orion 4.7 keeps the status ``active`` and counts failures in ``failsCounter`` (``failed`` was
+    dropped in 3.4.0: orion-api.md "Ambiguous subscription status failed not used"; functional test
+    1960_failure_stats_in_db_and_notifications/failure_stats_in_db_and_notifications.test, step 03).
+    Times are whole seconds (cache/subCache.h keeps int64_t), so they end in ``.000Z``."""
     subscription = subscribe(broker)
     notified = call(broker, "POST", "/v2/entities", robot("r1", a=1)).notifications
     broker.delivery_result(notified[0], None, "Couldn't connect to server")
     shown = call(broker, "GET", f"/v2/subscriptions/{subscription}").response.json()
-    assert shown["status"] == "failed"
+    assert shown["status"] == "active"
     assert shown["notification"]["timesSent"] == 1
+    assert shown["notification"]["failsCounter"] == 1
     assert shown["notification"]["lastFailureReason"] == "Couldn't connect to server"
+    assert shown["notification"]["lastFailure"] == "2023-11-14T22:13:20.000Z"
+    assert shown["notification"]["lastNotification"] == "2023-11-14T22:13:20.000Z"
     broker.delivery_result(notified[0], 404)
     shown = call(broker, "GET", f"/v2/subscriptions/{subscription}").response.json()
     assert (shown["status"], shown["notification"]["lastSuccessCode"]) == ("active", 404)
+    assert "failsCounter" not in shown["notification"]
 
 
 def test_subscription_list_count_and_deterministic_ids() -> None:
@@ -396,8 +422,10 @@ def test_http_layer_errors_from_headers_alone(broker: Broker) -> None:
     "target, status, description",
     [
         ("/v2/entities?options=nope", 400, "Invalid value for URI param /options/"),
-        ("/v2/entities?limit=0", 400, "Bad pagination limit: /0/ [a value of ZERO is unacceptable]"),
-        ("/v2/entities?limit=x", 400, "Bad pagination limit: /x/ [must be a decimal number]"),
+        ("/v2/entities?limit=x", 400, "Bad pagination limit: /x/ [must be a positive integer number]"),
+        ("/v2/entities?limit=-1", 400, "Bad pagination limit: /-1/ [must be a positive integer number]"),
+        ("/v2/entities?offset=x", 400, "Bad pagination offset: /x/ [must be a decimal number]"),
+        ("/v2/entities?limit=1001", 400, "Bad pagination limit: /1001/ [max: 1000]"),
         ("/v2/entities?attrs=", 400, "Empty right-hand-side for URI param /attrs/"),
         ("/v2/entities?type=a%3Cb", 400, "invalid character in URI parameter"),
         ("/v2/entities?q=a>1", 501, "vcran broker does not implement the URI parameter 'q'"),
@@ -496,3 +524,18 @@ def test_the_engine_imports_neither_sockets_nor_httpx() -> None:
     code = "import sys, vcran.broker; print(sorted({'httpx', 'http.server', 'socket'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_throttling_skips_notifications_within_its_seconds() -> None:
+    """Orion's "Check 1: timing" (mongoBackend/MongoCommonUpdate.cpp): with ``throttling: N`` nothing is
+    sent while ``N > now - lastNotification``, in whole seconds; a skipped change is not sent later."""
+    clock = HandClock(1_700_000_000.5)
+    broker = Broker(clock=clock, rng=random.Random(3))
+    subscribe(broker, {"subject": {"entities": [{"id": "r1"}]}, "notification": {"http": {"url": URL}},
+                       "throttling": 5})
+    assert len(call(broker, "POST", "/v2/entities", robot("r1", a=1)).notifications) == 1
+    clock.now += 4.4  # 1_700_000_004.9: four whole seconds later
+    assert call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 2}}).notifications == ()
+    clock.now += 0.2  # 1_700_000_005.1: five whole seconds after the last notification
+    assert len(call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 3}}).notifications) == 1
+    assert call(broker, "PATCH", "/v2/entities/r1/attrs", {"a": {"value": 4}}).notifications == ()

@@ -65,7 +65,7 @@ def test_notifications_of_one_subscription_arrive_in_order(broker: BrokerHandle,
     assert seqs == list(range(30))
 
 
-def test_an_unreachable_listener_marks_the_subscription_failed(broker: BrokerHandle) -> None:
+def test_an_unreachable_listener_is_counted_in_fails_counter(broker: BrokerHandle) -> None:
     dead = Listener()
     dead.stop()  # nothing listens on its port any more
     with httpx.Client(base_url=broker.url) as client:
@@ -73,7 +73,7 @@ def test_an_unreachable_listener_marks_the_subscription_failed(broker: BrokerHan
         assert client.post("/v2/entities", json={"id": "r1", "a": {"value": 1}}).status_code == 201
         assert broker.wait_notifications(timeout=10)
         shown = client.get(f"/v2/subscriptions/{subscription}").json()
-        assert shown["status"] == "failed"
+        assert shown["status"] == "active"  # Orion 4.7 has no "failed" status (orion-api.md)
         assert shown["notification"]["lastFailureReason"] == "Couldn't connect to server"
         assert shown["notification"]["failsCounter"] == 1  # Orion's count of consecutive failures
         assert client.patch("/v2/entities/r1/attrs", json={"a": {"value": 2}}).status_code == 204

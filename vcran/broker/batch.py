@@ -25,8 +25,8 @@ from vcran.broker.entities import (
     update,
 )
 from vcran.broker.model import EntityInput, parse_entity
-from vcran.broker.protocol import Response, bad_request, not_implemented
-from vcran.broker.scope import parse_selector
+from vcran.broker.protocol import NgsiError, Response, bad_request, not_implemented, parse_error
+from vcran.broker.scope import parse_query_selector
 
 ACTION_TYPES = ("append", "appendStrict", "update", "delete", "replace")
 #: NGSIv1 spellings that Orion still accepts (deprecated).
@@ -40,37 +40,64 @@ LEGACY_ACTION_TYPES = {
 
 
 def _payload_object(body: Any) -> dict[str, Any]:
+    """A batch payload's top level as Orion's parseBatchUpdate/parseBatchQuery check it: not an object
+    is a ParseError, ``{}`` an empty payload."""
     if not isinstance(body, dict):
-        raise bad_request("not a JSON object")
+        raise parse_error()
+    if not body:
+        raise bad_request("empty payload")
     return body
 
 
-def _action_type(body: dict[str, Any]) -> str:
-    action = body.get("actionType")
-    if action is None:
-        raise bad_request("actionType is missing")
+def _action_type(action: Any) -> str:
     if not isinstance(action, str):
         raise bad_request("invalid JSON type for actionType")
     action = LEGACY_ACTION_TYPES.get(action, action)
     if action not in ACTION_TYPES:
-        raise bad_request("invalid update action type: right ones are: append, appendStrict, delete, replace, update")
+        # Orion's words, typo included (jsonParseV2/parseBatchUpdate.cpp)
+        raise bad_request("invalid update action type: right ones are: append, appendStric, delete, replace, update")
     return action
 
 
 def op_update(ctx: Context) -> Response:
+    """Checked as Orion's jsonParseV2/parseBatchUpdate.cpp does: both mandatory fields present, then
+    each member in payload order; any other member is refused."""
     body = _payload_object(ctx.body)
-    action = _action_type(body)
-    entities = body.get("entities")
-    if not isinstance(entities, list):
-        raise bad_request("entities is missing or not an array")
-    if not entities:
-        raise bad_request("empty entities vector")
+    for field in ("entities", "actionType"):
+        if field not in body:
+            raise bad_request(f"Invalid JSON payload, mandatory field /{field}/ not found")
     key_values = "keyValues" in ctx.options
-    inputs = [parse_entity(raw, key_values=key_values) for raw in entities]
+    action = ""
+    inputs: list[EntityInput] = []
+    for name, value in body.items():
+        if name == "entities":
+            if not isinstance(value, list):
+                raise bad_request("not a JSON array")
+            inputs = [_batch_entity(raw, key_values) for raw in value]
+        elif name == "actionType":
+            action = _action_type(value)
+        else:
+            raise bad_request(f"Unrecognized field in JSON payload: /{name}/")
+    if not inputs:
+        raise bad_request("empty entities vector")
     report = WriteReport()
     for given in inputs:
         _apply(ctx, action, given, report)
     return report.response()
+
+
+def _batch_entity(raw: Any, key_values: bool) -> EntityInput:
+    """An ``op/update`` entity (jsonParseV2/parseEntityObject.cpp): an object with an ``id``;
+    ``idPattern`` is Orion's 501."""
+    if not isinstance(raw, dict):
+        raise bad_request("entity is not a JSON object")
+    if "id" in raw and "idPattern" in raw:
+        raise bad_request("both /id/ and /idPattern/ present")
+    if "id" not in raw and "idPattern" not in raw:
+        raise bad_request("nor /id/ nor /idPattern/ present")
+    if "idPattern" in raw:
+        raise NgsiError(501, "NotImplemented", "NotImplemented")
+    return parse_entity(raw, key_values=key_values, batch=True)
 
 
 def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -> None:
@@ -79,7 +106,7 @@ def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -
     if entity is None:
         if action in ("append", "appendStrict"):
             create(ctx, given)
-            report.applied = True
+            report.success()
         else:
             report.missing_entity(key)
         return
@@ -91,26 +118,40 @@ def _apply(ctx: Context, action: str, given: EntityInput, report: WriteReport) -
         update(ctx, entity, key, given.attrs, report)
     elif action == "replace":
         replace(ctx, entity, given.attrs)
-        report.applied = True
+        report.success()
     elif given.attrs:
         delete_attrs(ctx, entity, key, list(given.attrs), report)
     else:
         ctx.tenant().remove(entity)
-        report.applied = True
+        report.success()
 
 
 def op_query(ctx: Context) -> Response:
-    """Entities matching any of ``entities`` (all when absent), projected to ``attrs``."""
+    """Entities matching any of ``entities`` (all when absent), projected to ``attrs``; the payload
+    checked as Orion's jsonParseV2/parseBatchQuery.cpp does, member by member."""
     body = _payload_object(ctx.body)
-    if "expression" in body:
-        raise not_implemented("op/query expressions (q, mq, geo)")
-    selectors = body.get("entities", [])
-    if not isinstance(selectors, list):
-        raise bad_request("entities is not an array")
-    matchers = [parse_selector(raw) for raw in selectors]
-    attrs = body.get("attrs")
-    if attrs is not None and not (isinstance(attrs, list) and all(isinstance(a, str) for a in attrs)):
-        raise bad_request("attrs is not an array of strings")
+    if not {"entities", "attributes", "attrs", "expression"} & body.keys():
+        raise bad_request("Invalid JSON payload, no relevant fields found")
+    matchers = []
+    attrs: list[str] | None = None
+    for name, value in body.items():
+        if name == "entities":
+            if not isinstance(value, list):
+                raise bad_request("not a JSON array")
+            matchers = [parse_query_selector(raw) for raw in value]
+        elif name in ("attrs", "attributes", "metadata"):
+            if not isinstance(value, list):
+                raise bad_request(f"the field /{name}/ must be a JSON array")
+            if not all(isinstance(a, str) for a in value):
+                raise bad_request(f"only JSON Strings allowed in {name} list")
+            if name == "attrs":
+                attrs = list(dict.fromkeys(value))
+            elif value:
+                raise not_implemented(f"op/query {name!r}")
+        elif name == "expression":
+            raise not_implemented("op/query expressions (q, mq, geo)")
+        else:
+            raise bad_request(f"Unrecognized field in JSON payload: /{name}/")
     matches = [
         e
         for e in ctx.tenant().entities.values()

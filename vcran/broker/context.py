@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from vcran.broker.model import BUILTIN_ATTRIBUTES, Change, Entity, iso_time
+from vcran.broker.model import BUILTIN_ATTRIBUTES, Change, Entity
 from vcran.broker.protocol import (
     ENTITY_NOT_FOUND,
     NgsiError,
@@ -87,22 +87,19 @@ class Context:
         return "normalized"
 
     def page_bounds(self) -> tuple[int, int]:
-        """``limit`` (default 20, at most 1000) and ``offset`` (default 0), checked as Orion does."""
-        bounds = []
-        for name, default in (("limit", DEFAULT_LIMIT), ("offset", 0)):
-            text = self.params.get(name)
-            if text is None:
-                bounds.append(default)
-                continue
-            if not text.isdigit():
-                raise bad_request(f"Bad pagination {name}: /{text}/ [must be a decimal number]")
-            bounds.append(int(text))
-        limit, offset = bounds
-        if limit == 0:
-            raise bad_request("Bad pagination limit: /0/ [a value of ZERO is unacceptable]")
+        """``limit`` (default 20, at most 1000) and ``offset`` (default 0), checked as Orion's
+        ``uriArgumentGet`` (rest/rest.cpp) does. ``limit=0`` is valid and selects nothing, which with
+        ``options=count`` just counts (mongoBackend/MongoGlobal.cpp: "limit != 0 will cause skipping";
+        functional test 1041_GET_v2_entities_options_count/get_entities_option_count_multitenant.test)."""
+        limit_text, offset_text = self.params.get("limit"), self.params.get("offset")
+        if limit_text is not None and not limit_text.isdigit():
+            raise bad_request(f"Bad pagination limit: /{limit_text}/ [must be a positive integer number]")
+        if offset_text is not None and not offset_text.isdigit():
+            raise bad_request(f"Bad pagination offset: /{offset_text}/ [must be a decimal number]")
+        limit = DEFAULT_LIMIT if limit_text is None else int(limit_text)
         if limit > MAX_LIMIT:
-            raise bad_request(f"Bad pagination limit: /{limit}/ [max: {MAX_LIMIT}]")
-        return limit, offset
+            raise bad_request(f"Bad pagination limit: /{limit_text}/ [max: {MAX_LIMIT}]")
+        return limit, 0 if offset_text is None else int(offset_text)
 
     # --- finding entities ---
 
@@ -119,9 +116,9 @@ class Context:
         return found
 
     def writable(self, entity_id: str, entity_type: str | None) -> Entity | None:
-        """Write semantics: the entity in the write's path (any path when the header is absent)."""
+        """Write semantics: the entity in the write's one path (``/`` when the header is absent)."""
         path = self.scope.write_path()
-        return _single([e for e in self._named(entity_id, entity_type) if path in (None, e.service_path)])
+        return _single([e for e in self._named(entity_id, entity_type) if e.service_path == path])
 
     def find_for_write(self, entity_id: str, entity_type: str | None) -> Entity:
         found = self.writable(entity_id, entity_type)
@@ -155,9 +152,10 @@ class Context:
                 ("User-Agent", NOTIFICATION_USER_AGENT),
             ]
             body = render_json(subscription.payload(entity, changed))
-            subscription.sent(iso_time(now))
+            subscription.sent(now)
             self.notifications.append(
-                Notification(subscription.id, self.scope.tenant, subscription.url, tuple(headers), body)
+                Notification(subscription.id, self.scope.tenant, subscription.url, tuple(headers), body,
+                             subscription.timeout / 1000 if subscription.timeout else None)
             )
 
 

@@ -22,7 +22,6 @@ from urllib.parse import parse_qsl, unquote, urlsplit
 
 from vcran.broker import batch, entities
 from vcran.broker.context import Context, Tenant
-from vcran.broker.model import iso_time
 from vcran.broker.protocol import (
     SUBSCRIPTION_NOT_FOUND,
     NgsiError,
@@ -32,15 +31,15 @@ from vcran.broker.protocol import (
     Response,
     accepted_media,
     bad_request,
+    body_media_type,
     empty_response,
     json_response,
-    media_type,
     not_found,
     not_implemented,
     parse_error,
     parse_json,
 )
-from vcran.broker.scope import Scope
+from vcran.broker.scope import EVERYTHING, Scope
 from vcran.broker.subscriptions import Subscription, parse_subscription
 from vcran.core.orion_rules import FORBIDDEN_CHARS, MAX_REQUEST_BYTES, has_forbidden_chars
 
@@ -132,7 +131,7 @@ class Broker:
         tenant = self._tenants.get(notification.tenant)
         subscription = tenant.subscriptions.get(notification.subscription_id) if tenant else None
         if subscription is not None:
-            subscription.delivered(iso_time(self._clock()), status_code, reason)
+            subscription.delivered(self._clock(), status_code, reason)
 
     # --- checks, in Orion's order ---
 
@@ -151,7 +150,7 @@ class Broker:
         scope = Scope.of(request)
         route, args = self._resolve(path)
         takes_text = route == ("v2", "entities", "*", "attrs", "*", "value") and request.method == "PUT"
-        content_type = media_type(request.header("Content-Type"))
+        content_type = body_media_type(request.header("Content-Type"))
         if length:
             _check_content_type(content_type, takes_text)
         if request.method in ("POST", "PUT", "PATCH") and not length:
@@ -168,7 +167,7 @@ class Broker:
                 "Orion accepts no payload for GET/DELETE requests. HTTP header Content-Type is thus forbidden"
             )
         params = _params(target.query)
-        options = _options(params)
+        options = _options(target.query) if "options" in params else frozenset()
         body: Any = None
         text: str | None = None
         if length and request.method in ("POST", "PUT", "PATCH"):
@@ -237,12 +236,12 @@ class Broker:
         return empty_response(201, (("Location", f"/v2/subscriptions/{subscription.id}"),))
 
     def _list_subscriptions(self, ctx: Context) -> Response:
-        """The tenant's subscriptions; with a Fiware-ServicePath, only those created with exactly it."""
+        """The tenant's subscriptions; with a Fiware-ServicePath other than ``/#``, only those created
+        with exactly its first path (mongoGetSubscriptions.cpp mongoListSubscriptions)."""
         limit, offset = ctx.page_bounds()
+        path = ctx.scope.subscription_filter()
         subscriptions = [
-            s
-            for s in ctx.tenant().subscriptions.values()
-            if not ctx.scope.paths or s.service_path == ctx.scope.subscription_path()
+            s for s in ctx.tenant().subscriptions.values() if path in (None, EVERYTHING) or s.service_path == path
         ]
         now = self._clock()
         body = [s.render(now) for s in subscriptions[offset : offset + limit]]
@@ -256,11 +255,21 @@ class Broker:
         return subscription
 
     def _get_subscription(self, ctx: Context, subscription_id: str) -> Response:
-        return json_response(self._subscription(ctx, subscription_id).render(self._clock()))
+        """With a Fiware-ServicePath, found only in exactly its first path (mongoGetSubscription;
+        functional test 3945_servicepath_ignored_in_get_subs, step 05)."""
+        subscription = self._subscription(ctx, subscription_id)
+        path = ctx.scope.subscription_filter()
+        if path is not None and subscription.service_path != path:
+            raise not_found(SUBSCRIPTION_NOT_FOUND)
+        return json_response(subscription.render(self._clock()))
 
     def _patch_subscription(self, ctx: Context, subscription_id: str) -> Response:
+        """Orion's mongoUpdateSubscription sets the subscription's service path to the PATCH's own
+        (``/#`` without the header), whatever else the PATCH changes."""
         subscription = self._subscription(ctx, subscription_id)
-        for name, value in parse_subscription(ctx.body, update=True).items():
+        fields = parse_subscription(ctx.body, update=True)
+        subscription.service_path = ctx.scope.subscription_path()
+        for name, value in fields.items():
             setattr(subscription, name, value)
         return empty_response()
 
@@ -321,15 +330,16 @@ def _params(query: str) -> dict[str, str]:
             raise bad_request("invalid character in URI parameter")
         if key in UNSUPPORTED_PARAMS:
             raise not_implemented(f"the URI parameter {key!r}")
-        params[key] = value
+        params[key] = value  # a repeated parameter keeps its last value, as in Orion's uriArgumentGet
     return params
 
 
-def _options(params: dict[str, str]) -> frozenset[str]:
-    """The ``options`` list as Orion splits it: leading commas skipped, any other empty item invalid."""
-    if "options" not in params:
-        return frozenset()
-    options = frozenset(params["options"].lstrip(",").split(","))
+def _options(query: str) -> frozenset[str]:
+    """The ``options`` lists as Orion splits them: leading commas skipped, any other empty item invalid;
+    a repeated ``options`` adds up (rest/ConnectionInfo.cpp uriParamOptionsParse sets each in one map)."""
+    options = frozenset(
+        item for key, value in parse_qsl(query) if key == "options" for item in value.lstrip(",").split(",")
+    )
     if not options <= KNOWN_OPTIONS or any(a in options and b in options for a, b in EXCLUSIVE_OPTIONS):
         raise bad_request("Invalid value for URI param /options/")
     return options

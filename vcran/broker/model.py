@@ -18,12 +18,12 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from typing import Any
 
+from vcran.broker.dates import DATE_TYPES, Moment, iso_time, parse_time
 from vcran.broker.jsontext import as_double, render_json
-from vcran.broker.protocol import bad_request
-from vcran.core.orion_rules import default_attribute_type, has_forbidden_chars, identifier_error
+from vcran.broker.protocol import NgsiError, bad_request, not_implemented, parse_error
+from vcran.core.orion_rules import IDENTIFIER_MAX, default_attribute_type, has_forbidden_chars, is_identifier
 
 #: Attribute type that skips the forbidden-character check on the value (Orion's escape hatch).
 TEXT_UNRESTRICTED = "TextUnrestricted"
@@ -31,12 +31,6 @@ TEXT_UNRESTRICTED = "TextUnrestricted"
 DEFAULT_ENTITY_TYPE = "Thing"
 #: Builtin attributes, shown only when named, after the entity's own attributes.
 BUILTIN_ATTRIBUTES = ("dateCreated", "dateModified")
-
-
-def iso_time(t: float) -> str:
-    """Orion's timestamp format: UTC, milliseconds, ``Z``."""
-    moment = datetime.fromtimestamp(t, UTC)
-    return moment.strftime("%Y-%m-%dT%H:%M:%S.") + f"{moment.microsecond // 1000:03d}Z"
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,56 +125,157 @@ def written(
 
 
 # --- parsing request payloads ----------------------------------------------------------------------
+#
+# In the order and with the words of Orion's jsonParseV2 (parseEntity.cpp, parseEntityObject.cpp,
+# parseContextAttribute.cpp, parseMetadata.cpp, parseMetadataVector.cpp) and of the checks that follow
+# them (ContextAttribute::check, Metadata::check, Entity::check): members are read in payload order, each
+# attribute is parsed and then checked (name, type, value, metadata), and the entity's id length and
+# type are checked after its attributes.
+
+#: Orion's deepest compound value (common/limits.h MAX_JSON_NESTING), counted from the attribute's value.
+MAX_JSON_NESTING = 50
+#: The name of a boolean metadata that, when true, lifts the forbidden-character check like the type does.
+TEXT_UNRESTRICTED_METADATA = "TextUnrestricted"
 
 
-def _check_identifier(kind: str, name: Any) -> str:
-    error = identifier_error(kind, name)
+def _length_error(kind: str, name: str) -> str | None:
+    if not name:
+        return f"{kind} length: 0, min length supported: 1"
+    if len(name) > IDENTIFIER_MAX:
+        return f"{kind} length: {len(name)}, max length supported: {IDENTIFIER_MAX}"
+    return None
+
+
+def _check_name(kind: str, name: str) -> None:
+    """Length, then characters: ``ContextAttribute::check``/``Metadata::check`` for names and types."""
+    error = _length_error(kind, name)
+    if error is None and not is_identifier(name):
+        error = f"Invalid characters in {kind}"
     if error is not None:
         raise bad_request(error)
-    return str(name)
+
+
+def _nesting(value: Any, depth: int = 0) -> int:
+    """How deep compound values nest below ``value`` (a scalar: 0), stopping past Orion's limit."""
+    if depth > MAX_JSON_NESTING + 1 or not isinstance(value, (dict, list)):
+        return depth
+    children = value.values() if isinstance(value, dict) else value
+    return max((_nesting(child, depth + 1) for child in children), default=depth + 1)
+
+
+def _check_nesting(value: Any) -> None:
+    """parseCompoundCommon.cpp stops at ``deep > MAX_JSON_NESTING``: a ParseError with its own words."""
+    if isinstance(value, (dict, list)) and _nesting(value) > MAX_JSON_NESTING + 1:
+        raise NgsiError(400, "ParseError",
+                        f"attribute or metadata value has overpassed maximum nesting limit: {MAX_JSON_NESTING}")
+
+
+#: Orion's update operators (mongoBackend/dbConstants.h UPDATE_OPERATORS_ALL): an object value whose
+#: first key is one of them is an operation on the stored value (ContextAttribute.cpp), not a value.
+UPDATE_OPERATORS = frozenset({"$inc", "$min", "$max", "$mul", "$push", "$pull", "$set", "$unset", "$addToSet",
+                              "$pullAll"})
+
+
+def _check_not_an_operator(value: Any) -> None:
+    if isinstance(value, dict) and value and next(iter(value)) in UPDATE_OPERATORS:
+        raise not_implemented(f"update operators ({next(iter(value))}) in attribute values")
+
+
+def _date_value(value: Any, value_type: str | None, kind: str) -> Any:
+    """A ``DateTime`` (or ``ISO8601``) value as Orion keeps it: a time, read by parse8601Time and
+    printed back by isodate2str (parseContextAttribute.cpp, parseMetadata.cpp; functional tests
+    1039_ngsiv2_date_support/basic_dates_support.test, 2631_partial_datetimes). ``null`` stays null;
+    anything that is not such a time is refused."""
+    if value_type not in DATE_TYPES or value is None:
+        return value
+    moment = parse_time(value) if isinstance(value, str) else None
+    if moment is None:
+        raise bad_request(f"date has invalid format in {kind} value")
+    return Moment(iso_time(moment))
 
 
 def _parse_metadata(raw: Any) -> dict[str, Metadata]:
     if not isinstance(raw, dict):
-        raise bad_request("metadata must be a JSON object")
+        raise bad_request("metadata not a JSON object")
     metadata = {}
     for name, item in raw.items():
-        _check_identifier("metadata name", name)
         if not isinstance(item, dict):
             raise bad_request("metadata must be a JSON object")
-        value = as_double(item.get("value"))
-        md_type = item.get("type")
-        if md_type is None:
-            md_type = default_attribute_type(value)
-        _check_identifier("metadata type", md_type)
-        if has_forbidden_chars(value):
-            raise bad_request("Invalid characters in metadata value")
-        metadata[name] = Metadata(md_type, value)
+        md_type: str | None = None
+        value: Any = None
+        for key, field_value in item.items():
+            if key == "type":
+                if not isinstance(field_value, str):
+                    raise bad_request("invalid JSON type for attribute metadata type")
+                md_type = field_value
+            elif key == "value":
+                _check_nesting(field_value)
+                value = as_double(field_value)
+            else:
+                raise bad_request("invalid JSON field for attribute metadata")
+        metadata[name] = Metadata(md_type if md_type is not None else default_attribute_type(value),
+                                  _date_value(value, md_type, "metadata"))
     return metadata
 
 
-def parse_attribute(name: Any, raw: Any, *, key_values: bool = False) -> AttributeInput:
-    """One attribute of a request payload, checked as Orion checks it (names, types, forbidden chars)."""
-    _check_identifier("attribute name", name)
+def _check_metadata(metadata: Mapping[str, Metadata]) -> None:
+    """Metadata::check: name, type, and a string value's characters (compound values are not checked)."""
+    for name, md in metadata.items():
+        _check_name("metadata name", name)
+        _check_name("metadata type", md.type)
+        if isinstance(md.value, str) and has_forbidden_chars(md.value):
+            raise bad_request("Invalid characters in metadata value")
+
+
+def parse_attribute(
+    name: Any, raw: Any, *, key_values: bool = False, whole_body: bool = False, dates: bool = True
+) -> AttributeInput:
+    """One attribute of a request payload, parsed and checked as Orion does. ``whole_body``: ``raw`` is
+    a request's whole body (``PUT .../attrs/{name}``), which must be an object or is a ParseError.
+    ``dates=False``: a ``DateTime`` value is kept as written (``PUT .../value`` does not parse it)."""
     if key_values:
+        _check_nesting(raw)
         given = AttributeInput(as_double(raw))
     else:
         if not isinstance(raw, dict):
+            if whole_body:
+                raise parse_error()
             raise bad_request("attribute must be a JSON object, unless keyValues option is used")
-        attr_type = raw.get("type")
-        if attr_type is not None:
-            _check_identifier("attribute type", attr_type)
-        metadata = _parse_metadata(raw["metadata"]) if "metadata" in raw else None
-        given = AttributeInput(as_double(raw.get("value")), attr_type, metadata)
-    if given.type != TEXT_UNRESTRICTED and has_forbidden_chars(given.value):
+        attr_type: str | None = None
+        value: Any = None
+        metadata: dict[str, Metadata] | None = None
+        for key, field_value in raw.items():
+            if key == "type":
+                if not isinstance(field_value, str):
+                    raise bad_request("invalid JSON type for attribute type")
+                attr_type = field_value
+            elif key == "value":
+                _check_nesting(field_value)
+                value = as_double(field_value)
+            elif key == "metadata":
+                metadata = _parse_metadata(field_value)
+            else:
+                raise bad_request("unrecognized property for context attribute")
+        _check_not_an_operator(value)
+        given = AttributeInput(_date_value(value, attr_type, "attribute") if dates else value, attr_type, metadata)
+    _check_not_an_operator(given.value)
+    _check_name("attribute name", name)
+    if given.type is not None:
+        _check_name("attribute type", given.type)
+    unrestricted = given.type == TEXT_UNRESTRICTED or (
+        given.metadata is not None and TEXT_UNRESTRICTED_METADATA in given.metadata
+        and given.metadata[TEXT_UNRESTRICTED_METADATA].value is True
+    )
+    if not unrestricted and has_forbidden_chars(given.value):
         raise bad_request("Invalid characters in attribute value")
+    _check_metadata(given.metadata or {})
     return given
 
 
 def parse_attributes(payload: Any, *, key_values: bool = False, skip: Iterable[str] = ()) -> dict[str, AttributeInput]:
     """The attributes of a payload object (an entity minus ``skip``, or a bare ``/attrs`` body)."""
     if not isinstance(payload, dict):
-        raise bad_request("not a JSON object")
+        raise parse_error()
     skipped = set(skip)
     return {
         name: parse_attribute(name, raw, key_values=key_values) for name, raw in payload.items() if name not in skipped
@@ -188,12 +283,16 @@ def parse_attributes(payload: Any, *, key_values: bool = False, skip: Iterable[s
 
 
 def parse_attrs_body(payload: Any, *, key_values: bool = False) -> dict[str, AttributeInput]:
-    """The body of ``/v2/entities/{id}/attrs``: attributes only, id and type belong in the URL."""
-    if isinstance(payload, dict):
-        if "id" in payload:
-            raise bad_request("entity id specified in payload")
-        if "type" in payload:
-            raise bad_request("entity type specified in payload")
+    """The body of ``/v2/entities/{id}/attrs`` (parseEntity.cpp with the id in the URL): an object of
+    attributes only, at least one."""
+    if not isinstance(payload, dict):
+        raise parse_error()
+    if "id" in payload:
+        raise bad_request("entity id specified in payload")
+    if "type" in payload:
+        raise bad_request("entity type specified in payload")
+    if not payload:
+        raise bad_request("empty payload")
     return parse_attributes(payload, key_values=key_values)
 
 
@@ -206,16 +305,39 @@ class EntityInput:
     attrs: dict[str, AttributeInput]
 
 
-def parse_entity(payload: Any, *, key_values: bool = False) -> EntityInput:
+def parse_entity(payload: Any, *, key_values: bool = False, batch: bool = False) -> EntityInput:
+    """An entity of ``POST /v2/entities`` (parseEntity.cpp) or of an ``op/update`` (``batch``,
+    parseEntityObject.cpp, whose caller has checked the object and its ``id``), then Entity::check."""
     if not isinstance(payload, dict):
-        raise bad_request("not a JSON object")
+        raise parse_error()
     if "id" not in payload:
-        raise bad_request("entity id is missing")
-    entity_id = _check_identifier("entity id", payload["id"])
-    entity_type = payload.get("type")
-    if entity_type is not None:
-        _check_identifier("entity type", entity_type)
-    attrs = parse_attributes(payload, key_values=key_values, skip=("id", "type"))
+        raise bad_request("entity id length: 0, min length supported: 1")
+    entity_id = ""
+    entity_type: str | None = None
+    attrs: dict[str, AttributeInput] = {}
+    for name, raw in payload.items():
+        if name in ("id", "type"):
+            if not isinstance(raw, str):
+                raise bad_request(f"Invalid JSON type for entity {name}")
+            if name == "id":
+                if not raw and not batch:
+                    raise bad_request("entity id length: 0, min length supported: 1")
+                if raw and not is_identifier(raw):
+                    raise bad_request("Invalid characters in entity id")
+                entity_id = raw
+            else:
+                if not raw:
+                    raise bad_request("entity type length: 0, min length supported: 1")
+                entity_type = raw  # its characters are checked after the attributes, as Orion does
+        else:
+            attrs[name] = parse_attribute(name, raw, key_values=key_values)
+    if not entity_id:
+        raise bad_request("id and idPattern cannot be both empty at the same time")
+    for kind, value in (("entity id", entity_id), ("entity type", entity_type)):
+        if value is not None and (error := _length_error(kind, value)) is not None:
+            raise bad_request(error)
+    if entity_type is not None and not is_identifier(entity_type):
+        raise bad_request("Invalid characters in entity type")
     return EntityInput(entity_id, entity_type, attrs)
 
 

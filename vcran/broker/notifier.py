@@ -125,7 +125,9 @@ class Notifier:
 
     def _deliver(self, notification: Notification) -> None:
         try:
-            response = self._client.post(notification.url, content=notification.body, headers=notification.headers)
+            timeout = self._client.timeout if notification.timeout is None else httpx.Timeout(notification.timeout)
+            response = self._client.post(notification.url, content=notification.body, headers=notification.headers,
+                                         timeout=timeout)
             status: int | None = response.status_code
             reason = ""
         except Exception as exc:  # noqa: BLE001 - any failure is this delivery's, never the worker's

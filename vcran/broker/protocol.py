@@ -29,8 +29,14 @@ def header_value(headers: Headers, name: str) -> str | None:
 
 
 def media_type(value: str | None) -> str | None:
-    """The media type of a Content-Type value, without parameters (``; charset=...``)."""
+    """The media type of an Accept item, without parameters (``;q=...``), lower-cased."""
     return value.split(";", 1)[0].strip().lower() if value else None
+
+
+def body_media_type(value: str | None) -> str | None:
+    """A Content-Type as Orion compares it (rest/rest.cpp httpHeaderGet): cut at the first ``;``, and
+    otherwise as sent, so ``Application/JSON`` or ``application/json ;charset=utf-8`` is not JSON."""
+    return value.split(";", 1)[0] if value else None
 
 
 def accepted_media(request: Request) -> list[str]:
@@ -91,13 +97,15 @@ class Response:
 
 @dataclass(frozen=True, slots=True)
 class Notification:
-    """One HTTP POST that a subscription asks for: the subscription's ``url``, headers and body."""
+    """One HTTP POST that a subscription asks for: the subscription's ``url``, headers and body;
+    ``timeout`` in seconds when the subscription set its own (``http.timeout``), else None."""
 
     subscription_id: str
     tenant: str
     url: str
     headers: Headers
     body: bytes
+    timeout: float | None = None
 
     def header(self, name: str) -> str | None:
         return header_value(self.headers, name)
