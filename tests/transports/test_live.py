@@ -400,6 +400,24 @@ def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
         broker.stop()
 
 
+def test_a_failure_success_failure_within_one_second_still_reads_as_a_failure():
+    """Orion shows delivery times in whole seconds and resets failsCounter at a success: between two looks
+    of the keeper, fail, succeed and fail again within one second leave lastFailure and failsCounter as
+    they were. The notifications counted meanwhile tell (SPEC §7: no loss window)."""
+    from transports.orion.transport import _failures
+
+    def shown(**notification):
+        return {"id": "s", "notification": {"attrs": [], **notification}}
+
+    failed = shown(timesSent=3, lastFailure="2026-11-23T10:00:05.000Z", failsCounter=1)
+    again = shown(timesSent=5, lastFailure="2026-11-23T10:00:05.000Z", failsCounter=1,
+                  lastSuccess="2026-11-23T10:00:05.000Z")
+    assert _failures(again) != _failures(failed)
+    # successes alone change nothing the keeper acts on
+    fine = shown(timesSent=3, lastSuccess="2026-11-23T10:00:04.000Z")
+    assert _failures(shown(timesSent=9, lastSuccess="2026-11-23T10:00:09.000Z")) == _failures(fine) == (None,) * 3
+
+
 def test_s4_link_down_live_the_robot_neither_publishes_nor_receives_until_it_is_back(tmp_path):
     """SPEC §4 link_down in live mode: from t = 0 to 50 (5 wall seconds at 10x) robot_1 publishes nothing
     (Orion holds no ran_status of it) and a task written meanwhile waits in Orion; back up, the robot

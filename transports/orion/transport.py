@@ -174,7 +174,7 @@ class OrionTransport(Transport):
 
     def _subscription_loop(self) -> None:
         unread = True  # the entities must be read after each (re)subscription
-        failures: tuple[Any, Any] = (None, None)  # the subscription's lastFailure and failsCounter
+        failures: tuple[Any, Any, Any] = (None, None, None)  # lastFailure, failsCounter, timesSent (_failures)
         backoff = Backoff(self.options.backoff_start, self.options.backoff_cap)
         while not self._stop.is_set():
             try:
@@ -198,7 +198,7 @@ class OrionTransport(Transport):
                     self._subscription = self.client.subscribe(self._subscription_body())
                     self._subscriptions.add(self._subscription)
                     log.info("subscribed to Orion: %s", self._subscription)
-                    unread, failures = True, (None, None)
+                    unread, failures = True, (None, None, None)
                 if unread:
                     self._read_all()
                     unread = False
@@ -272,9 +272,13 @@ class OrionTransport(Transport):
         self._deliver(inbound)
 
 
-def _failures(subscription: dict[str, Any]) -> tuple[Any, Any]:
-    """What changes when Orion fails to deliver a notification: ``lastFailure`` and ``failsCounter``."""
+def _failures(subscription: dict[str, Any]) -> tuple[Any, Any, Any]:
+    """What changes when Orion fails to deliver a notification: ``lastFailure`` and ``failsCounter``, and
+    ``timesSent`` while failures are counted. Orion gives delivery times in whole seconds and resets
+    ``failsCounter`` at a success, so a failure, a success and a failure within one second between two
+    looks leave the first two as they were; the notifications sent meanwhile do not."""
     notification = subscription.get("notification")
     if not isinstance(notification, dict):
-        return None, None
-    return notification.get("lastFailure"), notification.get("failsCounter")
+        return None, None, None
+    failing = notification.get("failsCounter")
+    return notification.get("lastFailure"), failing, notification.get("timesSent") if failing else None
