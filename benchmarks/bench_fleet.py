@@ -17,6 +17,9 @@ vcran's ~50 modules anew (about 80 ms, a sixth of a 10-robot run); so children r
 bytecode in a cache folder of the benchmark's own (``PYTHONPYCACHEPREFIX``: neither checkout is written
 to), after one unmeasured warm-up run per checkout.
 
+Each checkout runs as its venv installed it: with the compiled core where its install built one (README, "The
+compiled core"); ``VCRAN_PURE=1`` in this command's environment measures the pure modules instead.
+
 Two floors run in the same sweep, also as child processes over the same simulated time:
 
 * ``1 Hz floor``: N processes that each wake once per simulated second (what a naive per-robot periodic
