@@ -26,7 +26,7 @@ from vcran.broker.entities import (
 )
 from vcran.broker.model import EntityInput, parse_entity
 from vcran.broker.protocol import NgsiError, Response, bad_request, not_implemented, parse_error
-from vcran.broker.scope import parse_query_selector
+from vcran.broker.scope import check_entity_object, parse_query_selector
 
 ACTION_TYPES = ("append", "appendStrict", "update", "delete", "replace")
 #: NGSIv1 spellings that Orion still accepts (deprecated).
@@ -89,12 +89,7 @@ def op_update(ctx: Context) -> Response:
 def _batch_entity(raw: Any, key_values: bool) -> EntityInput:
     """An ``op/update`` entity (jsonParseV2/parseEntityObject.cpp): an object with an ``id``;
     ``idPattern`` is Orion's 501."""
-    if not isinstance(raw, dict):
-        raise bad_request("entity is not a JSON object")
-    if "id" in raw and "idPattern" in raw:
-        raise bad_request("both /id/ and /idPattern/ present")
-    if "id" not in raw and "idPattern" not in raw:
-        raise bad_request("nor /id/ nor /idPattern/ present")
+    raw = check_entity_object(raw)
     if "idPattern" in raw:
         raise NgsiError(501, "NotImplemented", "NotImplemented")
     return parse_entity(raw, key_values=key_values, batch=True)

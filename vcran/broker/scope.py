@@ -199,15 +199,22 @@ def parse_subscription_selector(raw: Any) -> EntitySelector:
     return EntitySelector(**fields)
 
 
-def parse_query_selector(raw: Any) -> EntitySelector:
-    """An ``op/query`` ``entities`` element, with the checks and words of Orion's
-    jsonParseV2/parseEntityObject.cpp and ``Entity::check`` (apiTypesV2/Entity.cpp)."""
+def check_entity_object(raw: Any) -> dict[str, Any]:
+    """The first checks of Orion's jsonParseV2/parseEntityObject.cpp, shared by ``op/query`` and
+    ``op/update``: an object with exactly one of ``id`` and ``idPattern``."""
     if not isinstance(raw, dict):
         raise bad_request("entity is not a JSON object")
     if "id" in raw and "idPattern" in raw:
         raise bad_request("both /id/ and /idPattern/ present")
     if "id" not in raw and "idPattern" not in raw:
         raise bad_request("nor /id/ nor /idPattern/ present")
+    return raw
+
+
+def parse_query_selector(raw: Any) -> EntitySelector:
+    """An ``op/query`` ``entities`` element, with the checks and words of Orion's
+    jsonParseV2/parseEntityObject.cpp and ``Entity::check`` (apiTypesV2/Entity.cpp)."""
+    raw = check_entity_object(raw)
     for key, value in raw.items():
         if key in ("id", "type"):
             if not isinstance(value, str):
