@@ -242,3 +242,33 @@ def test_json_params_in_csv(tmp_path):
     assert main(["sweep", str(path), "--out", str(out), "--workers", "1", "--quiet"]) == 0
     (r,) = rows(out)
     assert (r["label"], json.loads(r["robots.robot_1.pose"])) == ("moved", [0.5, 0.0, 0.0])
+
+
+def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_file, tmp_path, monkeypatch, capsys):
+    # §10 and §6: the runs Dask cancelled when it lost its scheduler are neither dropped from a folder that
+    # looks finished (exit 0) nor taken for the runs' own failures; the rows done stay in DIR.incomplete
+    distributed = pytest.importorskip("distributed")
+    from tests.sweep.lost_scheduler import LostScheduler
+
+    lost, real = LostScheduler(monkeypatch), worker.simulate
+
+    def simulate(scenario, **options):
+        if scenario.settings.seed == 2:
+            lost.now()
+        return real(scenario, **options)
+
+    monkeypatch.setattr(worker, "simulate", simulate)
+    out = tmp_path / "sweep"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        try:
+            code = main(["sweep", str(sweep_file), "--out", str(out), "--cluster", address, "--quiet"])
+        finally:
+            lost.end()
+    assert code == 2 and not out.exists()
+    assert len(rows(tmp_path / "sweep.incomplete")) < 8
+    err = capsys.readouterr().err
+    assert err.startswith(f"vcran sweep: lost the Dask scheduler at {address}: ")
+    assert err.count("\n") == 1
+    assert f"of 8 runs done (0 failed); their rows are in {tmp_path / 'sweep.incomplete' / 'runs.csv'}" in err

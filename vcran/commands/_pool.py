@@ -29,6 +29,11 @@ def check_pool_options(args: argparse.Namespace) -> None:
 def pool_for(args: argparse.Namespace, jobs: int) -> Pool:
     from vcran.sweep.pool import PoolError, open_pool
 
+    if args.cluster is not None:
+        import logging
+
+        # losing the scheduler is the command's one line (exit 2); Dask's client would log a traceback besides
+        logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
     try:
         return open_pool(args.workers, args.cluster, jobs=jobs)
     except PoolError as exc:

@@ -184,6 +184,7 @@ def _campaign(args: argparse.Namespace, fn: Callable[..., Outcome], text: str,
     """Searches with consecutive seeds on a pool (SPEC §10); the first failure stops them all.
     Returns the failing outcome (or None) and the examples tried in all searches that finished."""
     from vcran.commands import CommandError
+    from vcran.sweep.pool import PoolError
     from vcran.sweep.progress import Progress
     from vcran.testing.campaign import chunks
 
@@ -209,6 +210,9 @@ def _campaign(args: argparse.Namespace, fn: Callable[..., Outcome], text: str,
         progress.close()
         print(f"vcran fuzz: interrupted after {examples} examples, all clean", file=sys.stderr)
         raise
+    except PoolError as exc:  # the Dask scheduler went away: never "ran clean" on the searches it took along
+        pool.stop()
+        raise CommandError(f"{exc}: {examples} of {args.examples} examples ran, all clean") from None
     finally:
         progress.close()
         pool.close()

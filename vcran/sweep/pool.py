@@ -22,7 +22,11 @@ Job = tuple[Any, ...]
 
 
 class PoolError(RuntimeError):
-    """A pool that cannot start: a missing extra, a scheduler that cannot be reached."""
+    """A pool that cannot start (a missing extra, a scheduler that cannot be reached), or a cluster lost part
+    way (its scheduler went away): the surroundings, not a run."""
+
+    #: What ``run_sweep`` had done when its cluster was lost (a SweepResult, ``interrupted``); else None.
+    result: Any = None
 
 
 class Pool(Protocol):
@@ -156,8 +160,10 @@ class DaskPool:
             self._client = Client(address, timeout=timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:
             raise PoolError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        self.address = address
         self.name = f"Dask cluster {address}"
         self._futures: list[Any] = []
+        self._stopped = False
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
         self._futures = [self._client.submit(fn, *job, pure=False) for job in jobs]
@@ -168,16 +174,32 @@ class DaskPool:
 
         position = {f.key: i for i, f in enumerate(self._futures)}
         for f in as_completed(self._futures, loop=self._client.loop):
-            if f.cancelled():
-                continue
-            exc = f.exception()
-            yield position[f.key], exc if exc is not None else f.result()
+            try:
+                if f.cancelled():
+                    f.result()  # raises why: Dask cancels every future when it loses the scheduler
+                exc = f.exception()
+                result = exc if exc is not None else f.result()
+            except Exception as lost:  # noqa: BLE001 - cancelled (now or meanwhile), or its result not fetched
+                if self._stopped:
+                    continue
+                # not by stop(): a job is never dropped silently, nor its loss taken for the run's own error
+                raise PoolError(f"lost the Dask scheduler at {self.address}: {_why(lost)}") from None
+            yield position[f.key], result
 
     def stop(self) -> None:
         """Cancel every task not finished. A task already running on a worker runs to its end there
         (a worker thread cannot be interrupted); its result is dropped."""
+        self._stopped = True
         if self._futures:
             self._client.cancel(self._futures)
 
     def close(self) -> None:
         self._client.close()
+
+
+def _why(exc: BaseException) -> str:
+    """What Dask says of a future it cancelled (its reason, ``scheduler-connection-lost``, and message), or
+    of a result it could not fetch, in one line."""
+    reason = getattr(exc, "reason", None)
+    said = " ".join(str(getattr(exc, "msg", None) or ("" if reason else exc)).split())
+    return f"{reason or type(exc).__name__}{f' ({said})' if said else ''}"

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from vcran.io.runfolder import incomplete
 from vcran.sweep.folder import carry_runs, check, check_format, finish, open_folder, run_folder
-from vcran.sweep.pool import Pool, open_pool
+from vcran.sweep.pool import Pool, PoolError, open_pool
 from vcran.sweep.spec import RunSpec, Sweep, load
 from vcran.sweep.table import columns, csv_text
 from vcran.sweep.worker import Row, run_one
@@ -40,6 +40,9 @@ class SweepResult:
     #: The folder ``run_sweep(keep_runs=DIR)`` wrote, absolute: ``DIR``, or ``DIR.incomplete`` after
     #: Ctrl-C; None without ``keep_runs``.
     folder: Path | None = None
+    #: Why the pool broke off part way (the Dask scheduler went away), ``interrupted`` set too; None after
+    #: Ctrl-C and for a sweep that ran to its end. :func:`run_sweep` raises it as a PoolError.
+    lost: str | None = None
 
     @property
     def failed(self) -> int:
@@ -107,10 +110,15 @@ def run_sweep(sweep: Sweep | str | Path, *, workers: int | None = None, cluster:
         result = execute(sweep, pool, keep_runs=work.resolve() if work is not None else None, on_row=on_row)
     finally:
         pool.close()
-    if work is None or out is None:
-        return result
-    finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=fmt)
-    return replace(result, folder=(work if result.interrupted else out).resolve())
+    if work is not None and out is not None:
+        finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=fmt)
+        result = replace(result, folder=(work if result.interrupted else out).resolve())
+    if result.lost is not None:  # not a sweep to analyse as if complete: raised, its rows with it
+        where = f"; their rows are in {result.folder / 'runs.csv'}" if result.folder is not None else ""
+        error = PoolError(f"{result.lost}: {len(result.rows)} of {result.total} runs done{where}")
+        error.result = result
+        raise error
+    return result
 
 
 def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
@@ -122,7 +130,7 @@ def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
     jobs = [(sweep.scenario_text, source, spec.overrides,
              str(run_folder(keep_runs, spec.index)) if keep_runs is not None else None) for spec in specs]
     rows: dict[int, Row] = {}
-    interrupted = False
+    interrupted, lost = False, None
     try:
         for i, result in pool.run(run_one, jobs):
             rows[i] = row(sweep, specs[i], result)
@@ -131,7 +139,10 @@ def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
     except KeyboardInterrupt:
         interrupted = True
         pool.stop()
-    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep)
+    except PoolError as exc:  # the cluster went away: the rows done are kept, the sweep is not complete
+        interrupted, lost = True, str(exc)
+        pool.stop()
+    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep, lost=lost)
 
 
 def head(sweep: Sweep) -> list[str]:
