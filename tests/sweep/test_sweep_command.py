@@ -213,6 +213,27 @@ def test_an_unreachable_scheduler_is_a_pool_error():
         DaskPool("tcp://127.0.0.1:9", timeout=0.5)
 
 
+def test_a_scheduler_address_dask_cannot_use_is_a_pool_error():
+    # a comm Dask knows but cannot use here (ucx without its package) was exit 70, "a bug in vcran"
+    pytest.importorskip("distributed")
+    from vcran.sweep.pool import DaskPool, PoolError
+
+    with pytest.raises(PoolError, match=r"^cannot reach the Dask scheduler at ucx://127\.0\.0\.1:9: "):
+        DaskPool("ucx://127.0.0.1:9", timeout=0.5)
+
+
+def test_a_tls_scheduler_without_tls_settings_is_one_line_and_exit_2(sweep_file, tmp_path, capsys):
+    # docs/sweeps.md: Dask's distributed.comm.tls settings apply to vcran's client; without them a tls://
+    # address was a TypeError from deep in Dask (exit 70), and a half-made client held the process for 20 s
+    pytest.importorskip("distributed")
+    out = tmp_path / "o"
+    assert main(["sweep", str(sweep_file), "--out", str(out), "--cluster", "tls://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("vcran sweep: tls://127.0.0.1:9: a tls:// scheduler needs Dask's TLS settings "
+                   "(distributed.comm.tls: ca-file, client cert and key), and none are set\n")
+    assert not out.exists() and not (tmp_path / "o.incomplete").exists()
+
+
 def test_stopping_the_local_pool_ends_its_workers_without_waiting():
     import time
 

@@ -22,8 +22,8 @@ Job = tuple[Any, ...]
 
 
 class PoolError(RuntimeError):
-    """A pool that cannot start (a missing extra, a scheduler that cannot be reached), or a cluster lost part
-    way (its scheduler went away): the surroundings, not a run."""
+    """A pool that cannot start (a missing extra, a scheduler that cannot be reached, a ``tls://`` address
+    without TLS settings), or a cluster lost part way (its scheduler went away): the surroundings, not a run."""
 
     #: What ``run_sweep`` had done when its cluster was lost (a SweepResult, ``interrupted``); else None.
     result: Any = None
@@ -156,9 +156,10 @@ class DaskPool:
             from distributed import Client
         except ImportError:
             raise PoolError("--cluster needs Dask's distributed package: pip install 'vcran[sweep]'") from None
+        _check_security(address)
         try:
             self._client = Client(address, timeout=timeout, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except Exception as exc:  # noqa: BLE001 - refused, timed out, a bad address, a comm not installed (ucx)
             raise PoolError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
         self.address = address
         self.name = f"Dask cluster {address}"
@@ -195,6 +196,21 @@ class DaskPool:
 
     def close(self) -> None:
         self._client.close()
+
+
+def _check_security(address: str) -> None:
+    """A ``tls://`` (or ``wss://``) address needs Dask's TLS settings (``distributed.comm.tls``): without
+    them Dask's client fails with a TypeError, and its half-made client then holds the process for 20 s."""
+    from distributed.comm.addressing import parse_address
+    from distributed.security import Security
+
+    try:
+        scheme, _ = parse_address(address)
+    except ValueError:
+        return  # the client says what is wrong with it
+    if scheme in ("tls", "wss") and Security().get_connection_args("client").get("ssl_context") is None:
+        raise PoolError(f"{address}: a {scheme}:// scheduler needs Dask's TLS settings (distributed.comm.tls: "
+                        "ca-file, client cert and key), and none are set")
 
 
 def _why(exc: BaseException) -> str:
