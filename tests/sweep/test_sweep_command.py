@@ -293,3 +293,27 @@ def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_fil
     assert err.startswith(f"vcran sweep: lost the Dask scheduler at {address}: ")
     assert err.count("\n") == 1
     assert f"of 8 runs done (0 failed); their rows are in {tmp_path / 'sweep.incomplete' / 'runs.csv'}" in err
+
+
+FAILING_MANAGERS = f"""scenario = "{(ROOT / 'scenarios' / 'warehouse.toml').as_posix()}"
+seeds = [1]
+[grid]
+"simulation.duration" = [60.0]
+manager = ["tests.testing.loop_managers:Raising", "tests.testing.loop_managers:Exiting"]
+"""
+
+
+def test_a_fleet_manager_that_raises_or_exits_is_its_run_s_row_the_same_in_any_pool(tmp_path, capsys):
+    # §10: runs.csv without wall_seconds is the same whichever pool ran it; a manager's sys.exit() ended a
+    # sweep in this process (exit 3, no rows) and ended Dask's workers one after the other (KilledWorker),
+    # and a raise lost the hook and time that `vcran run` names
+    path = tmp_path / "managers.toml"
+    path.write_text(FAILING_MANAGERS)
+    for workers in ("1", "2"):
+        assert main(["sweep", str(path), "--out", str(tmp_path / workers), "--workers", workers, "--quiet"]) == 1
+    table = rows(tmp_path / "1")
+    assert rows(tmp_path / "2") == table
+    assert [r["error"] for r in table] == [
+        "RuntimeError: my bug (in fleet manager Raising: on_job at t=0.226908515304104)",  # the first job, seed 1
+        "SystemExit: 3",
+    ]
