@@ -232,6 +232,22 @@ def test_a_pool_that_cannot_start_leaves_no_folder(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
 
 
+@pytest.mark.parametrize(("options", "message"), [
+    ({"workers": 0}, r"^workers must be a whole number of at least 1, got 0$"),
+    ({"workers": -2}, r"^workers must be a whole number of at least 1, got -2$"),
+    ({"workers": 1.5}, r"^workers must be a whole number of at least 1, got 1\.5$"),
+    ({"workers": "2"}, r"^workers must be a whole number of at least 1, got '2'$"),
+    ({"workers": 2, "cluster": "tcp://127.0.0.1:9"}, r"^workers and cluster exclude each other"),
+])
+def test_workers_the_command_refuses_are_refused_before_anything_runs(tmp_path, monkeypatch, options, message):
+    # vcran sweep --workers 0 is exit 2; run_sweep(workers=0) ran in this process, and workers= beside a
+    # cluster was ignored, silently
+    calls = no_runs(monkeypatch)
+    with pytest.raises(ValueError, match=message):
+        vcran.run_sweep(sweep_file(tmp_path, "narrow", NARROW), keep_runs=tmp_path / "o", **options)
+    assert calls == [] and sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
+
+
 def test_a_figure_format_a_sweep_folder_cannot_hold_is_refused_before_anything_runs(tmp_path, monkeypatch):
     """A ``kpi-by-*.pdf`` would make the folder no sweep's: the next sweep into it would be refused."""
     narrow = sweep_file(tmp_path, "narrow", NARROW)

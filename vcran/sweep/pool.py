@@ -55,7 +55,13 @@ def machine_workers() -> int:
 
 def open_pool(workers: int | None = None, cluster: str | None = None, jobs: int | None = None) -> Pool:
     """A Dask client of ``cluster`` if given; else ``workers`` local processes (default: one per CPU,
-    never more than ``jobs``), or this process when that is one."""
+    never more than ``jobs``), or this process when that is one. A ValueError for ``workers`` that is not
+    a whole number of at least 1, or that comes with ``cluster`` (whose workers are its own), as the
+    commands' ``--workers`` refuses them."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be a whole number of at least 1, got {workers!r}")
+    if workers is not None and cluster is not None:
+        raise ValueError("workers and cluster exclude each other: a cluster's workers are its own")
     if cluster is not None:
         return DaskPool(cluster)
     n = workers if workers is not None else machine_workers()

@@ -86,8 +86,9 @@ def run_sweep(sweep: Sweep | str | Path, *, workers: int | None = None, cluster:
               fmt: str = "png") -> SweepResult:
     """Every run of ``sweep`` (a :class:`Sweep` or a sweep file's path), in this process
     (``workers=1``), on ``workers`` local processes (default: one per CPU) or on the Dask scheduler at
-    ``cluster`` (``"tcp://host:8786"``). ``on_row`` sees each row as it arrives. Ctrl-C returns the rows
-    done so far.
+    ``cluster`` (``"tcp://host:8786"``); ``workers`` below 1, or with ``cluster``, is a ValueError before
+    anything runs. ``on_row`` sees each row as it arrives. Ctrl-C returns the rows done so far; a cluster
+    lost part way raises :class:`~vcran.sweep.pool.PoolError`, whose ``result`` holds them.
 
     ``keep_runs=DIR`` writes the folder ``vcran sweep --out DIR --keep-runs`` does (each run's folder in
     ``runs/0007/``, the tables, the figures in format ``fmt``): staged in ``DIR.incomplete`` and renamed
