@@ -56,6 +56,14 @@ def test_a_save_that_cannot_be_written_is_refused_before_the_search(tmp_path, ca
     assert "--max-ops must be at least 1" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("window", ["0", "-3"])
+def test_a_window_below_1_is_refused(capsys, window):
+    # docs/fuzzing.md: two messages within --window positions swap; 0 and -3 were taken as 1, silently
+    assert main(["fuzz", DEMO, "--examples", "1", "--window", window]) == 2
+    err = capsys.readouterr().err
+    assert err == f"vcran fuzz: --window must be at least 1 (a swap moves a message by 1 to WINDOW positions), got {window}\n"
+
+
 def test_a_finding_that_cannot_be_saved_is_still_printed(r7_bug, tmp_path, capsys):
     unwritable = tmp_path / ("x" * 300 + ".toml")  # its folder exists; the name is too long to create
     assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(unwritable)]) == 1

@@ -79,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("--examples must be at least 1")
     if args.max_ops < 1:
         raise CommandError("--max-ops must be at least 1 (with none, every example is the unperturbed script)")
+    if args.window < 1:
+        raise CommandError(f"--window must be at least 1 (a swap moves a message by 1 to WINDOW positions), "
+                           f"got {args.window}")
     check_pool_options(args)
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
