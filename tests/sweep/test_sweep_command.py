@@ -317,3 +317,35 @@ def test_a_fleet_manager_that_raises_or_exits_is_its_run_s_row_the_same_in_any_p
         "RuntimeError: my bug (in fleet manager Raising: on_job at t=0.226908515304104)",  # the first job, seed 1
         "SystemExit: 3",
     ]
+
+
+def test_a_local_worker_that_dies_fails_only_the_run_that_kills_it(tmp_path):
+    # §10: a worker process killed part way broke the executor, and every run not finished, most never
+    # started, came back failed with BrokenProcessPool; now they run again, and only the run whose own
+    # process dies again is a failure
+    from tests.sweep.dying import square_or_die
+    from vcran.sweep.pool import LocalPool, WorkerDied
+
+    pool = LocalPool(2)
+    try:
+        results = dict(pool.run(square_or_die, [(i, i == 2) for i in range(9)]))
+    finally:
+        pool.close()
+    assert sorted(results) == list(range(9))
+    assert isinstance(results[2], WorkerDied)
+    assert str(results[2]) == ("its worker process died under it twice (exit code 9): a crash, os._exit, or the "
+                               "system's out-of-memory killer")
+    assert {i: r for i, r in results.items() if i != 2} == {i: i * i for i in range(9) if i != 2}
+
+
+def test_a_local_worker_killed_once_loses_no_run(tmp_path):
+    from tests.sweep.dying import square_or_die
+    from vcran.sweep.pool import LocalPool
+
+    once = str(tmp_path / "died")
+    pool = LocalPool(2)
+    try:
+        results = dict(pool.run(square_or_die, [(i, i == 1, once) for i in range(12)]))
+    finally:
+        pool.close()
+    assert results == {i: i * i for i in range(12)}

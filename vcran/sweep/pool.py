@@ -14,7 +14,8 @@ from __future__ import annotations
 import os
 import signal
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, as_completed, wait
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_all_start_methods, get_context
 from typing import Any, Protocol
 
@@ -113,20 +114,57 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+class WorkerDied(RuntimeError):
+    """The result of a job whose process ended under it twice, once among the others' and once on its own:
+    a crash, ``os._exit``, or the system's out-of-memory killer. Only that job's: the others run again."""
+
+
 class LocalPool:
-    """Jobs on ``workers`` processes of this machine, each job pickled to a free worker."""
+    """Jobs on ``workers`` processes of this machine, each job pickled to a free worker.
+
+    A worker that dies (the out-of-memory killer, a crash, a run that calls ``os._exit``) breaks the
+    executor, which then fails every job not finished, most of which never started. Those are run again,
+    never reported as failures of their own: the few that may have been on the dead process (the first
+    ``2 * workers + 1`` not finished, in the order they were submitted, which is the order the executor
+    starts them in) each on a process of its own, then the rest on a new pool. A job whose own process
+    dies too is the one that kills it, and its result is :class:`WorkerDied`.
+    """
 
     def __init__(self, workers: int) -> None:
         self.name = f"{workers} local processes"
-        self._executor = ProcessPoolExecutor(workers, mp_context=_context(), initializer=_ignore_sigint)
+        self._workers = workers
+        self._executor = _executor(workers)
         self._futures: list[Future[Any]] = []
+        self._alone: list[ProcessPoolExecutor] = []  # a retry's one-process executors while they run
+        self._stopped = False
 
     def run(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
         self._futures = [self._executor.submit(fn, *job) for job in jobs]
-        return self._finished()
+        return self._finished(fn, jobs)
 
-    def _finished(self) -> Iterator[tuple[int, Any]]:
-        position = {id(f): i for i, f in enumerate(self._futures)}
+    def _finished(self, fn: Callable[..., Any], jobs: Sequence[Job]) -> Iterator[tuple[int, Any]]:
+        order = list(range(len(jobs)))  # the job of each of self._futures
+        while True:
+            lost: list[int] = []
+            for i, result in self._results(order):
+                if isinstance(result, BrokenProcessPool):
+                    lost.append(i)
+                else:
+                    yield i, result
+            if not lost or self._stopped:
+                return
+            lost.sort()
+            suspects, rest = lost[:2 * self._workers + 1], lost[2 * self._workers + 1:]
+            self._executor.shutdown(wait=False)
+            yield from self._each_alone(fn, jobs, suspects)  # first: never more processes than workers
+            if self._stopped:
+                return
+            self._executor = _executor(self._workers)
+            self._futures = [self._executor.submit(fn, *jobs[i]) for i in rest]
+            order = rest
+
+    def _results(self, order: list[int]) -> Iterator[tuple[int, Any]]:
+        position = {id(f): order[k] for k, f in enumerate(self._futures)}
         pending = set(self._futures)
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -136,21 +174,61 @@ class LocalPool:
                 exc = f.exception()
                 yield position[id(f)], exc if exc is not None else f.result()
 
+    def _each_alone(self, fn: Callable[..., Any], jobs: Sequence[Job], suspects: list[int]) -> Iterator[tuple[int, Any]]:
+        """Each job that may have been on a process that died, on a process of its own (``workers`` at a
+        time): one whose process dies again is the job that ends it."""
+        for start in range(0, len(suspects), self._workers):
+            batch = suspects[start:start + self._workers]
+            self._alone = [_executor(1) for _ in batch]
+            futures = {executor.submit(fn, *jobs[i]): (i, executor) for i, executor in zip(batch, self._alone)}
+            processes = {i: list(getattr(executor, "_processes", {}).values()) for i, executor in futures.values()}
+            for f in as_completed(futures):
+                i, _ = futures[f]
+                exc = f.exception()
+                if isinstance(exc, BrokenProcessPool):
+                    exc = WorkerDied(f"its worker process died under it twice ({_ended(processes[i])}): a crash, "
+                                     "os._exit, or the system's out-of-memory killer")
+                yield i, exc if exc is not None else f.result()
+            for executor in self._alone:
+                executor.shutdown(wait=True)
+            self._alone = []
+
     def stop(self) -> None:
         """Cancel what has not started and end the workers now: a run in progress is lost either way,
         and waiting for it would keep Ctrl-C waiting for minutes."""
-        processes = list(getattr(self._executor, "_processes", {}).values())  # no public handle before 3.14
-        self._executor.shutdown(wait=False, cancel_futures=True)
-        for p in processes:
-            p.terminate()
-        for p in processes:
-            p.join(timeout=2)
-            if p.is_alive():  # SIGTERM not acted on in time (a loaded machine): no second chance
-                p.kill()
-                p.join()
+        self._stopped = True
+        for executor in [self._executor, *self._alone]:
+            processes = list(getattr(executor, "_processes", {}).values())  # no public handle before 3.14
+            executor.shutdown(wait=False, cancel_futures=True)
+            for p in processes:
+                p.terminate()
+            for p in processes:
+                p.join(timeout=2)
+                if p.is_alive():  # SIGTERM not acted on in time (a loaded machine): no second chance
+                    p.kill()
+                    p.join()
 
     def close(self) -> None:
         self._executor.shutdown(wait=True, cancel_futures=True)
+
+
+def _executor(workers: int) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(workers, mp_context=_context(), initializer=_ignore_sigint)
+
+
+def _ended(processes: list[Any]) -> str:
+    """How a dead worker process ended: ``killed by SIGKILL``, ``exit code 9``."""
+    for p in processes:
+        p.join(timeout=2)
+        code = p.exitcode
+        if code is not None and code < 0:
+            try:
+                return f"killed by {signal.Signals(-code).name}"
+            except ValueError:
+                return f"killed by signal {-code}"
+        if code is not None:
+            return f"exit code {code}"
+    return "how, unknown"
 
 
 class DaskPool:
