@@ -349,3 +349,24 @@ def test_a_local_worker_killed_once_loses_no_run(tmp_path):
     finally:
         pool.close()
     assert results == {i: i * i for i in range(12)}
+
+
+def test_a_scheduler_without_workers_says_so_before_the_runs_wait(sweep_file, tmp_path):
+    # a new user's first `dask scheduler` without a `dask worker`: the sweep waited, silently, for ever
+    distributed = pytest.importorskip("distributed")
+    from vcran.sweep.pool import DaskPool
+
+    with distributed.LocalCluster(n_workers=0, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
+        pool = DaskPool(cluster.scheduler_address)
+        try:
+            assert pool.name == f"Dask cluster {cluster.scheduler_address} (no workers yet: the runs wait for one to join)"
+        finally:
+            pool.close()
+        cluster.scale(2)
+        cluster.wait_for_workers(2)
+        pool = DaskPool(cluster.scheduler_address)
+        try:
+            assert pool.name == f"Dask cluster {cluster.scheduler_address} (2 workers, 2 threads)"
+        finally:
+            pool.close()

@@ -246,7 +246,7 @@ class DaskPool:
         except Exception as exc:  # noqa: BLE001 - refused, timed out, a bad address, a comm not installed (ucx)
             raise PoolError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
         self.address = address
-        self.name = f"Dask cluster {address}"
+        self.name = f"Dask cluster {address} ({_workers(self._client)})"
         self._futures: list[Any] = []
         self._stopped = False
 
@@ -295,6 +295,19 @@ def _check_security(address: str) -> None:
     if scheme in ("tls", "wss") and Security().get_connection_args("client").get("ssl_context") is None:
         raise PoolError(f"{address}: a {scheme}:// scheduler needs Dask's TLS settings (distributed.comm.tls: "
                         "ca-file, client cert and key), and none are set")
+
+
+def _workers(client: Any) -> str:
+    """How many workers the scheduler has now, in words: with none the runs wait, and the command, whose
+    progress line shows nothing until a run ends, would look hung."""
+    try:
+        threads = client.nthreads()
+    except Exception:  # noqa: BLE001 - only a courtesy; a scheduler lost meanwhile is reported where runs are
+        return "workers unknown"
+    if not threads:
+        return "no workers yet: the runs wait for one to join"
+    total = sum(threads.values())
+    return f"{len(threads)} worker{'s' if len(threads) != 1 else ''}, {total} thread{'s' if total != 1 else ''}"
 
 
 def _why(exc: BaseException) -> str:
