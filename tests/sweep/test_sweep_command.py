@@ -128,14 +128,15 @@ def test_a_failing_run_is_a_row_with_its_error(sweep_file, tmp_path, monkeypatch
     assert "8 runs" in text and "6 ran, 2 failed" in text and "run 5 (seed 2): RuntimeError" in text
 
 
-def interrupt_run(monkeypatch, n: int) -> None:
-    """Ctrl-C as the sweep's ``n``-th run starts (in this process: ``--workers 1``)."""
+def interrupt_run(monkeypatch, n: int, signal: type[KeyboardInterrupt] = KeyboardInterrupt) -> None:
+    """Ctrl-C (or ``signal``: the CLI's Terminated, SIGTERM) as the sweep's ``n``-th run starts (in this
+    process: ``--workers 1``)."""
     real, calls = worker.simulate, []
 
     def simulate(scenario, **options):
         calls.append(1)
         if len(calls) == n:
-            raise KeyboardInterrupt
+            raise signal
         return real(scenario, **options)
 
     monkeypatch.setattr(worker, "simulate", simulate)
@@ -149,6 +150,16 @@ def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, c
     assert [r["run"] for r in rows(partial)] == ["0", "1", "2"] and not out.exists()
     assert "interrupted: 3 of 8 runs done" in capsys.readouterr().err
     assert not list(partial.glob("*.tmp"))
+
+
+def test_sigterm_keeps_the_rows_already_done_and_exits_143(sweep_file, tmp_path, monkeypatch, capsys):
+    # README: SIGTERM is taken as Ctrl-C and exits 143, as every command reports it; the sweep said 130
+    from vcran.commands._signals import Terminated
+
+    interrupt_run(monkeypatch, 4, Terminated)
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(sweep_file), "--out", str(out), "--workers", "1", "--quiet"]) == 143
+    assert [r["run"] for r in rows(tmp_path / "sweep.incomplete")] == ["0", "1", "2"] and not out.exists()
 
 
 def test_kpis_of_a_summary_written_by_hand():

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from vcran.io.runfolder import incomplete
@@ -43,6 +43,9 @@ class SweepResult:
     #: Why the pool broke off part way (the Dask scheduler went away), ``interrupted`` set too; None after
     #: Ctrl-C and for a sweep that ran to its end. :func:`run_sweep` raises it as a PoolError.
     lost: str | None = None
+    #: What stopped an ``interrupted`` sweep here: the KeyboardInterrupt (Ctrl-C, or the CLI's SIGTERM,
+    #: a subclass, which ``vcran sweep`` reports as exit 143 rather than 130); None otherwise.
+    interrupt: KeyboardInterrupt | None = field(default=None, repr=False, compare=False)
 
     @property
     def failed(self) -> int:
@@ -131,19 +134,20 @@ def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
     jobs = [(sweep.scenario_text, source, spec.overrides,
              str(run_folder(keep_runs, spec.index)) if keep_runs is not None else None) for spec in specs]
     rows: dict[int, Row] = {}
-    interrupted, lost = False, None
+    interrupted, lost, interrupt = False, None, None
     try:
         for i, result in pool.run(run_one, jobs):
             rows[i] = row(sweep, specs[i], result)
             if on_row is not None:
                 on_row(rows[i])
-    except KeyboardInterrupt:
-        interrupted = True
+    except KeyboardInterrupt as exc:
+        interrupted, interrupt = True, exc
         pool.stop()
     except PoolError as exc:  # the cluster went away: the rows done are kept, the sweep is not complete
         interrupted, lost = True, str(exc)
         pool.stop()
-    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep, lost=lost)
+    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep, lost=lost,
+                       interrupt=interrupt)
 
 
 def head(sweep: Sweep) -> list[str]:
