@@ -209,7 +209,8 @@ class LocalPool:
                     p.join()
 
     def close(self) -> None:
-        self._executor.shutdown(wait=True, cancel_futures=True)
+        for executor in [self._executor, *self._alone]:  # a retry's too, should its caller have left mid-way
+            executor.shutdown(wait=True, cancel_futures=True)
 
 
 def _executor(workers: int) -> ProcessPoolExecutor:
