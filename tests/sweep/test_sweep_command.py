@@ -290,6 +290,24 @@ def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_fil
         return real(scenario, **options)
 
     monkeypatch.setattr(worker, "simulate", simulate)
+    # Dask's client logs its reconnection with a traceback, on the stderr it kept (capsys does not see it)
+    import logging
+
+    from vcran.sweep import pool
+
+    client_log, logged, real_open = logging.getLogger("distributed.client"), [], pool.open_pool
+
+    def open_pool(*args, **kwargs):
+        client_log.setLevel(logging.WARNING)  # as the first import of distributed, in a `vcran` process, sets it
+        return real_open(*args, **kwargs)
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            logged.append(record)
+
+    monkeypatch.setattr(pool, "open_pool", open_pool)
+    monkeypatch.setattr(client_log, "level", client_log.level)
+    monkeypatch.setattr(client_log, "handlers", [*client_log.handlers, Keep()])
     out = tmp_path / "sweep"
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
                                   host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
@@ -298,6 +316,7 @@ def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_fil
             code = main(["sweep", str(sweep_file), "--out", str(out), "--cluster", address, "--quiet"])
         finally:
             lost.end()
+    assert [r.getMessage() for r in logged if r.levelno >= logging.ERROR] == []
     assert code == 2 and not out.exists()
     assert len(rows(tmp_path / "sweep.incomplete")) < 8
     err = capsys.readouterr().err
