@@ -47,6 +47,20 @@ def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
     assert again.read_text().replace("again.toml", "") == text.replace("fail.toml", "")  # same seed, same result
 
 
+@pytest.mark.pure_core
+def test_the_failure_s_header_names_every_option_of_its_search(r7_bug, tmp_path, capsys):
+    # docs/fuzzing.md, docs/sweeps.md: the header names the one command that finds the failure again; it
+    # left out --max-ops, --window and --fast, whose defaults search other examples
+    saved, again = tmp_path / "fail.toml", tmp_path / "again.toml"
+    options = ["--max-ops", "2", "--window", "1", "--fast"]
+    assert main(["fuzz", DEMO, "--examples", "30", "--seed", "4", *options, "--save", str(saved)]) == 1
+    header = saved.read_text().splitlines()[0]
+    assert header == f"# vcran fuzz {DEMO} --examples 30 --seed 4 --window 1 --max-ops 2 --fast: a minimal failing script"
+    command = header.removeprefix("# vcran ").split(": a minimal")[0].split()
+    assert main([*command, "--save", str(again)]) == 1
+    assert again.read_text() == saved.read_text()
+
+
 def test_a_save_that_cannot_be_written_is_refused_before_the_search(tmp_path, capsys):
     # a new user's mistake: the finding of a long search lost to a typo in --save (exit 2 at the end)
     assert main(["fuzz", DEMO, "--save", str(tmp_path / "no" / "such" / "x.toml")]) == 2
@@ -55,6 +69,14 @@ def test_a_save_that_cannot_be_written_is_refused_before_the_search(tmp_path, ca
     assert "is a folder" in capsys.readouterr().err
     assert main(["fuzz", DEMO, "--max-ops", "0"]) == 2
     assert "--max-ops must be at least 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("window", ["0", "-3"])
+def test_a_window_below_1_is_refused(capsys, window):
+    # docs/fuzzing.md: two messages within --window positions swap; 0 and -3 were taken as 1, silently
+    assert main(["fuzz", DEMO, "--examples", "1", "--window", window]) == 2
+    err = capsys.readouterr().err
+    assert err == f"vcran fuzz: --window must be at least 1 (a swap moves a message by 1 to WINDOW positions), got {window}\n"
 
 
 @pytest.mark.pure_core
@@ -134,3 +156,15 @@ def test_a_horizon_too_large_to_count_in_tenths_is_a_usage_error(tmp_path, capsy
     scenario.write_text(dumps(loop_dict(open_ended)))
     assert main(["fuzz", str(scenario), "--examples", "1", "--horizon", "1e308"]) == 2
     assert "--horizon 1e+308 is too large: instants are drawn at tenths of a second up to it" in capsys.readouterr().err
+
+
+def test_a_fleet_manager_s_search_options_in_its_header():
+    # a campaign of `--jobs 3 --horizon 60` named `--examples 10 --seed 1` alone, which searched 8 jobs over
+    # 300 s and shrank to another scenario (duration 900, not 660)
+    import argparse
+
+    from vcran.commands.fuzz import _search_options
+
+    given = argparse.Namespace(jobs=3, horizon=60.0, idle_bound=60.0, fast=True, window=3, max_ops=8)
+    assert _search_options(given, loop=True) == " --jobs 3 --horizon 60.0"
+    assert _search_options(given, loop=False) == " --fast"

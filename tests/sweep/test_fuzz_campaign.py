@@ -4,6 +4,7 @@ the first failure stops the campaign and names the one search that finds it agai
 from __future__ import annotations
 
 import tempfile
+import threading
 from pathlib import Path
 
 import pytest
@@ -64,9 +65,10 @@ def test_a_campaign_on_dask_stops_at_the_first_failure_which_its_seed_reproduces
     assert first.startswith(f"# vcran fuzz {DEMO} --examples 25 --seed ") and "(R7)" in text
     with tempfile.TemporaryDirectory() as work:
         assert any("(R7)" in p for p in run_variant(load_text(text), Path(work), again=False))
-    seed = first.split("--seed ")[1].split(":")[0]
+    command = first.removeprefix("# vcran ").split(": a minimal")[0].split()  # the header's command, as it is
+    assert command[-3:] == ["--max-ops", "3", "--fast"]
     alone = tmp_path / "alone.toml"
-    assert main(["fuzz", DEMO, "--examples", "25", "--seed", seed, "--fast", "--max-ops", "3", "--save", str(alone)]) == 1
+    assert main([*command, "--save", str(alone)]) == 1
     assert alone.read_text().replace("alone.toml", "") == text.replace("fail.toml", "")
     alone_err = capsys.readouterr().err
     assert f"rule violated after {tried} examples" in alone_err  # the campaign counted nothing past that search
@@ -110,3 +112,32 @@ def test_a_fleet_managers_campaign_runs_on_local_processes_and_saves_a_scenario_
 def test_bad_campaign_options(capsys, argv, message):
     assert main(["fuzz", DEMO, *argv]) == 2
     assert capsys.readouterr().err.startswith(f"vcran fuzz: {message}")
+
+
+def test_a_campaign_that_loses_its_scheduler_is_exit_2_never_ran_clean(tmp_path, monkeypatch, capsys):
+    # §10: the searches Dask cancelled when it lost its scheduler did not run clean; the command says it lost
+    # the cluster (exit 2) instead of reporting the examples of the searches that finished as the campaign
+    distributed = pytest.importorskip("distributed")
+    from tests.sweep.lost_scheduler import LostScheduler
+    from vcran.testing import campaign
+
+    lost, real = LostScheduler(monkeypatch), campaign.check
+
+    def check(base, ops, options):
+        if threading.current_thread().name != "MainThread" and not lost.release.is_set() and ops:
+            lost.now()
+        return real(base, ops, options)
+
+    monkeypatch.setattr(campaign, "check", check)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
+        try:
+            code = main(["fuzz", DEMO, "--examples", "50", "--fast", "--save", str(tmp_path / "f.toml"),
+                         "--cluster", cluster.scheduler_address])
+        finally:
+            lost.end()
+    captured = capsys.readouterr()
+    assert code == 2 and "ran clean" not in captured.out
+    last = captured.err.splitlines()[-1]
+    assert last.startswith(f"vcran fuzz: lost the Dask scheduler at {cluster.scheduler_address}: ")
+    assert last.endswith("of 50 examples ran, all clean")

@@ -232,6 +232,22 @@ def test_a_pool_that_cannot_start_leaves_no_folder(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
 
 
+@pytest.mark.parametrize(("options", "message"), [
+    ({"workers": 0}, r"^workers must be a whole number of at least 1, got 0$"),
+    ({"workers": -2}, r"^workers must be a whole number of at least 1, got -2$"),
+    ({"workers": 1.5}, r"^workers must be a whole number of at least 1, got 1\.5$"),
+    ({"workers": "2"}, r"^workers must be a whole number of at least 1, got '2'$"),
+    ({"workers": 2, "cluster": "tcp://127.0.0.1:9"}, r"^workers and cluster exclude each other"),
+])
+def test_workers_the_command_refuses_are_refused_before_anything_runs(tmp_path, monkeypatch, options, message):
+    # vcran sweep --workers 0 is exit 2; run_sweep(workers=0) ran in this process, and workers= beside a
+    # cluster was ignored, silently
+    calls = no_runs(monkeypatch)
+    with pytest.raises(ValueError, match=message):
+        vcran.run_sweep(sweep_file(tmp_path, "narrow", NARROW), keep_runs=tmp_path / "o", **options)
+    assert calls == [] and sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
+
+
 def test_a_figure_format_a_sweep_folder_cannot_hold_is_refused_before_anything_runs(tmp_path, monkeypatch):
     """A ``kpi-by-*.pdf`` would make the folder no sweep's: the next sweep into it would be refused."""
     narrow = sweep_file(tmp_path, "narrow", NARROW)
@@ -263,3 +279,33 @@ def test_write_over_its_own_folder_without_kept_runs_there(tmp_path):
     shutil.rmtree(tmp_path / "o" / "runs")  # where the runs would be, had the workers shared this disk
     assert result.write(tmp_path / "o") == [tmp_path / "o" / name for name in ("runs.csv", "runs.parquet", FIGURE)]
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [FIGURE, "runs.csv", "runs.parquet"]
+
+
+def test_a_scheduler_lost_mid_sweep_raises_pool_error_with_the_rows_done(tmp_path, monkeypatch):
+    # §10, §6: run_sweep never returns a part of a sweep as if it were the whole when its cluster went away;
+    # the PoolError carries the rows done (result.interrupted) and leaves them in DIR.incomplete
+    distributed = pytest.importorskip("distributed")
+    from tests.sweep.lost_scheduler import LostScheduler
+    from vcran.sweep.pool import PoolError
+
+    lost, real = LostScheduler(monkeypatch), worker.simulate
+
+    def simulate(scenario, **options):
+        if scenario.settings.seed == 2:
+            lost.now()
+        return real(scenario, **options)
+
+    monkeypatch.setattr(worker, "simulate", simulate)
+    out = tmp_path / "kept"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
+        try:
+            with pytest.raises(PoolError, match=r"^lost the Dask scheduler at tcp://127\.0\.0\.1:[0-9]+: ") as caught:
+                vcran.run_sweep(sweep_file(tmp_path, "wide", WIDE), cluster=cluster.scheduler_address, keep_runs=out)
+        finally:
+            lost.end()
+    result = caught.value.result
+    assert result.interrupted and len(result.rows) < result.total
+    assert result.folder == (tmp_path / "kept.incomplete").resolve() and not out.exists()
+    assert f"runs done; their rows are in {result.folder / 'runs.csv'}" in str(caught.value)
+    assert len((result.folder / "runs.csv").read_text().splitlines()) == len(result.rows) + 1

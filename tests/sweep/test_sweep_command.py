@@ -128,14 +128,15 @@ def test_a_failing_run_is_a_row_with_its_error(sweep_file, tmp_path, monkeypatch
     assert "8 runs" in text and "6 ran, 2 failed" in text and "run 5 (seed 2): RuntimeError" in text
 
 
-def interrupt_run(monkeypatch, n: int) -> None:
-    """Ctrl-C as the sweep's ``n``-th run starts (in this process: ``--workers 1``)."""
+def interrupt_run(monkeypatch, n: int, signal: type[KeyboardInterrupt] = KeyboardInterrupt) -> None:
+    """Ctrl-C (or ``signal``: the CLI's Terminated, SIGTERM) as the sweep's ``n``-th run starts (in this
+    process: ``--workers 1``)."""
     real, calls = worker.simulate, []
 
     def simulate(scenario, **options):
         calls.append(1)
         if len(calls) == n:
-            raise KeyboardInterrupt
+            raise signal
         return real(scenario, **options)
 
     monkeypatch.setattr(worker, "simulate", simulate)
@@ -149,6 +150,16 @@ def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, c
     assert [r["run"] for r in rows(partial)] == ["0", "1", "2"] and not out.exists()
     assert "interrupted: 3 of 8 runs done" in capsys.readouterr().err
     assert not list(partial.glob("*.tmp"))
+
+
+def test_sigterm_keeps_the_rows_already_done_and_exits_143(sweep_file, tmp_path, monkeypatch, capsys):
+    # README: SIGTERM is taken as Ctrl-C and exits 143, as every command reports it; the sweep said 130
+    from vcran.commands._signals import Terminated
+
+    interrupt_run(monkeypatch, 4, Terminated)
+    out = tmp_path / "sweep"
+    assert main(["sweep", str(sweep_file), "--out", str(out), "--workers", "1", "--quiet"]) == 143
+    assert [r["run"] for r in rows(tmp_path / "sweep.incomplete")] == ["0", "1", "2"] and not out.exists()
 
 
 def test_kpis_of_a_summary_written_by_hand():
@@ -213,6 +224,27 @@ def test_an_unreachable_scheduler_is_a_pool_error():
         DaskPool("tcp://127.0.0.1:9", timeout=0.5)
 
 
+def test_a_scheduler_address_dask_cannot_use_is_a_pool_error():
+    # a comm Dask knows but cannot use here (ucx without its package) was exit 70, "a bug in vcran"
+    pytest.importorskip("distributed")
+    from vcran.sweep.pool import DaskPool, PoolError
+
+    with pytest.raises(PoolError, match=r"^cannot reach the Dask scheduler at ucx://127\.0\.0\.1:9: "):
+        DaskPool("ucx://127.0.0.1:9", timeout=0.5)
+
+
+def test_a_tls_scheduler_without_tls_settings_is_one_line_and_exit_2(sweep_file, tmp_path, capsys):
+    # docs/sweeps.md: Dask's distributed.comm.tls settings apply to vcran's client; without them a tls://
+    # address was a TypeError from deep in Dask (exit 70), and a half-made client held the process for 20 s
+    pytest.importorskip("distributed")
+    out = tmp_path / "o"
+    assert main(["sweep", str(sweep_file), "--out", str(out), "--cluster", "tls://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("vcran sweep: tls://127.0.0.1:9: a tls:// scheduler needs Dask's TLS settings "
+                   "(distributed.comm.tls: ca-file, client cert and key), and none are set\n")
+    assert not out.exists() and not (tmp_path / "o.incomplete").exists()
+
+
 def test_stopping_the_local_pool_ends_its_workers_without_waiting():
     import time
 
@@ -242,3 +274,129 @@ def test_json_params_in_csv(tmp_path):
     assert main(["sweep", str(path), "--out", str(out), "--workers", "1", "--quiet"]) == 0
     (r,) = rows(out)
     assert (r["label"], json.loads(r["robots.robot_1.pose"])) == ("moved", [0.5, 0.0, 0.0])
+
+
+def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_file, tmp_path, monkeypatch, capsys):
+    # §10 and §6: the runs Dask cancelled when it lost its scheduler are neither dropped from a folder that
+    # looks finished (exit 0) nor taken for the runs' own failures; the rows done stay in DIR.incomplete
+    distributed = pytest.importorskip("distributed")
+    from tests.sweep.lost_scheduler import LostScheduler
+
+    lost, real = LostScheduler(monkeypatch), worker.simulate
+
+    def simulate(scenario, **options):
+        if scenario.settings.seed == 2:
+            lost.now()
+        return real(scenario, **options)
+
+    monkeypatch.setattr(worker, "simulate", simulate)
+    # Dask's client logs its reconnection with a traceback, on the stderr it kept (capsys does not see it)
+    import logging
+
+    from vcran.sweep import pool
+
+    client_log, logged, real_open = logging.getLogger("distributed.client"), [], pool.open_pool
+
+    def open_pool(*args, **kwargs):
+        client_log.setLevel(logging.WARNING)  # as the first import of distributed, in a `vcran` process, sets it
+        return real_open(*args, **kwargs)
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            logged.append(record)
+
+    monkeypatch.setattr(pool, "open_pool", open_pool)
+    monkeypatch.setattr(client_log, "level", client_log.level)
+    monkeypatch.setattr(client_log, "handlers", [*client_log.handlers, Keep()])
+    out = tmp_path / "sweep"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        try:
+            code = main(["sweep", str(sweep_file), "--out", str(out), "--cluster", address, "--quiet"])
+        finally:
+            lost.end()
+    assert [r.getMessage() for r in logged if r.levelno >= logging.ERROR] == []
+    assert code == 2 and not out.exists()
+    assert len(rows(tmp_path / "sweep.incomplete")) < 8
+    err = capsys.readouterr().err
+    assert err.startswith(f"vcran sweep: lost the Dask scheduler at {address}: ")
+    assert err.count("\n") == 1
+    assert f"of 8 runs done (0 failed); their rows are in {tmp_path / 'sweep.incomplete' / 'runs.csv'}" in err
+
+
+FAILING_MANAGERS = f"""scenario = "{(ROOT / 'scenarios' / 'warehouse.toml').as_posix()}"
+seeds = [1]
+[grid]
+"simulation.duration" = [60.0]
+manager = ["tests.testing.loop_managers:Raising", "tests.testing.loop_managers:Exiting"]
+"""
+
+
+def test_a_fleet_manager_that_raises_or_exits_is_its_run_s_row_the_same_in_any_pool(tmp_path, capsys):
+    # §10: runs.csv without wall_seconds is the same whichever pool ran it; a manager's sys.exit() ended a
+    # sweep in this process (exit 3, no rows) and ended Dask's workers one after the other (KilledWorker),
+    # and a raise lost the hook and time that `vcran run` names
+    path = tmp_path / "managers.toml"
+    path.write_text(FAILING_MANAGERS)
+    for workers in ("1", "2"):
+        assert main(["sweep", str(path), "--out", str(tmp_path / workers), "--workers", workers, "--quiet"]) == 1
+    table = rows(tmp_path / "1")
+    assert rows(tmp_path / "2") == table
+    assert [r["error"] for r in table] == [
+        "RuntimeError: my bug (in fleet manager Raising: on_job at t=0.226908515304104)",  # the first job, seed 1
+        "SystemExit: 3",
+    ]
+
+
+def test_a_local_worker_that_dies_fails_only_the_run_that_kills_it(tmp_path):
+    # §10: a worker process killed part way broke the executor, and every run not finished, most never
+    # started, came back failed with BrokenProcessPool; now they run again, and only the run whose own
+    # process dies again is a failure
+    from tests.sweep.dying import square_or_die
+    from vcran.sweep.pool import LocalPool, WorkerDied
+
+    pool = LocalPool(2)
+    try:
+        results = dict(pool.run(square_or_die, [(i, i == 2) for i in range(9)]))
+    finally:
+        pool.close()
+    assert sorted(results) == list(range(9))
+    assert isinstance(results[2], WorkerDied)
+    assert str(results[2]) == ("its worker process died under it twice (exit code 9): a crash, os._exit, or the "
+                               "system's out-of-memory killer")
+    assert {i: r for i, r in results.items() if i != 2} == {i: i * i for i in range(9) if i != 2}
+
+
+def test_a_local_worker_killed_once_loses_no_run(tmp_path):
+    from tests.sweep.dying import square_or_die
+    from vcran.sweep.pool import LocalPool
+
+    once = str(tmp_path / "died")
+    pool = LocalPool(2)
+    try:
+        results = dict(pool.run(square_or_die, [(i, i == 1, once) for i in range(12)]))
+    finally:
+        pool.close()
+    assert results == {i: i * i for i in range(12)}
+
+
+def test_a_scheduler_without_workers_says_so_before_the_runs_wait(sweep_file, tmp_path):
+    # a new user's first `dask scheduler` without a `dask worker`: the sweep waited, silently, for ever
+    distributed = pytest.importorskip("distributed")
+    from vcran.sweep.pool import DaskPool
+
+    with distributed.LocalCluster(n_workers=0, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:
+        pool = DaskPool(cluster.scheduler_address)
+        try:
+            assert pool.name == f"Dask cluster {cluster.scheduler_address} (no workers yet: the runs wait for one to join)"
+        finally:
+            pool.close()
+        cluster.scale(2)
+        cluster.wait_for_workers(2)
+        pool = DaskPool(cluster.scheduler_address)
+        try:
+            assert pool.name == f"Dask cluster {cluster.scheduler_address} (2 workers, 2 threads)"
+        finally:
+            pool.close()

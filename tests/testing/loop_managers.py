@@ -49,3 +49,10 @@ class Raising(Dispatcher):
 
     def on_job(self, job: object) -> None:
         raise RuntimeError("my bug")
+
+
+class Exiting(Dispatcher):
+    """A manager that ends its process on the first job (``sys.exit`` in a hook)."""
+
+    def on_job(self, job: object) -> None:
+        raise SystemExit(3)

@@ -254,6 +254,10 @@ def test_loop_variants_of_a_path_and_a_negative_bound_are_clear_errors():
     (lambda base: loop_variants(base, horizon=float("inf")), "horizon must be a finite number of seconds >= 0, got inf"),
     (lambda base: loop_variants(base, horizon=-1.0), "horizon must be a finite number of seconds >= 0, got -1.0"),
     (lambda base: fault_lists(["robot_1"], max_faults=-1), "max_faults must be at least 0, got -1"),
+    # settle=nan made the run's duration nan, settle=-1 ended it before the last jobs, max_faults=-1 meant none
+    (lambda base: loop_variants(base, settle=float("nan")), "settle must be a finite number of seconds >= 0, got nan"),
+    (lambda base: loop_variants(base, settle=-1.0), "settle must be a finite number of seconds >= 0, got -1.0"),
+    (lambda base: loop_variants(base, max_faults=-1), "max_faults must be at least 0, got -1"),
     (lambda base: fault_lists(["robot_1"], horizon=float("nan")), "horizon must be a finite number of seconds >= 0, got nan"),
     # finite, but not in tenths of a second: int(horizon * 10) overflowed as inf did
     (lambda base: loop_variants(base, horizon=1e308), "horizon 1e+308 s is too large: instants are drawn at tenths of "

@@ -30,6 +30,13 @@ def pool_for(args: argparse.Namespace, jobs: int) -> Pool:
     from vcran.sweep.pool import PoolError, open_pool
 
     try:
-        return open_pool(args.workers, args.cluster, jobs=jobs)
+        pool = open_pool(args.workers, args.cluster, jobs=jobs)
     except PoolError as exc:
         raise CommandError(str(exc)) from None
+    if args.cluster is not None:
+        import logging
+
+        # losing the scheduler is the command's one line (exit 2); Dask's client would log a traceback besides.
+        # Set after open_pool: the first import of distributed, there, sets this logger's level from its config
+        logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+    return pool

@@ -49,17 +49,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="search seed: same seed, same examples (default 0)")
     parser.add_argument("--save", type=Path, default=None,
                         help="where to write a failing script (default: SCENARIO-STEM.fuzz-failure.toml here)")
-    parser.add_argument("--window", type=int, default=3, help="how far a reordering moves a message (default 3)")
-    parser.add_argument("--max-ops", type=int, default=8, help="most perturbations per example (default 8)")
+    parser.add_argument("--window", type=int, default=SCRIPT_OPTIONS["window"],
+                        help="how far a reordering moves a message (default 3)")
+    parser.add_argument("--max-ops", type=int, default=SCRIPT_OPTIONS["max_ops"],
+                        help="most perturbations per example (default 8)")
     parser.add_argument("--fast", action="store_true", help="skip the second run and the replay of each variant")
     add_pool_arguments(parser, "the examples, as searches of at most 25 with consecutive seeds,", "1")
     loop = parser.add_argument_group("a fleet manager in the loop (SPEC §9)")
     loop.add_argument("--manager", metavar="MODULE:CLASS",
                       help="fuzz this fleet manager (default: the scenario's [manager], if it has one)")
-    loop.add_argument("--jobs", type=int, default=8, metavar="N", help="most jobs per example (default 8)")
-    loop.add_argument("--horizon", type=float, default=300.0, metavar="S",
+    loop.add_argument("--jobs", type=int, default=LOOP_OPTIONS["jobs"], metavar="N",
+                      help="most jobs per example (default 8)")
+    loop.add_argument("--horizon", type=float, default=LOOP_OPTIONS["horizon"], metavar="S",
                       help="jobs arrive within this many simulated seconds (default 300)")
-    loop.add_argument("--idle-bound", type=float, default=60.0, metavar="S",
+    loop.add_argument("--idle-bound", type=float, default=LOOP_OPTIONS["idle_bound"], metavar="S",
                       help="longest a robot may idle while a job waits (default 60)")
 
 
@@ -79,6 +82,9 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("--examples must be at least 1")
     if args.max_ops < 1:
         raise CommandError("--max-ops must be at least 1 (with none, every example is the unperturbed script)")
+    if args.window < 1:
+        raise CommandError(f"--window must be at least 1 (a swap moves a message by 1 to WINDOW positions), "
+                           f"got {args.window}")
     check_pool_options(args)
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
@@ -113,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     failure = outcome.failure
     command = f"vcran fuzz {args.scenario}{f' --manager {name}' if loop else ''} --examples {outcome.asked} " \
-              f"--seed {outcome.seed}: a minimal failing {'scenario' if loop else 'script'}"
+              f"--seed {outcome.seed}{_search_options(args, loop)}: a minimal failing {'scenario' if loop else 'script'}"
     header = "\n".join([
         command,
         *([f"perturbations: {failure.ops!r}"] if failure.ops is not None else []),
@@ -134,6 +140,21 @@ def run(args: argparse.Namespace) -> int:
     for p in failure.problems:
         print(f"  {p}", file=sys.stderr)
     return 1
+
+
+#: The options besides --examples and --seed that decide which examples a search tries and what it finds,
+#: with their defaults: a script's, and a fleet manager's (--fast: a script's second run and replay).
+SCRIPT_OPTIONS = {"window": 3, "max_ops": 8}
+LOOP_OPTIONS = {"jobs": 8, "horizon": 300.0, "idle_bound": 60.0}
+
+
+def _search_options(args: argparse.Namespace, loop: bool) -> str:
+    """Those of the options that are not their defaults, as typed: the failure's header names the one
+    command that finds it again, which it would not with ``--jobs 3`` left out."""
+    defaults = LOOP_OPTIONS if loop else SCRIPT_OPTIONS
+    given = [f" --{key.replace('_', '-')} {getattr(args, key)!r}" for key, default in defaults.items()
+             if getattr(args, key) != default]
+    return "".join(given) + (" --fast" if args.fast and not loop else "")
 
 
 def _examples(n: int) -> str:
@@ -184,6 +205,7 @@ def _campaign(args: argparse.Namespace, fn: Callable[..., Outcome], text: str,
     """Searches with consecutive seeds on a pool (SPEC §10); the first failure stops them all.
     Returns the failing outcome (or None) and the examples tried in all searches that finished."""
     from vcran.commands import CommandError
+    from vcran.sweep.pool import PoolError
     from vcran.sweep.progress import Progress
     from vcran.testing.campaign import chunks
 
@@ -209,6 +231,9 @@ def _campaign(args: argparse.Namespace, fn: Callable[..., Outcome], text: str,
         progress.close()
         print(f"vcran fuzz: interrupted after {examples} examples, all clean", file=sys.stderr)
         raise
+    except PoolError as exc:  # the Dask scheduler went away: never "ran clean" on the searches it took along
+        pool.stop()
+        raise CommandError(f"{exc}: {examples} of {args.examples} examples ran, all clean") from None
     finally:
         progress.close()
         pool.close()

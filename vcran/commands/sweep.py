@@ -3,8 +3,8 @@
 Runs every variant × seed of a sweep file, here (a local process pool sized to the machine) or on a Dask
 cluster, and writes one row per run into ``DIR/runs.csv`` and ``DIR/runs.parquet``, plus comparison
 figures when matplotlib is installed. Exit status: 0 when every run ran, 1 when some failed (their rows
-say why), 2 for a sweep that cannot start, 130 on Ctrl-C (the rows done are written all the same, into
-``DIR.incomplete``).
+say why), 2 for a sweep that cannot start or whose Dask scheduler went away part way, 130 on Ctrl-C (143 on
+SIGTERM; in each case the rows done are written all the same, into ``DIR.incomplete``).
 
 ``DIR`` is written like a run folder (SPEC §6, vcran.io.runfolder), by the code ``vcran.run_sweep`` and
 ``SweepResult.write`` use too (vcran.sweep.folder): everything, the kept runs of the workers included, goes
@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
+from vcran.commands._signals import Terminated
 from vcran.io.runfolder import SWEEP_FORMATS
 
 HELP = "run a scenario's variants x seeds (a sweep file) into one KPI table, locally or on a Dask cluster"
@@ -84,10 +85,13 @@ def run(args: argparse.Namespace) -> int:
         print("vcran sweep: no figures: matplotlib is not installed (pip install 'vcran[report]')", file=sys.stderr)
 
     done, failed = len(result.rows), result.failed
+    if result.lost is not None:  # the cluster went away: surroundings that refuse, the rows done kept
+        raise CommandError(f"{result.lost}: {done} of {runs} runs done ({failed} failed); their rows are in "
+                           f"{', '.join(str(f) for f in files)}")
     if result.interrupted:
         print(f"vcran sweep: interrupted: {done} of {runs} runs done ({failed} failed); their rows are in "
               f"{', '.join(str(f) for f in files)}", file=sys.stderr)
-        return 130
+        return 143 if isinstance(result.interrupt, Terminated) else 130  # SIGTERM, as every command reports it
     if not args.quiet:
         print(f"{runs} runs in {wall:.1f} s: {done - failed} ran, {failed} failed")
         for r in [r for r in result.rows if r["error"] is not None][:5]:

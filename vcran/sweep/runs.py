@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from vcran.io.runfolder import incomplete
 from vcran.sweep.folder import carry_runs, check, check_format, finish, open_folder, run_folder
-from vcran.sweep.pool import Pool, open_pool
+from vcran.sweep.pool import Pool, PoolError, open_pool
 from vcran.sweep.spec import RunSpec, Sweep, load
 from vcran.sweep.table import columns, csv_text
 from vcran.sweep.worker import Row, run_one
@@ -40,6 +40,12 @@ class SweepResult:
     #: The folder ``run_sweep(keep_runs=DIR)`` wrote, absolute: ``DIR``, or ``DIR.incomplete`` after
     #: Ctrl-C; None without ``keep_runs``.
     folder: Path | None = None
+    #: Why the pool broke off part way (the Dask scheduler went away), ``interrupted`` set too; None after
+    #: Ctrl-C and for a sweep that ran to its end. :func:`run_sweep` raises it as a PoolError.
+    lost: str | None = None
+    #: What stopped an ``interrupted`` sweep here: the KeyboardInterrupt (Ctrl-C, or the CLI's SIGTERM,
+    #: a subclass, which ``vcran sweep`` reports as exit 143 rather than 130); None otherwise.
+    interrupt: KeyboardInterrupt | None = field(default=None, repr=False, compare=False)
 
     @property
     def failed(self) -> int:
@@ -83,8 +89,9 @@ def run_sweep(sweep: Sweep | str | Path, *, workers: int | None = None, cluster:
               fmt: str = "png") -> SweepResult:
     """Every run of ``sweep`` (a :class:`Sweep` or a sweep file's path), in this process
     (``workers=1``), on ``workers`` local processes (default: one per CPU) or on the Dask scheduler at
-    ``cluster`` (``"tcp://host:8786"``). ``on_row`` sees each row as it arrives. Ctrl-C returns the rows
-    done so far.
+    ``cluster`` (``"tcp://host:8786"``); ``workers`` below 1, or with ``cluster``, is a ValueError before
+    anything runs. ``on_row`` sees each row as it arrives. Ctrl-C returns the rows done so far; a cluster
+    lost part way raises :class:`~vcran.sweep.pool.PoolError`, whose ``result`` holds them.
 
     ``keep_runs=DIR`` writes the folder ``vcran sweep --out DIR --keep-runs`` does (each run's folder in
     ``runs/0007/``, the tables, the figures in format ``fmt``): staged in ``DIR.incomplete`` and renamed
@@ -107,10 +114,15 @@ def run_sweep(sweep: Sweep | str | Path, *, workers: int | None = None, cluster:
         result = execute(sweep, pool, keep_runs=work.resolve() if work is not None else None, on_row=on_row)
     finally:
         pool.close()
-    if work is None or out is None:
-        return result
-    finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=fmt)
-    return replace(result, folder=(work if result.interrupted else out).resolve())
+    if work is not None and out is not None:
+        finish(work, out, sweep, result.rows, result.columns, interrupted=result.interrupted, fmt=fmt)
+        result = replace(result, folder=(work if result.interrupted else out).resolve())
+    if result.lost is not None:  # not a sweep to analyse as if complete: raised, its rows with it
+        where = f"; their rows are in {result.folder / 'runs.csv'}" if result.folder is not None else ""
+        error = PoolError(f"{result.lost}: {len(result.rows)} of {result.total} runs done{where}")
+        error.result = result
+        raise error
+    return result
 
 
 def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
@@ -122,16 +134,20 @@ def execute(sweep: Sweep, pool: Pool, *, keep_runs: Path | None = None,
     jobs = [(sweep.scenario_text, source, spec.overrides,
              str(run_folder(keep_runs, spec.index)) if keep_runs is not None else None) for spec in specs]
     rows: dict[int, Row] = {}
-    interrupted = False
+    interrupted, lost, interrupt = False, None, None
     try:
         for i, result in pool.run(run_one, jobs):
             rows[i] = row(sweep, specs[i], result)
             if on_row is not None:
                 on_row(rows[i])
-    except KeyboardInterrupt:
-        interrupted = True
+    except KeyboardInterrupt as exc:
+        interrupted, interrupt = True, exc
         pool.stop()
-    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep)
+    except PoolError as exc:  # the cluster went away: the rows done are kept, the sweep is not complete
+        interrupted, lost = True, str(exc)
+        pool.stop()
+    return SweepResult([rows[i] for i in sorted(rows)], len(specs), interrupted, head(sweep), sweep, lost=lost,
+                       interrupt=interrupt)
 
 
 def head(sweep: Sweep) -> list[str]:

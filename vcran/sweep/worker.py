@@ -19,6 +19,7 @@ from vcran.api import simulate
 from vcran.core.effects import Reason
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps
+from vcran.sim.loop import manager_note
 from vcran.sweep.overrides import apply
 
 Row = dict[str, Any]
@@ -40,14 +41,22 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
         data.setdefault("simulation", {})["name"] = scenario.settings.name
         kept = dumps(data)
         row: Row = {"error": None, **kpis(simulate(scenario, out=out).summary)}
-    except Exception as exc:  # noqa: BLE001 - any failure of one run is that run's row
-        row = {"error": f"{type(exc).__name__}: {exc}".strip()}
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of one run is that run's row
+        row = {"error": error_text(exc)}
     if out is not None and kept is not None:  # after the run: the run folder is written whole, then renamed
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)  # a failed run's folder holds the scenario that fails
         (folder / "scenario.toml").write_text(kept, encoding="utf-8")
     row["wall_seconds"] = time.perf_counter() - start
     return row
+
+
+def error_text(exc: BaseException) -> str:
+    """A failed run's ``error`` cell: the exception, and for one its fleet manager raised the hook and the
+    simulated time it raised at, as ``vcran run`` says them. A ``sys.exit()`` in a manager is its run's
+    error too, the same in this process, a local pool and on Dask (where it would end the worker)."""
+    note = manager_note(exc)
+    return f"{type(exc).__name__}: {exc}".strip() + (f" ({note})" if note is not None else "")
 
 
 #: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``, a

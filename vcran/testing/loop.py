@@ -151,6 +151,10 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
     if not isinstance(base, Scenario):  # vcran.simulate takes a path; this needs the scenario to vary
         raise TypeError(f"loop_variants: base must be a vcran.Scenario (vcran.load_scenario(path)), got "
                         f"{type(base).__name__} {base!r}")
+    if not (math.isfinite(settle) and settle >= 0):  # nan made the run's duration nan, -1 ended it before the jobs
+        raise ValueError(f"settle must be a finite number of seconds >= 0, got {settle}")
+    if max_faults < 0:  # as fault_lists refuses it, rather than read as "none"
+        raise ValueError(f"max_faults must be at least 0, got {max_faults}")
     pickups, dropoffs = workload_stations(base)
     if base.settings.duration is not None:  # a job or fault after the end never happens: it fails to load
         horizon = min(horizon, base.settings.duration)  # (docs/scenarios.md), so a saved failure would too
