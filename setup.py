@@ -2,7 +2,7 @@
 modules, and why). Everything else is in pyproject.toml.
 
 The compiled core is optional: ``VCRAN_PURE=1`` at install time, a missing C compiler or any failure of mypyc
-leaves a pure-Python install that writes the same outputs, with a warning in pip's log. mypyc runs inside
+leaves a pure-Python install that writes the same outputs, and a line saying so in pip's log (``pip -v``). mypyc runs inside
 ``build_ext`` (not when this file is read), because pip reads it several times per install and only one of
 those builds.
 """
@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parent
 PACKAGE = ROOT / "vcran"
 NATIVE = runpy.run_path(str(PACKAGE / "_native.py"))  # vcran itself cannot be imported while it is built
 RECORD = PACKAGE / NATIVE["BUILD_FILE"]
+PURE = os.environ.get(NATIVE["PURE_ENV"], "") not in ("", "0")
 
 
 def _say(text: str) -> None:
@@ -78,7 +79,6 @@ def _fallback(exc: BaseException) -> None:
          "writes the same outputs, only slower")
 
 
-PURE = os.environ.get(NATIVE["PURE_ENV"], "") not in ("", "0")
 setup(
     # a placeholder, replaced by mypyc's extensions in CompileCore; none at all for a pure build (a pure wheel)
     ext_modules=[] if PURE else [Extension(NATIVE["GROUP"] + "__mypyc", sources=[])],
