@@ -345,7 +345,7 @@ def test_a_fleet_manager_that_raises_or_exits_is_its_run_s_row_the_same_in_any_p
     assert rows(tmp_path / "2") == table
     assert [r["error"] for r in table] == [
         "RuntimeError: my bug (in fleet manager Raising: on_job at t=0.226908515304104)",  # the first job, seed 1
-        "SystemExit: 3",
+        "RuntimeError: on_job called sys.exit(3) (in fleet manager Exiting: on_job at t=0.226908515304104)",
     ]
 
 

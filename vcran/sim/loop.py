@@ -187,6 +187,14 @@ class ClosedLoop(Transport):
             assert self.handle is not None
             exc.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
             raise
+        except SystemExit as exc:
+            # The manager's bug like any other: it ends the run, not the process hosting it (vcran run, which
+            # exited with the manager's code and left its folder incomplete without a word; a sweep's worker;
+            # a test calling vcran.simulate)
+            error = RuntimeError(f"{what} called sys.exit({exc.code!r})")
+            assert self.handle is not None
+            error.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
+            raise error from exc
 
 
 def _refuse_waiting(returned: Any, what: str) -> None:
