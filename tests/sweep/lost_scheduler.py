@@ -7,6 +7,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
+from vcran.sweep import worker
 from vcran.sweep.pool import DaskPool
 
 
@@ -32,3 +33,16 @@ class LostScheduler:
 
     def end(self) -> None:
         self.release.set()
+
+
+def lost_at_seed(monkeypatch: Any, seed: int) -> LostScheduler:
+    """A scheduler lost when the run of ``seed`` starts (that run then never finishes by itself)."""
+    lost, real = LostScheduler(monkeypatch), worker.simulate
+
+    def simulate(scenario: Any, **options: Any) -> Any:
+        if scenario.settings.seed == seed:
+            lost.now()
+        return real(scenario, **options)
+
+    monkeypatch.setattr(worker, "simulate", simulate)
+    return lost

@@ -285,17 +285,10 @@ def test_a_scheduler_lost_mid_sweep_raises_pool_error_with_the_rows_done(tmp_pat
     # §10, §6: run_sweep never returns a part of a sweep as if it were the whole when its cluster went away;
     # the PoolError carries the rows done (result.interrupted) and leaves them in DIR.incomplete
     distributed = pytest.importorskip("distributed")
-    from tests.sweep.lost_scheduler import LostScheduler
+    from tests.sweep.lost_scheduler import lost_at_seed
     from vcran.sweep.pool import PoolError
 
-    lost, real = LostScheduler(monkeypatch), worker.simulate
-
-    def simulate(scenario, **options):
-        if scenario.settings.seed == 2:
-            lost.now()
-        return real(scenario, **options)
-
-    monkeypatch.setattr(worker, "simulate", simulate)
+    lost = lost_at_seed(monkeypatch, 2)
     out = tmp_path / "kept"
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
                                   host="127.0.0.1", scheduler_port=0, dashboard_address=None) as cluster:

@@ -280,16 +280,9 @@ def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_fil
     # §10 and §6: the runs Dask cancelled when it lost its scheduler are neither dropped from a folder that
     # looks finished (exit 0) nor taken for the runs' own failures; the rows done stay in DIR.incomplete
     distributed = pytest.importorskip("distributed")
-    from tests.sweep.lost_scheduler import LostScheduler
+    from tests.sweep.lost_scheduler import lost_at_seed
 
-    lost, real = LostScheduler(monkeypatch), worker.simulate
-
-    def simulate(scenario, **options):
-        if scenario.settings.seed == 2:
-            lost.now()
-        return real(scenario, **options)
-
-    monkeypatch.setattr(worker, "simulate", simulate)
+    lost = lost_at_seed(monkeypatch, 2)
     # Dask's client logs its reconnection with a traceback, on the stderr it kept (capsys does not see it)
     import logging
 
