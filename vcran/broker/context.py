@@ -57,6 +57,8 @@ class Context:
     tenants: dict[str, Tenant]
     clock: Callable[[], float]
     text: str | None = None  # a text/plain body (only PUT .../value takes one)
+    #: Every value of the parameters whose repeats add up (engine.ADDING_PARAMS); ``params`` holds the last.
+    repeated: Mapping[str, list[str]] = field(default_factory=dict)
     notifications: list[Notification] = field(default_factory=list)
 
     # --- request parameters ---

@@ -63,6 +63,10 @@ EXCLUSIVE_OPTIONS = (("keyValues", "values"), ("keyValues", "unique"), ("unique"
 FREE_TEXT_PARAMS = frozenset({"q", "mq", "idPattern", "typePattern", "georel", "geometry", "coords"})
 #: Orion query features this broker does not implement: answered 501 rather than ignored.
 UNSUPPORTED_PARAMS = frozenset({"q", "mq", "georel", "geometry", "coords", "orderBy", "metadata"})
+#: Parameters whose repeats add up: Orion's uriArgumentGet (rest/rest.cpp) appends each ``type`` to
+#: uriParamTypes, and ConnectionInfo.cpp's uriParamOptionsParse sets each ``options`` in one map. Any other
+#: repeated parameter keeps its last value.
+ADDING_PARAMS = frozenset({"options", "type"})
 
 Handler = Callable[..., Response]
 
@@ -166,8 +170,8 @@ class Broker:
             raise bad_request(
                 "Orion accepts no payload for GET/DELETE requests. HTTP header Content-Type is thus forbidden"
             )
-        params = _params(target.query)
-        options = _options(target.query) if "options" in params else frozenset()
+        params, repeated = _params(target.query)
+        options = _options(repeated["options"]) if "options" in repeated else frozenset()
         body: Any = None
         text: str | None = None
         if length and request.method in ("POST", "PUT", "PATCH"):
@@ -179,7 +183,8 @@ class Broker:
                 except (ValueError, RecursionError):  # RecursionError: nesting deeper than Python's stack
                     raise parse_error() from None
         scope.check_tenant()
-        ctx = Context(request, scope, params, options, body, correlator, self._tenants, self._clock, text)
+        ctx = Context(request, scope, params, options, body, correlator, self._tenants, self._clock, text,
+                      repeated=repeated)
         return ctx, handler, args
 
     def _resolve(self, path: str) -> tuple[tuple[str, ...] | None, tuple[str, ...]]:
@@ -321,8 +326,10 @@ def _check_accept(request: Request, text_too: bool) -> None:
         raise NgsiError(406, "NotAcceptable", f"acceptable MIME types: {types}")
 
 
-def _params(query: str) -> dict[str, str]:
-    params = {}
+def _params(query: str) -> tuple[dict[str, str], dict[str, list[str]]]:
+    """The query's parameters, each with its last value, and every value of those of :data:`ADDING_PARAMS`."""
+    params: dict[str, str] = {}
+    repeated: dict[str, list[str]] = {}
     for key, value in parse_qsl(query, keep_blank_values=True):
         if not value:
             raise bad_request(f"Empty right-hand-side for URI param /{key}/")
@@ -330,16 +337,16 @@ def _params(query: str) -> dict[str, str]:
             raise bad_request("invalid character in URI parameter")
         if key in UNSUPPORTED_PARAMS:
             raise not_implemented(f"the URI parameter {key!r}")
-        params[key] = value  # a repeated parameter keeps its last value, as in Orion's uriArgumentGet
-    return params
+        params[key] = value
+        if key in ADDING_PARAMS:
+            repeated.setdefault(key, []).append(value)
+    return params, repeated
 
 
-def _options(query: str) -> frozenset[str]:
+def _options(values: list[str]) -> frozenset[str]:
     """The ``options`` lists as Orion splits them: leading commas skipped, any other empty item invalid;
-    a repeated ``options`` adds up (rest/ConnectionInfo.cpp uriParamOptionsParse sets each in one map)."""
-    options = frozenset(
-        item for key, value in parse_qsl(query) if key == "options" for item in value.lstrip(",").split(",")
-    )
+    a repeated ``options`` adds up (:data:`ADDING_PARAMS`)."""
+    options = frozenset(item for value in values for item in value.lstrip(",").split(","))
     if not options <= KNOWN_OPTIONS or any(a in options and b in options for a, b in EXCLUSIVE_OPTIONS):
         raise bad_request("Invalid value for URI param /options/")
     return options

@@ -13,7 +13,6 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from urllib.parse import parse_qsl, urlsplit
 
 from vcran.broker.context import Context
 from vcran.broker.dates import Moment
@@ -206,12 +205,10 @@ def _param_list(ctx: Context, name: str) -> list[str] | None:
 
 
 def _types_param(ctx: Context) -> list[str] | None:
-    """Every ``type`` of the query string: Orion's uriArgumentGet (rest/rest.cpp) appends each repeated
-    ``type`` to uriParamTypes, which getEntities.cpp queries (other parameters keep their last value)."""
-    if "type" not in ctx.params:
-        return None
-    query = urlsplit(ctx.request.target).query
-    return [t for key, value in parse_qsl(query, keep_blank_values=True) if key == "type" for t in value.split(",")]
+    """Every ``type`` of the query string (a repeated one adds up, engine.ADDING_PARAMS), which
+    getEntities.cpp queries."""
+    values = ctx.repeated.get("type")
+    return None if values is None else [t for value in values for t in value.split(",")]
 
 
 def list_entities(ctx: Context) -> Response:
