@@ -183,18 +183,18 @@ class ClosedLoop(Transport):
             returned = fn(*args, **kwargs)
             if returned is not None and (inspect.isgenerator(returned) or inspect.isawaitable(returned)):
                 _refuse_waiting(returned, what)
-        except Exception as exc:
+        except (Exception, SystemExit) as exc:
             assert self.handle is not None
-            exc.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
+            note = f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}"
+            if isinstance(exc, SystemExit):
+                # The manager's bug like any other: it ends the run, not the process hosting it (vcran run,
+                # which exited with the manager's code and left its folder incomplete without a word; a
+                # sweep's worker; a test calling vcran.simulate)
+                error = RuntimeError(f"{what} called sys.exit({exc.code!r})")
+                error.add_note(note)
+                raise error from exc
+            exc.add_note(note)
             raise
-        except SystemExit as exc:
-            # The manager's bug like any other: it ends the run, not the process hosting it (vcran run, which
-            # exited with the manager's code and left its folder incomplete without a word; a sweep's worker;
-            # a test calling vcran.simulate)
-            error = RuntimeError(f"{what} called sys.exit({exc.code!r})")
-            assert self.handle is not None
-            error.add_note(f"{MANAGER_NOTE}{type(self.manager).__name__}: {what} at t={self.handle.now!r}")
-            raise error from exc
 
 
 def _refuse_waiting(returned: Any, what: str) -> None:
