@@ -60,8 +60,8 @@ def test_compiled_and_pure_modules_write_the_same_bytes(tmp_path):
         where = tmp_path / ("pure" if pure else "default")
         where.mkdir()
         ran = _child(code.replace("sys.argv[1:]", repr(scenarios)), pure, where).stdout.split()
-        assert all(f.endswith(".py") for f in ran) if pure else all(f.endswith(".py") != (_native.MODE == "compiled")
-                                                                    for f in ran)
+        compiled = not pure and _native.MODE == "compiled"
+        assert all(f.endswith(".py") != compiled for f in ran)
         files[pure] = {(i, f): (where / f"out{i}" / f).read_bytes() for i in range(len(scenarios)) for f in FILES}
     assert files[False] == files[True]
 

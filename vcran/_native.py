@@ -131,5 +131,5 @@ def use(package: Path) -> None:
     fails on it, so a checkout's suite never passes on other code than the install's."""
     global MODE, REASON
     MODE, REASON = decide(package, os.environ)
-    if MODE == "pure" and built(package)[0]:
+    if MODE == "pure" and REASON:  # a build to bypass (without one, REASON is "" and .py files load anyway)
         sys.meta_path.insert(0, _PureFinder(package))
