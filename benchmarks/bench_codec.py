@@ -1,7 +1,7 @@
 """Codec throughput: messages encoded and decoded per second for current_motion and motion_assignment.
 
 Run: ``python benchmarks/bench_codec.py [--seconds S]``. The live transport must publish
-``current_motion``, ``assignment_status`` and ``ran_status`` for 1000 robots every second, so the last
+``current_motion``, ``assignment_state`` and ``ran_status`` for 1000 robots every second, so the last
 lines time exactly that: 1000 entities encoded to wire bytes and split into ``POST /v2/op/update``
 bodies. The floor is ``json.dumps``/``json.loads`` of the same attribute as a ready-made dict, measured
 in the same run: what serializing alone costs through the dict path.
@@ -90,7 +90,7 @@ def main() -> None:
     footprint = decode_attribute("robot_description", entity["robot_description"]).footprint  # type: ignore[attr-defined]
     periodic: dict[str, Message] = {
         "current_motion": motion,
-        "assignment_status": AssignmentStatus(
+        "assignment_state": AssignmentStatus(
             id_for("task_1"), id_for("motion_3"), id_for("action_0"), id_for("motion_2"), id_for("action_9"), footprint
         ),
         "ran_status": RanStatus(

@@ -7,7 +7,7 @@
 The fleet is ``vcran gen --robots N --hours H --seed 1``. Three variants of it run as ``vcran run`` child
 processes: *base* (``collisions = "off"``, no battery), *collisions* (``collisions = "report"``, the
 default) and *battery* (``collisions = "off"``, every robot with a battery that lasts the run: 100 Ah,
-0.01 Ah/m, 0.001 Ah/s idle, 0.002 Ah/s per action second, so ``battery`` goes out on each percent step).
+0.01 Ah/m, 0.001 Ah/s idle, 0.002 Ah/s per action second, so ``battery_state`` goes out on each percent step).
 Each variant runs twice, in the order base, collisions, battery, battery, collisions, base, and its
 faster run counts, which evens out a shared machine's drift; the ratios to *base* are from this one
 invocation, in CPU time of the child (less disturbed by other processes than wall time, which is shown

@@ -133,12 +133,20 @@ class AnInbound(vcran.FleetManager):
     attributes = frozenset({"motion_assignment"})
 
 
+class OldNames(vcran.FleetManager):
+    """Written before vcran took OPIL's own attribute names (SPEC §2: a real OPIL planner reads these)."""
+
+    attributes = frozenset({"assignment_status", "battery", "ran_status"})
+
+
 @pytest.mark.parametrize("manager, message", [
     # in simulated time it was never told anything; under vcran manage the same class subscribed with an
     # empty condition, and Orion notified it of everything
     (Misspelt, r"attributes names 'ran_stauts', which no robot publishes \(robot_description, current_motion, "
-               r"assignment_status, ran_status, ran_error, battery\)"),
+               r"assignment_state, ran_status, ran_error, battery_state\)"),
     (AnInbound, "attributes names 'motion_assignment', which no robot publishes"),
+    (OldNames, r"attributes names 'assignment_status', 'battery', which no robot publishes \(.*\); "
+               r"'assignment_status' is now 'assignment_state' \(OPIL's own name\); 'battery' is now 'battery_state'"),
     (AString, "attributes must be a set of attribute names or None, got the string 'ran_status'"),
 ])
 def test_attributes_a_robot_does_not_publish_are_a_manager_error(tmp_path, manager, message):

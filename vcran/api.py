@@ -227,7 +227,7 @@ def _check_attributes(manager: FleetManager) -> None:
     """``attributes`` names what the robots publish (SPEC §2), or is None. A misspelt name was never
     notified in simulated time, while ``vcran manage`` subscribed with an empty condition and was told
     of every change: one class, two behaviours, and no word of the mistake."""
-    from vcran.core.messages import OUTBOUND
+    from vcran.core.messages import OUTBOUND, RENAMED
 
     wanted = manager.attributes
     if wanted is None:
@@ -238,8 +238,9 @@ def _check_attributes(manager: FleetManager) -> None:
                            f"None, got {'the string ' if isinstance(wanted, str) else ''}{wanted!r}")
     unknown = sorted(a for a in wanted if a not in OUTBOUND)
     if unknown:
+        renamed = "".join(f"; {old!r} is now {RENAMED[old]!r} (OPIL's own name)" for old in unknown if old in RENAMED)
         raise ManagerError(f"fleet manager {_name(type(manager))}: attributes names {', '.join(map(repr, unknown))}, "
-                           f"which no robot publishes ({', '.join(OUTBOUND)})")
+                           f"which no robot publishes ({', '.join(OUTBOUND)}){renamed}")
 
 
 def _import(path: str) -> Any:

@@ -97,7 +97,7 @@ def test_filip_reads_the_fleet_while_vcran_live_runs_through_the_broker(broker: 
     live = vcran("live", str(DEMO), "--orion", broker.url, "--out", str(tmp_path / "live"), "--factor", "20", "--quiet")
     client = ContextBrokerClient(url=broker.url)
     try:
-        published = {"current_motion", "assignment_status", "ran_status", "robot_description"}
+        published = {"current_motion", "assignment_state", "ran_status", "robot_description"}
         # the first batches create the entity; under load the one with robot_description may follow later
         assert wait_until(lambda: client.does_entity_exist("robot_1", "ROBOT") and published
                           <= client.get_entity("robot_1", entity_type="ROBOT").get_attribute_names(), 20)

@@ -228,7 +228,7 @@ def test_trace_repeats_nothing_a_reader_can_take_from_an_earlier_record(tmp_path
     records = [json.loads(line) for line in lines[1:-1]]
     descriptions = [r for r in records if r["attr"] == "robot_description"]
     assert len(descriptions) == 2  # one per robot: the 60 s re-sends are unchanged (0.1 h = 6 of them)
-    footprints = [r for r in records if r["attr"] == "assignment_status" and "footprint" in r["value"]]
+    footprints = [r for r in records if r["attr"] == "assignment_state" and "footprint" in r["value"]]
     assert len(footprints) == 2  # the first status of each robot only
     last = {}
     for r in records:

@@ -115,7 +115,7 @@ def rewrite(path, change):
 def test_tampered_outbound_record_is_the_first_difference(demo_run, tmp_path, capsys):
     def change(r):
         # format 2 writes only what changed: a record where the last finished motion changed
-        if r.get("attr") == "assignment_status" and r["t"] > 20 and "last_finished_motion" in r["value"]:
+        if r.get("attr") == "assignment_state" and r["t"] > 20 and "last_finished_motion" in r["value"]:
             r["value"]["last_finished_motion"] = "forged"
             return True
         return False
@@ -123,7 +123,7 @@ def test_tampered_outbound_record_is_the_first_difference(demo_run, tmp_path, ca
     rewrite(demo_run / "trace.jsonl.zst", change)
     assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 1
     err = capsys.readouterr().err
-    assert "robot=robot_1" in err and "attribute=assignment_status" in err
+    assert "robot=robot_1" in err and "attribute=assignment_state" in err
     # differences are named in format 1's terms (full values, plain ids): the forged name's uuid
     assert "value.last_finished_motion.uuid" in err and f'expected "{id_for("forged").canonical}"' in err
 
@@ -272,3 +272,19 @@ def test_verify_does_not_claim_events_it_could_not_compare(demo_run, capsys):
     out = capsys.readouterr().out
     assert "every outbound record and leg (telemetry) matches the recording; events not compared" in out
     assert "and event matches" not in out
+
+
+def test_a_recording_made_before_opils_attribute_names_still_verifies(demo_run, tmp_path, capsys):
+    # SPEC §2: vcran now publishes assignment_state and battery_state, the names OPIL's planner reads; a run
+    # recorded under the old names (assignment_status, battery) replays and verifies, read with the new ones
+    lines = read_lines(demo_run / "trace.jsonl.zst")
+    old = [line.replace('"attr":"assignment_state"', '"attr":"assignment_status"') for line in lines]
+    assert sum(a != b for a, b in zip(lines, old)) > 3
+    write_lines(demo_run / "trace.jsonl.zst", old)
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep") == 0
+    # and a real difference in such a record is still found, named with today's attribute
+    forged = [line.replace('"last_finished_motion":', '"last_finished_motion":"x","was":', 1)
+              if '"assignment_status"' in line and '"last_finished_motion"' in line else line for line in old]
+    write_lines(demo_run / "trace.jsonl.zst", forged)
+    assert replay(demo_run / "trace.jsonl.zst", tmp_path / "rep2") == 1
+    assert "attribute=assignment_state" in capsys.readouterr().err

@@ -31,7 +31,7 @@ def test_s4_battery_empty_mid_path_stops_at_the_computed_point(battery_run):
     assert cancel["task"] == "go" and cancel["reason"] == "battery_empty"
     assert cancel["t"] == empty["t"]
     # 0 % is published at the tick of t = 50; nothing changes while the robot waits for its swap
-    rows = [r for r in out.trace() if r["attr"] == "battery" and 50 < r["t"] < 80]
+    rows = [r for r in out.trace() if r["attr"] == "battery_state" and 50 < r["t"] < 80]
     assert rows == []
 
 
@@ -62,12 +62,12 @@ def test_s4_charge_at_a_charger_refills_to_full(battery_run):
     assert r["final_pose"] == {"x": 60.0, "y": 0.0, "theta": 0.0}
     assert r["distance"] == pytest.approx(60.0)
     assert r["battery"]["charge"] == pytest.approx(1.0)
-    states = [r["value"]["power_supply_status"] for r in out.trace() if r["attr"] == "battery"]
+    states = [r["value"]["power_supply_status"] for r in out.trace() if r["attr"] == "battery_state"]
     assert 1 in states and states[-1] == 4  # charging, then full (sensor_msgs constants)
 
 
 def test_s4_battery_published_on_each_percent_step(battery_run):
-    rows = [r for r in battery_run.trace() if r["attr"] == "battery" and r["t"] <= 50]
+    rows = [r for r in battery_run.trace() if r["attr"] == "battery_state" and r["t"] <= 50]
     # 0.01 Ah/s of a 1 Ah battery: one percent per second from 50 % at t = 0
     assert [r["t"] for r in rows] == [float(t) for t in range(0, 51)]
     assert rows[10]["value"]["percentage"] == pytest.approx(0.40)
@@ -75,16 +75,16 @@ def test_s4_battery_published_on_each_percent_step(battery_run):
 
 
 def test_s4_battery_state_codec_round_trip_and_decode_cli(battery_run, tmp_path):
-    (first,) = [r for r in battery_run.trace() if r["attr"] == "battery"][:1]
+    (first,) = [r for r in battery_run.trace() if r["attr"] == "battery_state"][:1]
     message = from_plain(BatteryState, first["value"])
-    encoded = encode_attribute("battery", message)
+    encoded = encode_attribute("battery_state", message)
     assert encoded["type"] == "sensor_msgs.BatteryState"
-    assert decode_attribute("battery", encoded) == message
+    assert decode_attribute("battery_state", encoded) == message
     entity = tmp_path / "entity.json"
-    entity.write_text(json.dumps({"id": "robot_1", "type": "ROBOT", "battery": encoded}))
+    entity.write_text(json.dumps({"id": "robot_1", "type": "ROBOT", "battery_state": encoded}))
     done = subprocess.run([sys.executable, "-m", "vcran", "decode", str(entity)], capture_output=True, text=True, cwd=ROOT)
     assert done.returncode == 0, done.stderr
-    assert json.loads(done.stdout)["battery"]["percentage"] == 0.5
+    assert json.loads(done.stdout)["battery_state"]["percentage"] == 0.5
 
 
 BATTERY = FLEET.replace('max_velocity = 1.0\n', 'max_velocity = 1.0\n[robots.battery]\ncapacity = 1.0\nper_action_second = 0.01\n', 1)
@@ -116,5 +116,5 @@ def test_s4_battery_empties_during_an_action(run_toml):
 
 def test_s4_robot_without_battery_publishes_no_battery(run_toml):
     out = run_toml(FLEET + "\n[[script]]\nrobot = \"robot_1\"\n" + motion(1, "A", "A_m1", 1, 1, 3, 0))
-    assert not [r for r in out.trace() if r["attr"] == "battery"]
+    assert not [r for r in out.trace() if r["attr"] == "battery_state"]
     assert "battery" not in out.robot()

@@ -69,7 +69,7 @@ def test_s4_link_down_holds_inbound_and_outbound_until_the_link_is_back(faults_r
     assert [e["t"] for e in faults_run.of("task_queued", "robot_4")] == [0.0, 5.5]
     assert ended(faults_run, "robot_4") == [(1.0, "task_completed", None), (6.5, "task_completed", None)]
     out = [(r["t"], r["attr"], r["value"]) for r in faults_run.trace() if r["robot"] == "robot_4" and r["dir"] == "out"
-           and r["attr"] in ("ran_status", "assignment_status")]
+           and r["attr"] in ("ran_status", "assignment_state")]
     assert not [t for t, _, _ in out if 0.5 <= t < 5.5]
     # E0 completed at 1.0 unseen; the statuses it could not publish go out when the link is back
     back = {attr: value for t, attr, value in out if t == 5.5}
@@ -155,7 +155,7 @@ def test_s4_a_link_down_during_another_that_outlasts_it_keeps_the_link_down_to_i
     # the task written at 5 is read when the link is back (13), and done 3 s later
     assert [e["t"] for e in out.of("task_queued")] == [13.0]
     assert [e["t"] for e in out.of("task_completed")] == [16.0]
-    statuses = [r["t"] for r in out.trace() if r["dir"] == "out" and r["attr"] in ("ran_status", "assignment_status")]
+    statuses = [r["t"] for r in out.trace() if r["dir"] == "out" and r["attr"] in ("ran_status", "assignment_state")]
     assert not [t for t in statuses if 2.0 <= t < 13.0]
 
 

@@ -209,11 +209,11 @@ def test_random_is_seeded_by_the_scenario():
 
 class Reader(vcran.FleetManager):
     def on_start(self) -> None:
-        self.before = (self.handle.pose("robot_1"), self.handle.latest("robot_1", "assignment_status"))
+        self.before = (self.handle.pose("robot_1"), self.handle.latest("robot_1", "assignment_state"))
         self.handle.call_at(10.0, self.read)
 
     def read(self) -> None:
-        self.after = (self.handle.pose("robot_1"), self.handle.latest("robot_1", "assignment_status"))
+        self.after = (self.handle.pose("robot_1"), self.handle.latest("robot_1", "assignment_state"))
 
     def on_job(self, job) -> None:
         self.handle.job_failed(job, "unassignable")

@@ -168,7 +168,7 @@ def test_jitter_is_seeded_and_keeps_each_robots_writes_in_order():
 
 
 class Watch(vcran.FleetManager):
-    """Sends one task at 1 s and records when it hears of robot_1's assignment_status changes."""
+    """Sends one task at 1 s and records when it hears of robot_1's assignment_state changes."""
 
     def __init__(self) -> None:
         self.heard: list[float] = []

@@ -66,7 +66,7 @@ def test_s4_battery_stays_in_range_and_an_empty_robot_never_moves(capacity, fill
         text += task(float(t), 0, f"T{k}", x, y, '"charge"' if charge else "")
     with TemporaryDirectory() as tmp:
         out = run(text, Path(tmp))
-        charges = [r["value"]["charge"] for r in out.trace() if r["attr"] == "battery"]
+        charges = [r["value"]["charge"] for r in out.trace() if r["attr"] == "battery_state"]
         assert charges and all(0.0 <= c <= capacity + 1e-9 for c in charges)
         assert 0.0 <= out.robot("r0")["battery"]["charge"] <= capacity + 1e-12
         rows = samples(out.dir)

@@ -139,7 +139,7 @@ def test_the_broker_applies_repeated_elements_of_an_entity_in_order_and_notifies
 def test_a_refused_batch_content_drops_its_state_and_retries_its_errors_once(caplog):
     orion = FakeOrion(update_status=400)
     t = transport(orion, backoff_start=0.1, backoff_cap=1.0)
-    t.send(Publish(0.5, "robot_1", "assignment_status", AssignmentStatus()))
+    t.send(Publish(0.5, "robot_1", "assignment_state", AssignmentStatus()))
     t.send(Publish(0.5, "robot_1", "ran_error", error(1)))
     t.send(frame(1.0))
     with caplog.at_level(logging.WARNING, logger="vcran.orion"):
@@ -452,11 +452,11 @@ def test_battery_goes_to_orion_with_the_robots_other_state():
 
     orion = FakeOrion()
     t = transport(orion)
-    t.send(Publish(0.5, "robot_1", "battery", BatteryState(charge=0.5, capacity=1.0, percentage=0.5)))
+    t.send(Publish(0.5, "robot_1", "battery_state", BatteryState(charge=0.5, capacity=1.0, percentage=0.5)))
     t.send(Publish(0.5, "robot_1", "ran_status", RanStatus()))
     t.send(frame(1.0))
     assert t.sender.deliver() is None
     first = orion.updates[0]["entities"][0]
-    assert list(first) == ["id", "type", "current_motion", "ran_status", "battery"]
-    assert first["battery"]["type"] == "sensor_msgs.BatteryState"
-    assert first["battery"]["value"]["percentage"] == {"type": "number", "value": 0.5}
+    assert list(first) == ["id", "type", "current_motion", "ran_status", "battery_state"]
+    assert first["battery_state"]["type"] == "sensor_msgs.BatteryState"
+    assert first["battery_state"]["value"]["percentage"] == {"type": "number", "value": 0.5}

@@ -1,6 +1,6 @@
 """What vcran still has to tell Orion (SPEC §7 coalescing).
 
-State attributes (``current_motion``, ``assignment_status``, ``ran_status``, ``robot_description``, ``battery``) are
+State attributes (``current_motion``, ``assignment_state``, ``ran_status``, ``robot_description``, ``battery_state``) are
 kept as the latest value per robot and attribute: after an outage Orion receives each robot's latest
 state once, not the backlog of every tick it missed. ``ran_error`` is different: each one reports a
 distinct rejected input (SPEC §2, "on each rejected input"), so errors queue in order and every one is

@@ -42,7 +42,7 @@ log = logging.getLogger("vcran.orion")
 
 #: Order of attributes inside one entity of a batch update: every attribute the RAN publishes (battery
 #: too, SPEC §4; a fleet manager reads it from Orion, §9), the one ``ran_error`` of the element last.
-ATTRIBUTE_ORDER = ("current_motion", "assignment_status", "ran_status", "robot_description", "battery", "ran_error")
+ATTRIBUTE_ORDER = ("current_motion", "assignment_state", "ran_status", "robot_description", "battery_state", "ran_error")
 #: Orion's answers that refuse a request's content (NGSI v2 BadRequest, RequestEntityTooLarge,
 #: Unprocessable): sending the same content again cannot help.
 CONTENT_REFUSALS = frozenset({400, 413, 422})

@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
             footprint = PolygonStamped.from_xy(r.footprint)
             attrs = {
                 "current_motion": motion_message(Time(), *r.pose, 0.0, 0.0),
-                "assignment_status": AssignmentStatus(footprint=footprint),
+                "assignment_state": AssignmentStatus(footprint=footprint),
                 "ran_status": RanStatus(),
                 "robot_description": description(r, footprint),
             }

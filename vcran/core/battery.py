@@ -41,7 +41,7 @@ class BatteryConfig:
     #: Seconds after running empty until the battery is swapped for a full one (None: never).
     swap_after: float | None = None
     voltage: float = 24.0
-    #: Published percentage steps: ``battery`` is published when the level crosses one (default 1 %).
+    #: Published percentage steps: ``battery_state`` is published when the level crosses one (default 1 %).
     resolution: float = 0.01
 
     @property

@@ -6,7 +6,7 @@ framework to learn. vcran calls three hooks on a :class:`FleetManager`:
 * :meth:`~FleetManager.on_start` once, before anything else, with ``self.fleet`` and ``self.handle`` set;
 * :meth:`~FleetManager.on_job` when a job of the scenario's workload reaches the manager;
 * :meth:`~FleetManager.on_update` for every update of a robot's attribute that Orion would notify:
-  ``current_motion``, ``assignment_status``, ``ran_status``, ``ran_error``, ``robot_description``.
+  ``current_motion``, ``assignment_state``, ``ran_status``, ``ran_error``, ``robot_description``.
 
 The manager acts through its :class:`Handle`: it writes motion and action assignments and cancels (the
 messages of SPEC §2), schedules callbacks of its own, reads what Orion holds, draws from a seeded random
@@ -279,7 +279,7 @@ class FleetManager:
 
     #: Attributes whose updates call :meth:`on_update`; None: all of them.
     attributes: ClassVar[frozenset[str] | None] = frozenset(
-        {"assignment_status", "ran_status", "ran_error", "robot_description", "battery"})
+        {"assignment_state", "ran_status", "ran_error", "robot_description", "battery_state"})
 
     fleet: Fleet
     handle: Handle

@@ -362,7 +362,7 @@ class Motion(Message):
 
 @dataclass(frozen=True, slots=True)
 class AssignmentStatus(Message):
-    """What runs now and what finished last (produced: ``assignment_status``, every second)."""
+    """What runs now and what finished last (produced: ``assignment_state``, every second)."""
 
     ROS_TYPE = "mars_agent_physical_robot_msgs.AssignmentStatus"
     current_task_id: Id = NIL
@@ -421,7 +421,7 @@ class RanError(Message):
 
 @dataclass(frozen=True, slots=True)
 class BatteryState(Message):
-    """The battery (produced: ``battery``, SPEC §4), ROS 1 ``sensor_msgs/BatteryState``.
+    """The battery (produced: ``battery_state``, SPEC §4), ROS 1 ``sensor_msgs/BatteryState``.
 
     ``charge`` and ``capacity`` in Ah, ``percentage`` 0..1; vcran fills the fields its battery model
     knows and leaves the rest at ROS's "unknown" values (NaN is not JSON, so 0 stands for unmeasured).
@@ -459,11 +459,15 @@ INBOUND: dict[str, type[Message]] = {
 OUTBOUND: dict[str, type[Message]] = {
     "robot_description": RobotAgentProperties,
     "current_motion": Motion,
-    "assignment_status": AssignmentStatus,
+    "assignment_state": AssignmentStatus,
     "ran_status": RanStatus,
     "ran_error": RanError,
-    "battery": BatteryState,
+    "battery_state": BatteryState,
 }
 ATTRIBUTES: dict[str, type[Message]] = {**INBOUND, **OUTBOUND}
+#: Attributes published under another name before vcran took OPIL's own (the OPIL RAN's launch file and the
+#: Motion Task Planner's FIROS configuration read ``assignment_state`` and ``battery_state``; SPEC §2, §4).
+#: Traces recorded before are read with the new names; a fleet manager naming an old one is told the new.
+RENAMED: dict[str, str] = {"assignment_status": "assignment_state", "battery": "battery_state"}
 
 Assignment = MotionAssignment | ActionAssignment

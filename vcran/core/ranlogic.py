@@ -120,7 +120,7 @@ class RanLogic:
         self.error_count = 0
         #: R13 tombstones: (task, kind, id) of assignments cancelled before they arrived, oldest first.
         self.doomed: OrderedDict[tuple[Id, str, Id], CancelTask] = OrderedDict()
-        #: Bumped whenever anything ``ran_status`` or ``assignment_status`` shows changes.
+        #: Bumped whenever anything ``ran_status`` or ``assignment_state`` shows changes.
         self.version = 0
         #: Why the robot takes no tasks (SPEC §4: "battery_empty"), or "" when it does.
         self.out_of_service = ""

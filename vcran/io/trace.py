@@ -36,7 +36,7 @@ from typing import IO, TYPE_CHECKING, Any
 
 import orjson
 
-from vcran.core.messages import ATTRIBUTES
+from vcran.core.messages import ATTRIBUTES, RENAMED
 from vcran.core.motion import Leg
 from vcran.core.wire import Frame, Inbound, Publish
 from vcran.io.render import converter, delta_converter, expand
@@ -458,8 +458,10 @@ def lines(path: Path, dirs: tuple[str, ...] | None = None,
     mid-block, is where a killed run's recording stops (it keeps what it flushed, docs/outputs.md)."""
     version = read_header(path)["version"]
     last: dict[tuple[str, str, str], dict[str, Any]] = {}
-    # a prefilter on the quoted name, whatever the spacing (a hand-edited line may have JSON's default one)
-    needles = tuple(b'"%s"' % a.encode() for a in attrs) if attrs is not None else ()
+    # a prefilter on the quoted name, whatever the spacing (a hand-edited line may have JSON's default one);
+    # a recording made before an attribute took OPIL's own name holds the old one (RENAMED)
+    old_names = {new: old for old, new in RENAMED.items()}
+    needles = tuple(b'"%s"' % n.encode() for a in attrs for n in (a, old_names.get(a)) if n) if attrs is not None else ()
     with open_input(path) as f:
         f.readline()
         for n, line in enumerate(whole_lines(f), start=2):
@@ -474,6 +476,10 @@ def lines(path: Path, dirs: tuple[str, ...] | None = None,
                 raise ValueError(f"{path}:{n}: not JSON: {exc}") from None
             if not isinstance(record, dict):
                 raise ValueError(f"{path}:{n}: not a trace record (a JSON object expected)")
+            renamed = RENAMED.get(record.get("attr"))  # type: ignore[arg-type]
+            if renamed is not None:  # read as it is written today, so that the recording still verifies
+                line = line.replace(b'"attr":"%s"' % record["attr"].encode(), b'"attr":"%s"' % renamed.encode(), 1)
+                record["attr"] = renamed
             if (dirs is not None and record.get("dir") not in dirs) or (attrs is not None and record.get("attr") not in attrs):
                 continue
             if version == 2 and isinstance(record.get("value"), dict):

@@ -18,7 +18,7 @@
 * Batteries (SPEC §4): a robot without a job whose published charge is below ``charge_below`` (a
   fraction) drives to the nearest ``charger`` station and charges to full instead of taking jobs. A
   robot on a job finishes it first. A robot that ran empty is out of service until its battery is
-  swapped (a ``battery`` update at or above ``charge_below`` again): its pickup goes back to the queue,
+  swapped (a ``battery_state`` update at or above ``charge_below`` again): its pickup goes back to the queue,
   and its drop-off waits for the swap (the part is on board), or fails ``battery_empty`` at once when
   the robot's battery is never swapped. A task refused because the robot was already out of service
   (a ``ran_error`` ``battery_empty`` naming it) counts as cancelled ``battery_empty``.
@@ -60,7 +60,7 @@ class Dispatcher(FleetManager):
     """FIFO jobs, nearest idle robot, re-planning after a cancelled task (with back-off), failure after
     ``max_tries``, charging below ``charge_below``."""
 
-    attributes = frozenset({"ran_status", "ran_error", "battery"})
+    attributes = frozenset({"ran_status", "ran_error", "battery_state"})
 
     def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3) -> None:
         if max_tries < 1:
@@ -148,7 +148,7 @@ class Dispatcher(FleetManager):
             self.handle.call_later(wait, self.requeue, trip)
 
     def battery_changed(self, robot: str, percentage: float) -> None:
-        """A ``battery`` update: an idle robot running low goes to charge; an empty one swapped is back."""
+        """A ``battery_state`` update: an idle robot running low goes to charge; an empty one swapped is back."""
         self.level[robot] = percentage
         if robot in self.out:
             if percentage >= self.charge_below:  # swapped for a charged battery

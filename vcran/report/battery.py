@@ -1,6 +1,6 @@
 """The battery figure (SPEC §4): each robot's published charge over time, with its low level.
 
-Drawn from the ``battery`` records of the trace, which change on every percent step (docs/robots.md), as
+Drawn from the ``battery_state`` records of the trace, which change on every percent step (docs/robots.md), as
 steps: what a fleet manager reading Orion saw. Runs without batteries get no such figure. Above
 :data:`ROBOTS_DRAWN` robots the first ones are drawn and the title says so; every robot's energy is in the
 KPI tables all the same.

@@ -107,7 +107,7 @@ class Run:
     motion_areas: tuple[MotionArea, ...] = ()
     #: (robot, motion label) -> the targets received for it, as (receive time, x, y), in arrival order.
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = field(default_factory=dict)
-    #: robot -> its published ``battery`` as (t, percentage) points (SPEC §4), for robots with a battery.
+    #: robot -> its published ``battery_state`` as (t, percentage) points (SPEC §4), for robots with a battery.
     batteries: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: A closed-loop run's job KPIs (summary.json's ``jobs``, and the fleet's utilisation); else None.
     jobs: JobFigures | None = None
@@ -227,7 +227,7 @@ def _events(path: Path) -> Iterator[dict[str, Any]]:
 def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]],
                                        dict[str, list[tuple[float, float]]]]:
     """Motion areas and targets from the inbound ``motion_assignment`` records of the trace, and the
-    published ``battery`` percentages (SPEC §4), in one pass.
+    published ``battery_state`` percentages (SPEC §4), in one pass.
 
     A live run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
     decoded them, and one that does not decode (the RAN rejected it) is skipped.
@@ -236,8 +236,8 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
     batteries: dict[str, list[tuple[float, float]]] = {}
     with _reading(path):
-        for n, record in records(path, attrs=("motion_assignment", "battery")):
-            if record.get("attr") == "battery":
+        for n, record in records(path, attrs=("motion_assignment", "battery_state")):
+            if record.get("attr") == "battery_state":
                 try:
                     batteries.setdefault(record["robot"], []).append((float(record["t"]), float(record["value"]["percentage"])))
                 except (KeyError, TypeError, ValueError) as exc:

@@ -1,6 +1,6 @@
-"""The battery at the telemetry cadence (SPEC §4): ``battery`` publications, the low warning, idle drain.
+"""The battery at the telemetry cadence (SPEC §4): ``battery_state`` publications, the low warning, idle drain.
 
-Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. ``battery``
+Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. ``battery_state``
 (``sensor_msgs.BatteryState``) is published for a robot when its percentage, rounded to the battery's
 ``resolution``, changed, or a charge started or ended, since its last publication: a thousand robots do not put a
 thousand messages per second on the wire. A robot at rest whose battery would run out before the tick
@@ -39,7 +39,7 @@ class Power:
     def tick(self, t: float) -> None:
         """Publish what changed, warn of low batteries, watch resting ones about to run out.
 
-        A robot's ``battery`` is published when its percentage step changes or a charge starts or ends
+        A robot's ``battery_state`` is published when its percentage step changes or a charge starts or ends
         (status CHARGING during a charge, FULL at capacity, else DISCHARGING). A tick is a
         handful of numpy operations for the whole fleet; Python work is only for the robots in question.
         """
@@ -71,7 +71,7 @@ class Power:
         pct = round(steps * self.resolution[j], 9)  # 0.47, not 0.47000000000000003
         status = (BatteryState.STATUS_FULL if level >= capacity else
                   BatteryState.STATUS_CHARGING if kind == CHARGE else BatteryState.STATUS_DISCHARGING)
-        self._publish(t, self.robots[i], "battery", BatteryState(
+        self._publish(t, self.robots[i], "battery_state", BatteryState(
             header=header, voltage=self.voltage[j], charge=round(pct * capacity, 9), capacity=capacity,
             design_capacity=capacity, percentage=pct, power_supply_status=status, present=True,
         ))

@@ -4,7 +4,7 @@ One RAN serves the whole fleet. Inbound, it decodes raw NGSI payloads (R12) and 
 the mailbox of the RanLogic that owns the entity, or reports and drops it (R11); routing is a lookup at
 the instant of delivery, so it needs no process of its own. Outbound, one telemetry process
 samples every robot's pose in a single numpy sweep per tick (``current_motion`` as a :class:`Frame`) and
-publishes ``assignment_status`` and ``ran_status`` of the robots whose state changed since the last tick,
+publishes ``assignment_state`` and ``ran_status`` of the robots whose state changed since the last tick,
 so a tick costs O(changes), not O(robots) Python work. ``robot_description`` goes out at start and then
 every ``description_period``.
 """
@@ -39,7 +39,7 @@ Decode = Callable[[str, Any], Message]
 
 # Published messages are built from the model's own valid state: not re-validated (schema.unchecked).
 _ran_error = unchecked(RanError)
-_assignment_status = unchecked(AssignmentStatus)
+_assignment_state = unchecked(AssignmentStatus)
 
 
 class Ran:
@@ -164,7 +164,7 @@ class Ran:
             dirty, self._dirty = sorted(self._dirty), set()
             for i in dirty:
                 robot = self.robots[i]
-                self._publish_if_new(t, robot, "assignment_status", self.assignment_status(robot))
+                self._publish_if_new(t, robot, "assignment_state", self.assignment_state(robot))
                 self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status())
             if self.after_statuses is not None:
                 self.after_statuses(t)
@@ -194,9 +194,9 @@ class Ran:
         self.send(Publish(t, robot.id, attribute, message))
 
     @staticmethod
-    def assignment_status(robot: RobotNode) -> AssignmentStatus:
+    def assignment_state(robot: RobotNode) -> AssignmentStatus:
         logic = robot.logic
-        return _assignment_status(
+        return _assignment_state(
             current_task_id=logic.current_task,
             current_motion_id=logic.current_motion,
             current_action_id=logic.current_action,

@@ -9,7 +9,7 @@ walk over the field specs writes a single expression with nested messages inline
 comprehensions and constant metadata as literals. Two targets share the walk: Python dicts
 (:class:`_Dicts`, for :func:`vcran.core.codec.encode_attribute`; every call builds fresh dicts) and the
 compact JSON text of the same dicts (:class:`_Text`, for the wire). The live transport publishes
-``current_motion``, ``assignment_status`` and ``ran_status`` for every robot every second; writing the
+``current_motion``, ``assignment_state`` and ``ran_status`` for every robot every second; writing the
 text directly is several times faster than building dicts and then ``json.dumps``. The generated
 source is kept as the function's ``source`` attribute for reading.
 """
