@@ -17,8 +17,8 @@ vcran's ~50 modules anew (about 80 ms, a sixth of a 10-robot run); so children r
 bytecode in a cache folder of the benchmark's own (``PYTHONPYCACHEPREFIX``: neither checkout is written
 to), after one unmeasured warm-up run per checkout.
 
-Each checkout runs as its venv installed it: with the compiled core where its install built one (README, "The
-compiled core"); ``VCRAN_PURE=1`` in this command's environment measures the pure modules instead.
+Each checkout runs as its venv installed it (a baseline from before issue 30 may have installed the compiled
+core of those days; ``VCRAN_PURE=1`` in this command's environment made such a checkout run its pure modules).
 
 Two floors run in the same sweep, also as child processes over the same simulated time:
 

@@ -9,9 +9,6 @@ profile given on the command line after this file).
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +18,6 @@ import pytest
 from hypothesis import settings
 
 from transports.scripted import ScriptedTransport
-from vcran import _native
 from vcran.core.scenario import Scenario
 from vcran.io.scenario_file import parse
 from vcran.io.trace import EVENTS_FILE, event_records, open_input, open_output, records, trace_in
@@ -31,25 +27,6 @@ settings.load_profile("vcran")  # registered by the plugin, which pytest loaded 
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = Path(__file__).resolve().parent / "data"
-
-
-def pytest_configure(config: pytest.Config) -> None:
-    config.addinivalue_line("markers", "pure_core: patches a class of the compiled core (vcran/_native.py); with "
-                            "the compiled core installed, the test runs in a child pytest on the pure modules")
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_pyfunc_call(pyfuncitem: pytest.Function) -> bool | None:
-    """A ``pure_core`` test patches what compiled code calls directly, past any patch: with the compiled core
-    installed it runs, whole, in a child pytest with ``VCRAN_PURE=1``, and passes or fails with it."""
-    if pyfuncitem.get_closest_marker("pure_core") is None or _native.MODE != "compiled":
-        return None
-    child = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist", pyfuncitem.nodeid],
-        cwd=ROOT, env={**os.environ, _native.PURE_ENV: "1"}, capture_output=True, text=True,
-    )
-    assert child.returncode == 0, f"{pyfuncitem.nodeid} on the pure core:\n{child.stdout[-4000:]}{child.stderr[-2000:]}"
-    return True
 
 
 @dataclass

@@ -19,15 +19,9 @@ test check it), while ``vcran --help`` should not pay for numpy and SimPy.
 from __future__ import annotations
 
 import importlib
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vcran import _native
-
 __version__ = "0.1.0"
-
-# Compiled core or pure Python, decided before any of its modules is imported (vcran/_native.py).
-_native.use(Path(__file__).parent)
 
 #: Public name -> (module, attribute). The one list of what ``vcran`` exports.
 _EXPORTS: dict[str, tuple[str, str]] = {

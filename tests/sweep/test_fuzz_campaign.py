@@ -47,7 +47,6 @@ def r7_bug(monkeypatch):
     monkeypatch.setattr(RanLogic, "on_timer", on_timer)
 
 
-@pytest.mark.pure_core
 def test_a_campaign_on_dask_stops_at_the_first_failure_which_its_seed_reproduces_alone(r7_bug, tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     saved = tmp_path / "fail.toml"

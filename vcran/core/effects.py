@@ -235,6 +235,5 @@ Effect = Command | Event
 
 
 class LocalProtocolError(RuntimeError):
-    """The driver misused RanLogic (time going backwards, a completion nobody dispatched). Defined here, not
-    in :mod:`vcran.core.ranlogic` (which re-exports it): that module is compiled, and a compiled class cannot
-    extend a built-in exception."""
+    """The driver misused RanLogic (time going backwards, a completion nobody dispatched); a misuse of the
+    driver's, never the peer's (h11's LocalProtocolError). :mod:`vcran.core.ranlogic` re-exports it."""

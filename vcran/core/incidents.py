@@ -87,7 +87,6 @@ class Collision(Event):
 
 @dataclass(frozen=True, slots=True)
 class Published(ErrorReport):
-    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own. (Defined here,
-    not in :mod:`vcran.sim.robot`, which is compiled: a compiled class cannot extend a slotted Python one.)"""
+    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
 
     NAME = ""
