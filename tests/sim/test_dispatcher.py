@@ -242,3 +242,49 @@ def test_s4_a_task_refused_by_a_robot_already_out_of_service_is_planned_again():
     assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][:2] == [("j1_pick1", 10.0),
                                                                            ("j1_pick2", pytest.approx(35.05))]
     assert result.job("j1").outcome == "completed"
+
+
+# --- SPEC §4 in the loop: a failed load or unload moves nothing (issue 29 item 5) ----------------------------
+
+ACTION_FAILURE = '\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "action_failure"\n'
+
+
+def test_s4_a_load_failed_by_a_fault_is_picked_up_again_and_the_job_completes():
+    # The load armed to fail at 0.5 ends at 12.05 (10 m at 1 m/s from 0.05, then 2 s) and takes no part: the
+    # retry after 10 s loads one. It used to take the part anyway, so the retries failed load_full.
+    result = vcran.simulate(scenario(job(0, "j1") + ACTION_FAILURE.format(t=0.5)), manager=Dispatcher())
+    assert result.job("j1").tasks == ("j1_pick1", "j1_pick2", "j1_drop2")
+    assert result.job("j1").outcome == "completed"
+    assert [c["reason"] for c in result.summary["robots"]["robot_1"]["cancelled"]] == ["action_failed"]
+    stations = result.summary["stations"]
+    assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (4, 1, 0)
+
+
+def test_s4_a_drop_off_failed_by_a_fault_is_sent_again_to_the_robot_that_carries_the_part():
+    # The load ends 12.05; the fault armed at 13 fails the unload at b (lands 13.10, 20 m, 2 s: 35.10),
+    # heard with the tick of 36 at 36.05. The part is still on board: the retry (10 s later) is a drop-off on
+    # the same robot, not a new pickup; it ends 2 s after landing at 46.10, heard at 49.05.
+    result = vcran.simulate(scenario(job(0, "j1") + ACTION_FAILURE.format(t=13.0)), manager=Dispatcher())
+    assert [(e["robot"], e["task"], e["t"]) for e in of(result, "job_assigned")] == [
+        ("robot_1", "j1_pick1", 0.0), ("robot_1", "j1_drop1", pytest.approx(13.05)),
+        ("robot_1", "j1_drop2", pytest.approx(46.05))]
+    assert result.job("j1").outcome == "completed" and result.job("j1").lead_time == pytest.approx(49.05)
+    stations = result.summary["stations"]
+    assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (4, 1, 0)
+    assert result.summary["robots"]["robot_1"]["parts_moved"] == 1
+
+
+def test_s4_the_warehouse_with_one_action_failure_completes_every_job():
+    """Issue 29 item 5: with one action failure at t = 1 on robot_1 the Dispatcher completed 203 of 224 jobs;
+    robot_1 kept the part of its failed load and failed a job every ~20 s (load_full) for the rest of the hour."""
+    from dataclasses import replace
+
+    from tests.conftest import ROOT
+    from vcran.core.faults import FaultSpec
+
+    warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    result = vcran.simulate(replace(warehouse, faults=(FaultSpec(1.0, "robot_1", "action_failure"),)))
+    jobs = result.summary["jobs"]
+    assert (jobs["completed"], jobs["failed"], jobs["open"]) == (jobs["arrived"], 0, 0)
+    [failed] = [e for e in result.events if e["event"] == "failed"]  # the one injected, nothing after it
+    assert (failed["robot"], failed["code"]) == ("robot_1", "action_fault")
