@@ -16,6 +16,10 @@ The properties read a :class:`vcran.Result` and return human-readable violations
 the manager behaved); :func:`assert_loop_properties` raises one AssertionError listing them all:
 
 * :func:`check_jobs_ended` — every job ended: completed, or reported failed (none left open);
+* :func:`~vcran.testing.outcomes.check_failures_have_evidence` — a job is reported failed only with
+  evidence: a task sent for it ended without success, or no robot could serve it;
+* :func:`~vcran.testing.outcomes.check_feasible_jobs_completed` — without faults, a feasible workload
+  completes every job by the run's end (``margin``);
 * :func:`check_protocol` — the manager caused no ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`:
   the R2/R8-R10/R12 rejections; action failures and cancel races are not the manager's protocol bugs);
 * :func:`check_no_idle_while_waiting` — no robot sat idle (WAITING) for more than ``bound`` seconds
@@ -44,6 +48,7 @@ from hypothesis import strategies as st
 from vcran.core.faults import KINDS, RANDOM_KINDS, FaultSpec
 from vcran.core.jobs import waiting_spans
 from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
+from vcran.testing.outcomes import COMPLETION_MARGIN, check_failures_have_evidence, check_feasible_jobs_completed
 
 #: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
 PROTOCOL_ERRORS = frozenset({
@@ -225,14 +230,16 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     return problems
 
 
-def loop_problems(result: Any, bound: float = IDLE_BOUND) -> list[str]:
-    """Every violation of the three properties."""
-    return check_jobs_ended(result) + check_protocol(result) + check_no_idle_while_waiting(result, bound)
+def loop_problems(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN) -> list[str]:
+    """Every violation of the five properties."""
+    return (check_jobs_ended(result) + check_failures_have_evidence(result)
+            + check_feasible_jobs_completed(result, margin) + check_protocol(result)
+            + check_no_idle_while_waiting(result, bound))
 
 
-def assert_loop_properties(result: Any, bound: float = IDLE_BOUND) -> None:
-    """Raise AssertionError listing every violation of the three properties."""
-    problems = loop_problems(result, bound)
+def assert_loop_properties(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN) -> None:
+    """Raise AssertionError listing every violation of the five properties."""
+    problems = loop_problems(result, bound, margin)
     if problems:
         raise AssertionError("the fleet manager broke the loop properties:\n  " + "\n  ".join(problems))
 
@@ -346,7 +353,7 @@ def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int 
     """Search for a workload, stock, link and faults (up to ``max_faults``; 0: none) under which ``manager``
     breaks a loop property; None when ``examples`` variants ran clean. One ``seed``, one sequence of
     examples and one shrunk result."""
-    from hypothesis import HealthCheck, find, settings
+    from hypothesis import HealthCheck, Phase, find, settings
     from hypothesis.errors import NoSuchExample
 
     counts = {"examples": 0, "shrinks": 0}
@@ -362,7 +369,8 @@ def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int 
         return bad
 
     strategy = loop_variants(base, max_jobs=max_jobs, horizon=horizon, settle=settle, max_faults=max_faults)
-    options = settings(max_examples=examples, database=None, deadline=None, suppress_health_check=list(HealthCheck))
+    options = settings(max_examples=examples, database=None, deadline=None, suppress_health_check=list(HealthCheck),
+                       phases=[Phase.generate, Phase.shrink])
     try:
         minimal = find(strategy, violated, settings=options, random=random.Random(seed))
     except NoSuchExample:
