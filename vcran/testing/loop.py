@@ -152,7 +152,8 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
                   max_faults: int = 4) -> Scenario:
     """``base`` with a drawn workload (listed jobs; its stream dropped), station stock, link and up to
     ``max_faults`` faults (added to ``base``'s own; 0: none drawn). The run lasts ``horizon + settle``
-    simulated seconds at most and ends early once idle."""
+    simulated seconds at most and ends early once idle; ``base``'s faults after that end, and its random
+    fault sources that would start after it, are dropped (they would never happen)."""
     if not isinstance(base, Scenario):  # vcran.simulate takes a path; this needs the scenario to vary
         raise TypeError(f"loop_variants: base must be a vcran.Scenario (vcran.load_scenario(path)), got "
                         f"{type(base).__name__} {base!r}")
@@ -169,16 +170,18 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
         stock = draw(stocks(sorted({j.pickup for j in jobs})))
         stations = tuple(replace(s, parts=stock[s.id]) if s.id in stock else s for s in stations)
     link = draw(links()) if vary_link else base.link
-    faults = base.faults
-    if max_faults > 0:
-        drawn = draw(fault_lists([r.id for r in base.robots], max_faults=max_faults, horizon=horizon))
-        faults = tuple(sorted(base.faults + tuple(drawn), key=lambda f: f.t))  # stable: base's first at ties
     duration = horizon + settle
     if base.settings.duration is not None:
         duration = min(duration, base.settings.duration)
+    # base's faults after the variant's end never happen: dropped, as the loader refuses them
+    faults = tuple(f for f in base.faults if f.t <= duration)
+    random_faults = tuple(source for source in base.random_faults if source.start < duration)
+    if max_faults > 0:
+        drawn = draw(fault_lists([r.id for r in base.robots], max_faults=max_faults, horizon=horizon))
+        faults = tuple(sorted(faults + tuple(drawn), key=lambda f: f.t))  # stable: base's first at ties
     settings = replace(base.settings, duration=duration, until_idle=True)
     return replace(base, settings=settings, stations=stations, jobs=tuple(jobs), job_stream=None, link=link,
-                   faults=faults)
+                   faults=faults, random_faults=random_faults)
 
 
 # --- properties -------------------------------------------------------------------------------------------
