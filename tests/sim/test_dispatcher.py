@@ -10,6 +10,7 @@ import pytest
 import vcran
 from vcran.io.scenario_file import parse
 from vcran.managers import Dispatcher
+from vcran.testing.outcomes import check_failures_have_evidence
 
 FLEET = """
 [simulation]
@@ -288,3 +289,24 @@ def test_s4_the_warehouse_with_one_action_failure_completes_every_job():
     assert (jobs["completed"], jobs["failed"], jobs["open"]) == (jobs["arrived"], 0, 0)
     [failed] = [e for e in result.events if e["event"] == "failed"]  # the one injected, nothing after it
     assert (failed["robot"], failed["code"]) == ("robot_1", "action_fault")
+
+
+# --- jobs no robot can serve (SPEC §9: a job failed with evidence; issue 29 item 6) -------------------------
+
+def test_a_job_no_robot_can_serve_is_reported_unassignable_at_once():
+    # robot_1 cannot unload: it could never finish a job, so it gets none and each fails on arrival
+    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", 'max_velocity = 1.0\nactions = ["load"]\n', 1)
+    result = vcran.simulate(parse(tomllib.loads(text + job(0, "j1") + job(7, "j2")), "<test>"), manager=Dispatcher())
+    assert [(e["job"], e["reason"], e["t"]) for e in of(result, "job_failed")] == [
+        ("j1", "unassignable", 0.0), ("j2", "unassignable", 7.0)]
+    assert of(result, "job_assigned") == [] and check_failures_have_evidence(result) == []
+
+
+def test_jobs_waiting_when_the_last_robot_is_lost_for_good_are_reported_unassignable():
+    # 0.05 Ah at 0.01 Ah/m, never swapped: robot_1 runs empty 5 m into j1's pickup (5.05), heard 5.10; j1
+    # waits its 10 s back-off and comes back (15.10) to a fleet with no robot left: unassignable then, as
+    # is j2 on arrival at 30. They used to stay open until the run's end.
+    result = vcran.simulate(with_battery(job(0, "j1") + job(30, "j2"), 0.05), manager=Dispatcher())
+    assert [(e["job"], e["reason"], e["t"]) for e in of(result, "job_failed")] == [
+        ("j1", "unassignable", pytest.approx(15.10)), ("j2", "unassignable", 30.0)]
+    assert check_failures_have_evidence(result) == [] and result.summary["jobs"]["open"] == 0

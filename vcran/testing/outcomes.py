@@ -18,7 +18,7 @@ from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
-from vcran.core.scenario import RobotConfig, Scenario
+from vcran.core.scenario import Scenario
 
 #: Default for :func:`check_feasible_jobs_completed`: a job that arrived this long before the end of the
 #: run has had time to complete (the Dispatcher needs under two minutes for one warehouse job, with
@@ -31,11 +31,6 @@ COMPLETION_MARGIN = 300.0
 REFUSED_OUT_OF_SERVICE = "battery_empty"
 
 
-def serves(robot: RobotConfig) -> bool:
-    """Whether ``robot`` is configured to do a transport job: to ``load`` and ``unload``, with room for a part."""
-    return "load" in robot.actions and "unload" in robot.actions and robot.capacity >= 1
-
-
 def lost_for_good(scenario: Scenario, events: Iterable[dict[str, Any]], t: float) -> set[str]:
     """The robots out of service for good at ``t``: their battery ran empty by then (a ``battery_empty``
     event) and is never swapped (no ``swap_after``). A robot waiting for a swap is not lost."""
@@ -44,11 +39,11 @@ def lost_for_good(scenario: Scenario, events: Iterable[dict[str, Any]], t: float
 
 
 def unservable(scenario: Scenario, events: list[dict[str, Any]], t: float) -> bool:
-    """No robot can serve a job at ``t``: none is configured for it (:func:`serves`), or every one that is
-    has been lost for good by then (:func:`lost_for_good`). Stations are never in doubt: a job names
-    stations of the scenario (the loader refuses others) whose docks are in their reach, and robots drive
-    straight to any point."""
-    able = {r.id for r in scenario.robots if serves(r)}
+    """No robot can serve a job at ``t``: none is configured for it (``RobotConfig.moves_parts``: load and
+    unload, capacity at least 1), or every one that is has been lost for good by then
+    (:func:`lost_for_good`). Stations are never in doubt: a job names stations of the scenario (the loader
+    refuses others) whose docks are in their reach, and robots drive straight to any point."""
+    able = {r.id for r in scenario.robots if r.moves_parts}
     return not able - lost_for_good(scenario, events, t)
 
 
@@ -91,13 +86,13 @@ def check_failures_have_evidence(result: Any) -> list[str]:
 def infeasible(scenario: Scenario, jobs: Iterable[Any]) -> list[str]:
     """Why the workload ``jobs`` (JobRecords) is not feasible on ``scenario``'s fleet (empty: feasible).
 
-    Feasible: some robot can serve a job (:func:`serves`) and every robot starts with nothing on board;
-    every pickup station holds at the start at least one part per job that picks up there (parts produced
-    or delivered later are not counted); every drop-off station has room for one part per job that delivers
-    there, beyond what it holds at the start and all it may produce (one that produces without a
+    Feasible: some robot can serve a job (``RobotConfig.moves_parts``) and every robot starts with nothing
+    on board; every pickup station holds at the start at least one part per job that picks up there (parts
+    produced or delivered later are not counted); every drop-off station has room for one part per job that
+    delivers there, beyond what it holds at the start and all it may produce (one that produces without a
     ``produce_limit`` may fill up: no room is certain)."""
     reasons = []
-    if not any(serves(r) for r in scenario.robots):
+    if not any(r.moves_parts for r in scenario.robots):
         reasons.append("no robot is configured to load and unload")
     reasons += [f"{r.id} starts with {r.carrying} part(s) on board" for r in scenario.robots if r.carrying]
     stations = {s.id: s for s in scenario.stations}
