@@ -210,19 +210,25 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited.
 
     Judged by what the manager could know (SPEC §4): a robot out of its reach (link down) or broken down is
-    not idle, and a job whose task was cancelled on a robot whose link was down waits, for the manager,
-    only from when that link is back. Such spans cut the stretches rather than lengthen them.
+    not idle, nor is one out of service (its battery empty, until swapped), and a job whose task was
+    cancelled on a robot whose link was down waits, for the manager, only from when that link is back.
+    Such spans cut the stretches rather than lengthen them. A robot that cannot move parts (not configured
+    to load and unload; known from ``result.scenario`` when the result has one) is never idle for a job.
     """
     if not bound >= 0:  # a negative bound reported every robot, over stretches that end before they begin
         raise ValueError(f"check_no_idle_while_waiting: bound must be a number of seconds >= 0, got {bound}")
     end = float(result.summary["sim_time"])
     away = _fault_spans(result.events, end, UNAVAILABLE_FAULTS)
+    for robot, spans in _empty_spans(result.events, end).items():
+        away.setdefault(robot, []).extend(spans)
     unseen = _fault_spans(result.events, end, frozenset({"link_down"}))
     assignees = _assignees(result.events)
     waiting = [(job, c, d) for job, a, b in waiting_spans(result.events, end)
                for c, d in _minus([(a, b)], unseen.get(_robot_at(assignees.get(job, []), a), []))]
     problems = []
-    for robot, idle in _idle_spans(result.events, result.robots, end).items():
+    scenario = getattr(result, "scenario", None)
+    robots = [r.id for r in scenario.robots if r.moves_parts] if isinstance(scenario, Scenario) else result.robots
+    for robot, idle in _idle_spans(result.events, robots, end).items():
         for a, b in _minus(idle, away.get(robot, [])):
             for job, c, d in waiting:
                 lo, hi = max(a, c), min(b, d)
@@ -264,6 +270,20 @@ def _fault_spans(events: list[dict[str, Any]], end: float, kinds: frozenset[str]
         elif e["event"] == "fault_end" and key in since:
             spans.setdefault(key[0], []).append((since.pop(key), e["t"]))
     for (robot, _kind), start in since.items():
+        spans.setdefault(robot, []).append((start, end))
+    return spans
+
+
+def _empty_spans(events: list[dict[str, Any]], end: float) -> dict[str, list[tuple[float, float]]]:
+    """Per robot, the spans its battery was empty: from ``battery_empty`` to ``battery_swapped`` (or ``end``)."""
+    since: dict[str, float] = {}
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for e in events:
+        if e["event"] == "battery_empty":
+            since.setdefault(e["robot"], e["t"])
+        elif e["event"] == "battery_swapped" and e["robot"] in since:
+            spans.setdefault(e["robot"], []).append((since.pop(e["robot"]), e["t"]))
+    for robot, start in since.items():
         spans.setdefault(robot, []).append((start, end))
     return spans
 
