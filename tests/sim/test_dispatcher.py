@@ -232,14 +232,18 @@ def test_s4_a_motion_failure_costs_the_pickup_one_try_and_it_is_planned_again():
     assert result.job("j1").outcome == "completed"
 
 
+def resting(jobs: str, *, swap_after: float | None = None, others: str = "") -> vcran.Scenario:
+    """robot_1 rests with 0.05 Ah of 1 and draws 0.01 Ah/s: its battery runs empty at t = 5."""
+    text = FLEET.format(robot_2=others, parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\n" + battery(
+        0.05, swap_after=swap_after) + "per_idle_second = 0.01\n", 1)
+    return parse(tomllib.loads(text + jobs), "<test>")
+
+
 def test_s4_a_task_refused_by_a_robot_already_out_of_service_is_planned_again():
-    # robot_1 rests with 0.05 Ah and draws 0.01 Ah/s: empty at 5, before any job. j1 (t = 10) goes to it
-    # anyway (no charger to send it to): refused on landing (10.05) with ran_error battery_empty, heard
-    # 10.10, which is the only word on that task. Swapped at 35, published with that instant's tick,
-    # heard 35.05: j1 goes out again.
-    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\n" + battery(
-        0.05, swap_after=30.0) + "per_idle_second = 0.01\n", 1)
-    result = vcran.simulate(parse(tomllib.loads(text + job(10, "j1")), "<test>"), manager=Dispatcher())
+    # robot_1 is empty at 5, before any job. j1 (t = 10) goes to it anyway (no charger to send it to):
+    # refused on landing (10.05) with ran_error battery_empty, heard 10.10, which is the only word on that
+    # task. Swapped at 35, published with that instant's tick, heard 35.05: j1 goes out again.
+    result = vcran.simulate(resting(job(10, "j1"), swap_after=30.0), manager=Dispatcher())
     assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][:2] == [("j1_pick1", 10.0),
                                                                            ("j1_pick2", pytest.approx(35.05))]
     assert result.job("j1").outcome == "completed"
@@ -310,3 +314,20 @@ def test_jobs_waiting_when_the_last_robot_is_lost_for_good_are_reported_unassign
     assert [(e["job"], e["reason"], e["t"]) for e in of(result, "job_failed")] == [
         ("j1", "unassignable", pytest.approx(15.10)), ("j2", "unassignable", 30.0)]
     assert check_failures_have_evidence(result) == [] and result.summary["jobs"]["open"] == 0
+
+
+ROBOT_3 = '[[robots]]\nid = "robot_3"\npose = [2.0, 9.0, 0.0]\nmax_velocity = 1.0\nactions = ["dummy"]'
+
+
+def test_s4_robots_out_of_service_or_unable_to_move_parts_are_not_idle_while_a_job_waits():
+    """SPEC §4/§9 (vcran.testing.loop.check_no_idle_while_waiting): robot_1 is empty from 5 until swapped
+    at 205, robot_3 cannot load or unload; robot_2 does the three jobs of t = 10 one after the other (j2
+    from 37.05: 20 m to a, 2 s, 20 m to b, 2 s, heard done at 83.05), so j3 waits until 83.05. Neither
+    robot_1 nor robot_3 could have taken it: both were reported idle 10..83.05 while it waited."""
+    from vcran.testing.loop import check_no_idle_while_waiting
+
+    jobs = job(10, "j1") + job(10, "j2") + job(10, "j3")
+    result = vcran.simulate(resting(jobs, swap_after=200.0, others=ROBOT_2 + "\n" + ROBOT_3), manager=Dispatcher())
+    assert [(e["robot"], e["t"]) for e in of(result, "battery_empty")] == [("robot_1", 5.0)]
+    assert [e["t"] for e in of(result, "job_assigned") if e["job"] == "j3"][0] == pytest.approx(83.05)
+    assert check_no_idle_while_waiting(result) == []

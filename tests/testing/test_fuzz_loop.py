@@ -113,15 +113,8 @@ def test_a_robot_out_of_reach_is_not_idle():
     assert len(check_no_idle_while_waiting(_Result(events[:1], 200.0), bound=20.0)) == 1
 
 
-def test_a_robot_out_of_service_or_unable_to_move_parts_is_not_idle():
-    """SPEC §4/§9: robot_1's battery is empty from 5 until swapped at 205, robot_3 cannot load or unload;
-    robot_2 does the three jobs of t = 10 one after the other, so j3 waits until 83.05. Neither robot_1 nor
-    robot_3 could have taken it: both were reported idle 10..83.05 while it waited."""
-    result = vcran.simulate(parse(tomllib.loads(OUT_OF_SERVICE), "<test>"))
-    assert [(e["robot"], e["t"]) for e in result.events if e["event"] == "battery_empty"] == [("robot_1", 5.0)]
-    assert [e["t"] for e in result.events if e["event"] == "job_assigned" and e["job"] == "j3"][0] == pytest.approx(83.05)
-    assert check_no_idle_while_waiting(result) == []
-    # by hand: an empty battery cuts the idle stretch until its swap, and one never swapped until the end
+def test_an_empty_battery_cuts_a_robots_idle_stretch_until_its_swap():
+    """SPEC §4: a robot out of service (its battery empty) is not idle for a job; one never swapped stays out."""
     events = [{"t": 0.0, "robot": "", "event": "job_arrived", "job": "j"},
               {"t": 30.0, "robot": "r1", "event": "battery_empty", "x": 0.0, "y": 0.0},
               {"t": 75.0, "robot": "r1", "event": "battery_swapped"}]
@@ -129,41 +122,6 @@ def test_a_robot_out_of_service_or_unable_to_move_parts_is_not_idle():
     assert [p.split(" (")[0] for p in check_no_idle_while_waiting(_Result(events, 100.0), bound=24.0)] == [
         "r1 idle from t=0 to t=30", "r1 idle from t=75 to t=100"]
     assert check_no_idle_while_waiting(_Result(events[:2], 200.0), bound=30.0) == []
-
-
-OUT_OF_SERVICE = """
-[simulation]
-duration = 1000.0
-until_idle = true
-[simulation.action_durations]
-load = 2.0
-unload = 2.0
-[manager]
-class = "vcran.managers:Dispatcher"
-[[robots]]
-id = "robot_1"
-pose = [0.0, 0.0, 0.0]
-[robots.battery]
-capacity = 1.0
-initial = 0.05
-per_idle_second = 0.01
-swap_after = 200.0
-[[robots]]
-id = "robot_2"
-pose = [1.0, 9.0, 0.0]
-actions = ["load", "unload"]
-[[robots]]
-id = "robot_3"
-pose = [2.0, 9.0, 0.0]
-actions = ["dummy"]
-[[stations]]
-id = "a"
-position = [0.0, 10.0]
-parts = 5
-[[stations]]
-id = "b"
-position = [0.0, -10.0]
-""" + "".join(f'\n[[jobs]]\nt = 10\nid = "j{k}"\npickup = "a"\ndropoff = "b"\n' for k in (1, 2, 3))
 
 
 def test_rejections_while_a_robots_link_is_down_are_the_outages():

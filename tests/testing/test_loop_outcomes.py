@@ -12,6 +12,7 @@ import pytest
 import vcran
 
 from tests.conftest import ROOT
+from tests.sim.test_dispatcher import job, resting
 from tests.testing.loop_managers import GiveUp, GivesUpAfterThePickup, NeverSends
 from vcran.core.faults import FaultSpec
 from vcran.core.scenario import Job
@@ -95,38 +96,13 @@ def test_giving_up_is_right_when_no_robot_can_serve_the_job():
     assert check_failures_have_evidence(vcran.simulate(unable, manager=GiveUp)) == []
     # one robot, whose battery runs empty at rest at t = 5 (0.05 Ah, 0.01 Ah/s) and is never swapped: it is
     # lost for good, so a job arriving at 10 cannot be served; one arriving at 0 could have been
-    text = LONE.format(swap="")
-    lost = vcran.simulate(parse(tomllib.loads(text + JOB.format(t=10)), "<test>"), manager=GiveUp)
+    lost = vcran.simulate(resting(job(10, "j")), manager=GiveUp)
     assert [e["t"] for e in lost.events if e["event"] == "battery_empty"] == [5.0]
     assert check_failures_have_evidence(lost) == []
-    early = vcran.simulate(parse(tomllib.loads(text + JOB.format(t=0)), "<test>"), manager=GiveUp)
-    assert len(check_failures_have_evidence(early)) == 1
+    assert len(check_failures_have_evidence(vcran.simulate(resting(job(0, "j")), manager=GiveUp))) == 1
     # swapped after 30 s, the robot is only waiting: it could still serve the job
-    swapped = vcran.simulate(parse(tomllib.loads(LONE.format(swap="swap_after = 30.0\n") + JOB.format(t=10)), "<test>"),
-                             manager=GiveUp)
+    swapped = vcran.simulate(resting(job(10, "j"), swap_after=30.0), manager=GiveUp)
     assert len(check_failures_have_evidence(swapped)) == 1
-
-
-LONE = """
-[simulation]
-duration = 100.0
-[[robots]]
-id = "robot_1"
-pose = [0.0, 0.0, 0.0]
-[robots.battery]
-capacity = 1.0
-initial = 0.05
-per_idle_second = 0.01
-{swap}
-[[stations]]
-id = "a"
-position = [0.0, 10.0]
-parts = 5
-[[stations]]
-id = "b"
-position = [0.0, -10.0]
-"""
-JOB = '\n[[jobs]]\nt = {t}\nid = "j"\npickup = "a"\ndropoff = "b"\n'
 
 
 def test_a_fault_exempts_the_run_from_the_feasibility_property_one_that_did_nothing_does_not():
