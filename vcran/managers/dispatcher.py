@@ -14,7 +14,8 @@
   retrying at once would burn every try before the station produces a part. A failed pickup frees the
   robot at once (it may take other jobs meanwhile) and puts the job back in the queue at its old place
   when the wait is over. A cancelled task moved no part (SPEC §4: a failed load or unload moves nothing):
-  a failed drop-off leaves the part on board, so it is sent again to the same robot. After ``max_tries`` cancelled tasks the job is reported failed.
+  a failed drop-off leaves the part on board, so it is sent again to the same robot. After ``max_tries``
+  cancelled tasks the job is reported failed.
 * Batteries (SPEC §4): a robot without a job whose published charge is below ``charge_below`` (a
   fraction) drives to the nearest ``charger`` station and charges to full instead of taking jobs. A
   robot on a job finishes it first. A robot that ran empty is out of service until its battery is
