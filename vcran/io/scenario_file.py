@@ -60,16 +60,18 @@ def bundled() -> dict[str, Path]:
 SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
-def resolve(path: str | Path) -> Path:
-    """``path``, or the bundled scenario of that name when no such file exists."""
+def resolve(path: str | Path, folder: Path | None = None) -> Path:
+    """``path`` (relative to ``folder`` when given: a sweep file's ``scenario`` is relative to the sweep
+    file), or the bundled scenario of that name when no such file exists."""
     path = Path(path)
-    if not path.exists() and path.name == str(path):
+    where = folder / path if folder is not None else path
+    if not where.exists() and path.name == str(path):
         names = bundled()
         if path.suffix or path.name not in names:
-            raise ScenarioError(f"{path}: no such file (and no bundled scenario of that name; "
+            raise ScenarioError(f"{where}: no such file (and no bundled scenario of that name; "
                                 f"bundled: {', '.join(names)})")
         return names[path.name]
-    return path
+    return where
 
 
 def load(path: str | Path) -> Scenario:
