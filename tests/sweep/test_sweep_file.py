@@ -141,6 +141,13 @@ def test_the_demo_sweep_is_what_its_comment_says():
     assert tomllib.loads(sweep.scenario_text) == tomllib.loads(DEMO.read_text())
 
 
+def test_the_fleet_size_sweep_is_what_its_comment_says():
+    """issue 29 items 10 and 11: the bundled warehouse by name, four fleet sizes, one seed."""
+    sweep = load(ROOT / "scenarios" / "sweeps" / "fleet-size.toml")
+    assert sweep.scenario_text == (ROOT / "scenarios" / "warehouse.toml").read_text()
+    assert [r.variant.params for r in sweep.runs()] == [(("robots.count", n),) for n in (4, 7, 10, 14)]
+
+
 def test_a_broken_scenario_is_the_scenario_loaders_message_behind_the_sweep_file(tmp_path):
     broken = tmp_path / "broken.toml"
     broken.write_text(DEMO.read_text().replace("task_timeout = 30.0", "task_timeout = 0.0"))
