@@ -142,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
     t = env.now
     jobs = loop.jobs.summary(t)
     if work is not None:
-        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
+        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "seed": scenario.settings.seed,
+                             "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
         publish(work, args.out)
     if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling
         inbound = f"{link.reads} read(s)" if polling else f"{link.notifications} notification(s)"
