@@ -494,7 +494,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
     rate, interval = t.number("rate", None, positive=True), t.number("mean_interval", None, positive=True)
     if (rate is None) == (interval is None):
         t.fail("rate", "give exactly one of rate (jobs per hour) and mean_interval (seconds)")
-    mean = 3600.0 / rate if rate is not None else interval
+    per_hour = rate if rate is not None else 3600.0 / interval  # JobStream.rate, as the file's key says
     start = t.number("start", 0.0, minimum=0.0)
     _check_start(t, start, settings.duration, "job stream")
     until = t.number("until", settings.duration, minimum=0.0)
@@ -511,7 +511,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
     if clash is not None:
         t.fail("prefix", f"the stream names its jobs {prefix}_1, {prefix}_2, ...; [[jobs]] id {clash!r} would clash")
     stream = JobStream(
-        mean_interval=mean, pickups=pickups, dropoffs=dropoffs, until=until,
+        rate=per_hour, pickups=pickups, dropoffs=dropoffs, until=until,
         seed=t.integer("seed", settings.seed), start=start, prefix=prefix,
         priority=t.integer("priority", 0), deadline_after=t.number("deadline_after", None, positive=True),
     )
