@@ -388,7 +388,8 @@ class TaskEnd(Message):
 
 @dataclass(frozen=True, slots=True)
 class RanStatus(Message):
-    """RanLogic's state and queue (produced: ``ran_status``, every second; vcran extension)."""
+    """RanLogic's state and queue, and the robot's load (produced: ``ran_status``, published when it
+    changes; vcran extension)."""
 
     ROS_TYPE = "vcran_msgs.RanStatus"
     state: String = "WAITING"
@@ -399,6 +400,9 @@ class RanStatus(Message):
     queued: UInt32 = 0
     completed: tuple[Id, ...] = ()
     cancelled: tuple[TaskEnd, ...] = ()
+    #: The parts the robot carries now (SPEC §2): a fleet manager must see a load that a failed action
+    #: left where it was. Last, as a field added to a ROS message goes, so older readers keep their order.
+    carrying: UInt32 = 0
 
 
 @dataclass(frozen=True, slots=True)
