@@ -108,8 +108,8 @@ class RanLogic:
         #: The queue's first task, the current one (R6), kept as the queue changes: statuses and every
         #: input ask for it (about 26 times per task), and an OrderedDict's first value costs an Id hash.
         self._head: Task | None = None
-        #: Tasks that left the queue so far; with ``_arrivals`` and the state, what ``ran_status`` shows
-        #: is a function of these three (the last one built is kept in ``_status``).
+        #: Tasks that left the queue so far; with ``_arrivals``, the state and the load the robot gives,
+        #: what ``ran_status`` shows is a function of these four (the last one built is kept in ``_status``).
         self._ended = 0
         self._status: tuple[tuple[State, int, int, int], RanStatus] | None = None
         self.history = History(history_limit, history_bytes)
