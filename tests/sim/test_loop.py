@@ -196,3 +196,28 @@ def test_link_down_holds_writes_and_publications_until_it_is_restored():
     assert [e["t"] for e in queued] == [5.0]  # written at 1.0, landed at 1.05, read when the link is back
     # robot_1 published nothing while down (from t = 0); its held status goes out at 5.0, arrives 5.05
     assert manager.heard[0] == 5.05 and len(manager.heard) >= 2
+
+
+class Describe(vcran.FleetManager):
+    """Subscribed to robot_description only; keeps every update of it and what ``latest`` holds then."""
+
+    attributes = frozenset({"robot_description"})
+
+    def __init__(self) -> None:
+        self.got: list[tuple[float, str]] = []
+
+    def on_update(self, robot, attribute, message, t) -> None:
+        assert self.handle.latest(robot, attribute) == message
+        self.got.append((t, robot))
+
+
+def test_every_periodic_robot_description_reaches_the_manager_as_live_mode_forces_it():
+    """SPEC §2, issue 29 item 2: live, each periodic write of the (unchanged) description is forced through
+    Orion (options=forcedUpdate), so it notifies every subscriber; the link stands for Orion (SPEC §9), so
+    the manager gets it every description_period too, not only the first time. Expected by hand: written
+    at 0, 10, 20 (duration 25 s), each arriving 0.5 s later, robot_1 then robot_2 (fleet order)."""
+    sc = parse(tomllib.loads(FLEET.replace("until_idle = true", "description_period = 10.0").replace(
+        "duration = 300.0", "duration = 25.0") + "\n[link]\nlatency = 0.5\n"), "<test>")
+    manager = Describe()
+    vcran.simulate(sc, manager=manager)
+    assert manager.got == [(t, r) for t in (0.5, 10.5, 20.5) for r in ("robot_1", "robot_2")]
