@@ -26,6 +26,7 @@ from vcran.core.effects import (
 )
 from vcran.core.ids import Id, id_for
 from vcran.core.ranlogic import TRANSITIONS, LocalProtocolError, RanLogic
+from vcran.core.stations import motion_area_problem
 
 T = id_for
 
@@ -433,6 +434,33 @@ def test_r10_an_action_that_moved_before_dispatch_cannot_move_again_once_the_pat
         performed.append(logic.current_action)
         logic.on_action_finished(6, logic.current_action)
     assert performed == [T("A_a2"), T("A_a3"), T("A_a4")]
+
+
+# --- R12 --------------------------------------------------------------------------------------------------
+
+SQUARE = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)]
+TRIANGLE = [(0.0, 0.0), (4.0, 0.0), (0.0, 4.0)]
+
+
+@pytest.mark.parametrize(("area", "x", "y"), [
+    (SQUARE, 2.0, 0.0),  # the middle of the lower edge
+    (SQUARE, 0.0, 3.0),  # on the left edge
+    (SQUARE, 4.0, 4.0),  # a corner
+    (TRIANGLE, 1.5, 2.5),  # on the slanted edge x + y = 4 (exact in binary)
+])
+def test_r12_a_target_exactly_on_its_motion_areas_boundary_is_inside(area, x, y):
+    """R12 rejects a target *outside* a non-empty motion_area: the polygon's outline belongs to it
+    (shapely's covers, not contains), so a point drawn on the edge of the area is a valid target."""
+    logic = RanLogic("r", area_check=motion_area_problem)
+    out = logic.on_motion(0, motion("A", "A_m1", 1, 2, x, y, area=area))
+    assert not of(out, Rejected) and of(out, TaskQueued) == [TaskQueued(T("A"))]
+
+
+@pytest.mark.parametrize(("x", "y"), [(2.0, -0.001), (4.001, 4.0)])
+def test_r12_a_target_just_outside_its_motion_area_is_rejected(x, y):
+    logic = RanLogic("r", area_check=motion_area_problem)
+    out = logic.on_motion(0, motion("A", "A_m1", 1, 2, x, y, area=SQUARE))
+    assert codes(out) == ["outside_motion_area"] and not logic.queue
 
 
 # --- failures and misuse ------------------------------------------------------------------------------------
