@@ -9,8 +9,10 @@ import pytest
 
 import vcran
 from vcran.api import EventList, Frames
+from vcran.core.build import motion as build_motion
 from vcran.core.messages import AssignmentStatus, RanStatus
 from vcran.io.scenario_file import parse
+from vcran.io.trace import records, trace_in
 from vcran.runner import run_model
 from vcran.sim.loop import ClosedLoop
 
@@ -146,6 +148,28 @@ def test_polling_loses_a_write_overwritten_before_the_ran_reads_it():
     result = vcran.simulate(scenario("\n[link]\ninbound = 'polling'\npoll_interval = 0.25\n"), manager=Pair())
     assert [(e["t"], e["task"]) for e in inbound(result)] == [(0.25, "second")]
     assert result.summary["robots"]["robot_1"]["completed"] == ["second"]
+
+
+class BackAndForth(vcran.FleetManager):
+    """Writes robot_1's motion_assignment as A at 0, B at 0.3 and A again at 0.35 (each lands 0.05 later)."""
+
+    def on_start(self) -> None:
+        first = build_motion("T", "T_m1", 1, 1, 1.0, 0.0)
+        other = build_motion("T", "T_m1", 1, 1, 2.0, 0.0)  # R10: the same assignment, new content
+        self.handle.send("robot_1", first)
+        self.handle.call_at(0.3, self.handle.send, "robot_1", other)
+        self.handle.call_at(0.35, self.handle.send, "robot_1", first)
+
+
+def test_r10_polling_does_not_forward_a_value_read_before_again(tmp_path):
+    """docs/loop.md, polling: the RAN gets each attribute that differs from what it read last. A lands at
+    0.05 and is read at 0.25; B (0.35) and A (0.4) land before the read at 0.5, which finds A again, the
+    value it already read: nothing goes to the RAN, so the trace holds one inbound record, not two (R10
+    would make the second silent anyway, but the trace would grow with every such read)."""
+    sc = scenario("\n[link]\ninbound = 'polling'\npoll_interval = 0.25\nlatency = 0.05\n")
+    vcran.simulate(sc, manager=BackAndForth(), out=tmp_path)
+    read = [r for _, r in records(trace_in(tmp_path)) if r["dir"] == "in"]
+    assert [(r["t"], r["robot"], r["attr"]) for r in read] == [(0.25, "robot_1", "motion_assignment")]
 
 
 class Burst(vcran.FleetManager):
