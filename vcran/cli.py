@@ -1,4 +1,4 @@
-"""The ``vcran`` console command: one subcommand per module in :mod:`vcran.commands` (docs/contract.md §8).
+"""The ``vcran`` console command: one subcommand per module in :mod:`vcran.commands` (SPEC §8).
 
 Each command module exposes ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``.
 Command modules import their heavy dependencies inside ``run`` so that ``vcran --help`` and the fast

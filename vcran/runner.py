@@ -1,7 +1,7 @@
 """Run a scenario to its output folder: ``trace.jsonl.zst``, ``legs.npy``, ``events.jsonl.zst``, ``summary.json``.
 
 The one function every command uses (run, replay, live, fuzz), so the files are always produced the
-same way. Only simulated quantities go into them (docs/contract.md §5); wall-clock figures are returned for printing.
+same way. Only simulated quantities go into them (SPEC §5); wall-clock figures are returned for printing.
 :func:`run_model` is the part that does not care where the records go: :func:`vcran.simulate` uses it
 with in-memory sinks when no folder is given.
 """

@@ -1,4 +1,4 @@
-"""Leg kinematics (docs/contract.md §4): analytic poses, and the scalar and vectorised paths agreeing bit for bit."""
+"""Leg kinematics (SPEC §4): analytic poses, and the scalar and vectorised paths agreeing bit for bit."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The reference fleet manager, vcran.managers.Dispatcher (docs/contract.md §9): nearest idle robot, priority then FIFO,
+"""The reference fleet manager, vcran.managers.Dispatcher (SPEC §9): nearest idle robot, priority then FIFO,
 two tasks per job, a retry after a cancelled task, failure after max_tries."""
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ def test_a_failed_pickup_waits_before_its_retry_so_a_producing_station_can_catch
         assert cancelled + wait <= retried <= cancelled + wait + 1.05
 
 
-# --- docs/contract.md §4 in the loop: link_down -------------------------------------------------------------------------
+# --- SPEC §4 in the loop: link_down -------------------------------------------------------------------------
 
 LINK_DOWN = '\n[[faults]]\nt = 5.0\nrobot = "robot_1"\nkind = "link_down"\nduration = 20.0\n'
 
@@ -157,7 +157,7 @@ def test_s4_link_down_in_the_loop_hides_the_robots_pose_too():
     assert manager.heard[:6] == [pytest.approx(k + 0.05) for k in range(5)] + [pytest.approx(25.05)]
 
 
-# --- docs/contract.md §4 in the loop: charging when low, re-planning after a fault --------------------------------------
+# --- SPEC §4 in the loop: charging when low, re-planning after a fault --------------------------------------
 
 def battery(initial: float, *, swap_after: float | None = None) -> str:
     swap = f"swap_after = {swap_after}\n" if swap_after is not None else ""

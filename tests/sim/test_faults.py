@@ -1,4 +1,4 @@
-"""docs/contract.md §4 Faults, end to end: scenarios/faults.toml's outcome as derived by hand in docs/robots.md, and the
+"""SPEC §4 Faults, end to end: scenarios/faults.toml's outcome as derived by hand in docs/robots.md, and the
 scenario keys' errors."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A fleet manager in the loop, in simulated time (docs/contract.md §9): the link's latency, ordering and semantics, the
+"""A fleet manager in the loop, in simulated time (SPEC §9): the link's latency, ordering and semantics, the
 tie order of callbacks, and when a closed-loop run is over (the lost-last-task defect of issue 10)."""
 
 from __future__ import annotations

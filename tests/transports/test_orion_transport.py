@@ -445,7 +445,7 @@ def test_a_poll_period_longer_than_any_wait_polls_once_and_stops_cleanly():
 
 
 def test_battery_goes_to_orion_with_the_robots_other_state():
-    # docs/contract.md §4: battery is published at the telemetry cadence, and docs/contract.md §9: a fleet manager reads it from Orion.
+    # SPEC §4: battery is published at the telemetry cadence, and §9: a fleet manager reads it from Orion.
     # The live sender kept only the four RAN attributes of an entity's state, so a live fleet's battery
     # was recorded in the trace as sent and never reached Orion (found by the fifth fresh-user review).
     from vcran.core.messages import BatteryState

@@ -1,4 +1,4 @@
-"""A fleet manager against a real Orion, in real time (docs/contract.md §9, "The same fleet manager, live").
+"""A fleet manager against a real Orion, in real time (SPEC §9, "The same fleet manager, live").
 
 ``vcran manage`` runs the very :class:`~vcran.core.manager.FleetManager` object that
 :func:`vcran.simulate` runs, with the same handle API: :class:`OrionLoop` is

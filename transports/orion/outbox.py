@@ -1,9 +1,9 @@
-"""What vcran still has to tell Orion (docs/contract.md §7 coalescing).
+"""What vcran still has to tell Orion (SPEC §7 coalescing).
 
 State attributes (``current_motion``, ``assignment_state``, ``ran_status``, ``robot_description``, ``battery_state``) are
 kept as the latest value per robot and attribute: after an outage Orion receives each robot's latest
 state once, not the backlog of every tick it missed. ``ran_error`` is different: each one reports a
-distinct rejected input (docs/contract.md §2, "on each rejected input"), so errors queue in order and every one is
+distinct rejected input (SPEC §2, "on each rejected input"), so errors queue in order and every one is
 kept until it is delivered or reported undeliverable, oldest first (a bounded queue: past ``ERRORS_MAX``
 pending errors the oldest are dropped and counted).
 

@@ -1,4 +1,4 @@
-"""The outbound side of live mode: the fleet's changes to Orion, one batch update per tick (docs/contract.md §7).
+"""The outbound side of live mode: the fleet's changes to Orion, one batch update per tick (SPEC §7).
 
 At every telemetry tick the sender takes the :class:`Outbox` and writes it with ``POST /v2/op/update``:
 one entity element per robot (its ``current_motion`` and changed state, with its oldest waiting
@@ -41,7 +41,7 @@ from vcran.core.wire import Frame
 log = logging.getLogger("vcran.orion")
 
 #: Order of attributes inside one entity of a batch update: every attribute the RAN publishes (battery
-#: too, docs/contract.md §4; a fleet manager reads it from Orion, docs/contract.md §9), the one ``ran_error`` of the element last.
+#: too, SPEC §4; a fleet manager reads it from Orion, §9), the one ``ran_error`` of the element last.
 ATTRIBUTE_ORDER = ("current_motion", "assignment_state", "ran_status", "robot_description", "battery_state", "ran_error")
 #: Orion's answers that refuse a request's content (NGSI v2 BadRequest, RequestEntityTooLarge,
 #: Unprocessable): sending the same content again cannot help.

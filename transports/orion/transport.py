@@ -1,4 +1,4 @@
-"""The live Orion transport (docs/contract.md §7): a virtual fleet that a real fleet manager drives through Orion.
+"""The live Orion transport (SPEC §7): a virtual fleet that a real fleet manager drives through Orion.
 
 Threads and what they own:
 
@@ -188,7 +188,7 @@ class OrionTransport(Transport):
                         self.sender.wake()
                     elif (seen := _failures(shown)) != failures:
                         # Orion could not deliver some notification (a burst, a slow moment): what it
-                        # carried is only in Orion now, so read it (docs/contract.md §7: no loss window).
+                        # carried is only in Orion now, so read it (SPEC §7: no loss window).
                         if seen[0] is not None:
                             log.warning("Orion reports a failed notification (%s, %s failing): reading "
                                         "the entities again", one_line(seen[0], 40), one_line(seen[1], 20))

@@ -2,7 +2,7 @@
 
 Shared by ``vcran live`` (:mod:`transports.orion.transport` polls the fleet's commands) and ``vcran
 manage`` (:mod:`transports.orion.manage` polls the robots' updates), so both pace their reads and ride
-out an Orion that is down the same way (docs/contract.md §7; docs/live.md, "Faults").
+out an Orion that is down the same way (SPEC §7; docs/live.md, "Faults").
 """
 
 from __future__ import annotations

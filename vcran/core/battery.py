@@ -1,4 +1,4 @@
-"""The battery model (docs/contract.md §4 Battery): charge as a closed-form function of time, like a pose.
+"""The battery model (SPEC §4 Battery): charge as a closed-form function of time, like a pose.
 
 A robot's charge falls linearly with three odometers: simulated time (the base draw, ``per_idle_second``,
 drawn always: it is the whole draw of an idle robot), metres driven (``per_metre``) and seconds of action

@@ -28,12 +28,12 @@ class State(enum.Enum):
 
 
 class Reason(enum.Enum):
-    """Why a task was cancelled (docs/contract.md §8)."""
+    """Why a task was cancelled (SPEC §8)."""
 
     TIMEOUT = "timeout"
     CANCELLED = "cancelled"
     ACTION_FAILED = "action_failed"
-    #: docs/contract.md §4: the robot stopped on its own (battery, an injected motion failure, a collision).
+    #: SPEC §4: the robot stopped on its own (battery, an injected motion failure, a collision).
     BATTERY_EMPTY = "battery_empty"
     MOTION_FAILED = "motion_failed"
     COLLISION = "collision"
@@ -226,7 +226,7 @@ class Rejected(ErrorReport):
 
 @dataclass(frozen=True, slots=True)
 class Failed(ErrorReport):
-    """An action that failed (docs/contract.md §4); the task is cancelled with reason ``action_failed``."""
+    """An action that failed (§4); the task is cancelled with reason ``action_failed``."""
 
     NAME = "failed"
 

@@ -1,4 +1,4 @@
-"""What happens to a robot on its own (docs/contract.md §4): battery, faults, collisions, as events for ``events.jsonl``.
+"""What happens to a robot on its own (SPEC §4): battery, faults, collisions, as events for ``events.jsonl``.
 
 RanLogic's events (:mod:`vcran.core.effects`) say what the rules did; these say what the robot went
 through, and are logged by the SimPy model when it happens. Where the fleet manager would notice, the model
@@ -87,6 +87,6 @@ class Collision(Event):
 
 @dataclass(frozen=True, slots=True)
 class Published(ErrorReport):
-    """A docs/contract.md §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
+    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
 
     NAME = ""

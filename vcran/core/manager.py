@@ -1,4 +1,4 @@
-"""The fleet-manager interface (docs/contract.md §9): what users subclass, and the handle their manager acts through.
+"""The fleet-manager interface (SPEC §9): what users subclass, and the handle their manager acts through.
 
 Modelled on SimPy's process functions and pytest's hooks: a few methods with plain arguments, no
 framework to learn. vcran calls three hooks on a :class:`FleetManager`:
@@ -9,7 +9,7 @@ framework to learn. vcran calls three hooks on a :class:`FleetManager`:
   ``current_motion``, ``assignment_state``, ``ran_status``, ``ran_error``, ``robot_description``.
 
 The manager acts through its :class:`Handle`: it writes motion and action assignments and cancels (the
-messages of docs/contract.md §2), schedules callbacks of its own, reads what Orion holds, draws from a seeded random
+messages of SPEC §2), schedules callbacks of its own, reads what Orion holds, draws from a seeded random
 generator and reports jobs done or failed. It never sees RanLogic's insides. The same manager object
 runs in simulated time (:func:`vcran.simulate`, the handle of :mod:`vcran.sim.loop`) and against a real
 Orion in wall-clock time: only the handle differs. Everything here is pure (no SimPy, no clock).
@@ -36,7 +36,7 @@ ATTRIBUTE_OF: dict[type[Message], str] = {cls: name for name, cls in INBOUND.ite
 
 
 class ReadOnlyDict(dict[str, float]):
-    """A dict that refuses every write: the fleet's ``settings.durations`` (docs/contract.md §9). A dict still, so the
+    """A dict that refuses every write: the fleet's ``settings.durations`` (SPEC §9). A dict still, so the
     fleet pickles, deep-copies (a copy read-only too), goes to ``json.dumps`` and ``dataclasses.asdict`` as
     before it was read-only, which a ``MappingProxyType`` could not; ``dict(d)`` is a copy one may change."""
 
@@ -113,7 +113,7 @@ class Handle:
     :attr:`now`, :meth:`_write`, :meth:`call_at` and :meth:`latest`; everything else is built on them.
 
     ``random`` is seeded from the scenario (``random.Random("manager:{seed}")``): draw from it, never
-    from the global generator, and a run stays byte-identical (docs/contract.md §5).
+    from the global generator, and a run stays byte-identical (SPEC §5).
     """
 
     def __init__(self, fleet: Fleet, jobs: JobBook, rng: random.Random, task_prefix: str = "task_") -> None:
@@ -154,7 +154,7 @@ class Handle:
         return self.call_at(self.now + delay, fn, *args, **kwargs)
 
     def send(self, robot: str, message: Message) -> None:
-        """Write a MotionAssignment, ActionAssignment or CancelTask to ``robot`` (docs/contract.md §2)."""
+        """Write a MotionAssignment, ActionAssignment or CancelTask to ``robot`` (SPEC §2)."""
         attribute = ATTRIBUTE_OF.get(type(message))
         if attribute is None:
             known = ", ".join(c.__name__ for c in ATTRIBUTE_OF)
@@ -189,7 +189,7 @@ class Handle:
         """Send a whole OPIL task to ``robot`` and return its id.
 
         ``path`` is a list of ``(x, y)`` or ``(x, y, theta)`` points (a theta on the last one: end facing
-        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``, ``"charge"`` (docs/contract.md §4). The task is named ``task``, or
+        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``, ``"charge"`` (SPEC §4). The task is named ``task``, or
         ``task_1``, ``task_2``, ... in the order sent; its motions ``{task}_m1``, ... and actions
         ``{task}_a1``, ... carry sequence numbers ``1..length`` (:func:`vcran.core.build.task`). With
         ``every`` > 0 the messages go out that many seconds apart (under polling, a write overwritten

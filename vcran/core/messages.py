@@ -1,4 +1,4 @@
-"""Every message the RAN exchanges with a fleet manager, as frozen dataclasses (docs/contract.md §2).
+"""Every message the RAN exchanges with a fleet manager, as frozen dataclasses (SPEC §2).
 
 Field names and order follow the ROS messages of OPIL (``mars_agent_physical_robot_msgs``,
 ``mars_common_msgs``, ``geometry_msgs``, ``std_msgs``) so that the NGSI codec is a mechanical walk over
@@ -216,20 +216,20 @@ class Sequence(Message):
 
 
 class ActionKind(enum.Enum):
-    """What AgvAction does. The original VC-RAN's codes 0/1/2 and OPIL's categories 5/10/20 both map here."""
+    """What AgvAction does. The seed's codes 0/1/2 and OPIL's categories 5/10/20 both map here."""
 
     DUMMY = "dummy"
     LOAD = "load"
     UNLOAD = "unload"
-    #: vcran extension (docs/contract.md §4 Battery): refill the battery at a charger station.
+    #: vcran extension (SPEC §4 Battery): refill the battery at a charger station.
     CHARGE = "charge"
 
 
-#: OPIL ``RobotAction.category`` constants (category first, docs/contract.md §2).
+#: OPIL ``RobotAction.category`` constants (category first, SPEC §2).
 CATEGORY_CODES: dict[int, ActionKind] = {5: ActionKind.DUMMY, 10: ActionKind.LOAD, 20: ActionKind.UNLOAD}
-#: The original VC-RAN's action codes, used when ``category`` is 0 (undefined).
+#: The seed's action codes, used when ``category`` is 0 (undefined).
 ACTION_CODES: dict[int, ActionKind] = {0: ActionKind.DUMMY, 1: ActionKind.LOAD, 2: ActionKind.UNLOAD}
-#: vcran's extension codes, outside OPIL's categories and the original VC-RAN's codes (docs/wire-format.md):
+#: vcran's extension codes, outside OPIL's categories and the seed's codes (docs/wire-format.md):
 #: ``charge`` is category 200, or action 3 with category 0.
 EXTENSION_CATEGORIES: dict[int, ActionKind] = {200: ActionKind.CHARGE}
 EXTENSION_ACTIONS: dict[int, ActionKind] = {3: ActionKind.CHARGE}
@@ -353,7 +353,7 @@ class RobotAgentProperties(Message):
 
 @dataclass(frozen=True, slots=True)
 class Motion(Message):
-    """Pose and velocity (produced: ``current_motion``, every second: the original VC-RAN's "RAN-state")."""
+    """Pose and velocity (produced: ``current_motion``, every second: the seed's "RAN-state")."""
 
     ROS_TYPE = "mars_agent_physical_robot_msgs.Motion"
     current_position: PoseStamped = field(default_factory=PoseStamped)
@@ -421,7 +421,7 @@ class RanError(Message):
 
 @dataclass(frozen=True, slots=True)
 class BatteryState(Message):
-    """The battery (produced: ``battery_state``, docs/contract.md §4), ROS 1 ``sensor_msgs/BatteryState``.
+    """The battery (produced: ``battery_state``, SPEC §4), ROS 1 ``sensor_msgs/BatteryState``.
 
     ``charge`` and ``capacity`` in Ah, ``percentage`` 0..1; vcran fills the fields its battery model
     knows and leaves the rest at ROS's "unknown" values (NaN is not JSON, so 0 stands for unmeasured).
@@ -450,7 +450,7 @@ class BatteryState(Message):
     STATUS_FULL: ClassVar[int] = 4
 
 
-#: Attribute name -> message type, for both directions (docs/contract.md §2).
+#: Attribute name -> message type, for both directions (SPEC §2).
 INBOUND: dict[str, type[Message]] = {
     "motion_assignment": MotionAssignment,
     "action_assignment": ActionAssignment,
@@ -466,7 +466,7 @@ OUTBOUND: dict[str, type[Message]] = {
 }
 ATTRIBUTES: dict[str, type[Message]] = {**INBOUND, **OUTBOUND}
 #: Attributes published under another name before vcran took OPIL's own (the OPIL RAN's launch file and the
-#: Motion Task Planner's FIROS configuration read ``assignment_state`` and ``battery_state``; docs/contract.md §2, §4).
+#: Motion Task Planner's FIROS configuration read ``assignment_state`` and ``battery_state``; SPEC §2, §4).
 #: Traces recorded before are read with the new names; a fleet manager naming an old one is told the new.
 RENAMED: dict[str, str] = {"assignment_status": "assignment_state", "battery": "battery_state"}
 

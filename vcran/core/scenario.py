@@ -1,8 +1,8 @@
 """The scenario data model: the fleet, the stations, the settings, and what plays the fleet manager's part.
 
 A scenario is plain data; the model builds the running objects from it, so one scenario can run any number
-of times (fuzzing, determinism tests). The fleet manager's part is either a message script (the original VC-RAN's
-JMeter file) or, in a closed loop (docs/contract.md §9), a workload of jobs for a fleet manager, the link between
+of times (fuzzing, determinism tests). The fleet manager's part is either a message script (the seed's
+JMeter file) or, in a closed loop (SPEC §9), a workload of jobs for a fleet manager, the link between
 that manager and the RAN, and which manager to run. Reading and writing scenario files (TOML) is
 :mod:`vcran.io`'s part: :mod:`vcran.io.scenario_file` loads them strictly, :mod:`vcran.io.scenario_toml`
 writes them back.
@@ -24,10 +24,10 @@ from vcran.core.messages import ActionKind, Message, MotionAssignment
 from vcran.core.schema import slot_init, unchecked
 from vcran.core.wire import Inbound
 
-#: The actions a scenario names and configures (OPIL's and the original VC-RAN's); ``charge`` (a vcran extension)
+#: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
 #: is not among them: a robot can charge exactly when it has a battery.
 ACTION_KINDS = tuple(k.value for k in ActionKind if k is not ActionKind.CHARGE)
-#: ``collisions =`` (docs/contract.md §4): "report" (default), "stop", or "off" (no detection at all).
+#: ``collisions =`` (SPEC §4): "report" (default), "stop", or "off" (no detection at all).
 COLLISION_MODES = ("report", "stop", "off")
 
 
@@ -75,7 +75,7 @@ class StationConfig:
     produce_every: float = 0.0
     produce_start: float | None = None
     produce_limit: int = 0
-    #: A charging point: ``charge`` actions in its reach refill the battery (docs/contract.md §4).
+    #: A charging point: ``charge`` actions in its reach refill the battery (SPEC §4).
     charger: bool = False
     #: Where a robot stands to load or unload here, ``(x, y, theta)``; theta None: any heading. A fleet
     #: manager reads it to plan paths (:meth:`vcran.core.manager.Fleet.dock`); None means the position.
@@ -195,7 +195,7 @@ _entry = unchecked(ScriptEntry)
 _inbound = unchecked(Inbound)
 
 
-# --- the closed loop (docs/contract.md §9): jobs, the link, the manager ----------------------------------------------
+# --- the closed loop (SPEC §9): jobs, the link, the manager ----------------------------------------------
 
 
 @dataclass(frozen=True, slots=True)
@@ -250,13 +250,13 @@ class JobStream:
             yield Job(t, f"{self.prefix}_{n}", pickup, dropoff, self.priority, deadline)
 
 
-#: How the RAN learns what the fleet manager wrote (docs/contract.md §7, §9).
+#: How the RAN learns what the fleet manager wrote (SPEC §7, §9).
 SUBSCRIPTION, POLLING = "subscription", "polling"
 
 
 @dataclass(frozen=True, slots=True)
 class LinkSettings:
-    """The link between a fleet manager and the RAN, standing for Orion (docs/contract.md §9, docs/loop.md).
+    """The link between a fleet manager and the RAN, standing for Orion (SPEC §9, docs/loop.md).
 
     Every message takes ``latency`` plus a uniform draw from ``[0, jitter)`` seconds, in order per
     robot and direction. With ``inbound = "subscription"`` every change of an attribute reaches the RAN;
@@ -304,7 +304,7 @@ class Scenario:
 
     @property
     def has_workload(self) -> bool:
-        """Jobs listed or generated: the scenario is meant for a fleet manager (docs/contract.md §9)."""
+        """Jobs listed or generated: the scenario is meant for a fleet manager (SPEC §9)."""
         return bool(self.jobs) or self.job_stream is not None
 
     def workload(self) -> Iterator[Job]:
@@ -316,7 +316,7 @@ class Scenario:
     def fleet_dict(self) -> dict[str, Any]:
         """Everything but the script, as JSON that :func:`vcran.io.scenario_file.parse` reads back: a trace header carries it."""
         s = self.settings
-        # Keys added with docs/contract.md §4 appear only when set, so older scenarios keep their exact trace header.
+        # Keys added with §4 appear only when set, so older scenarios keep their exact trace header.
         return _drop_none({
             "simulation": {
                 "name": s.name, "seed": s.seed, "duration": s.duration, "until_idle": s.until_idle,

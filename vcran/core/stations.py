@@ -1,4 +1,4 @@
-"""Stations and what AgvAction does at them (docs/contract.md §4): pure bookkeeping of parts.
+"""Stations and what AgvAction does at them (SPEC §4): pure bookkeeping of parts.
 
 A station has a position, a reach (a circle around it, or an explicit polygon) and a part count, and may
 produce parts at an interval. Load takes a part from the station in reach, unload puts one on it. The
@@ -29,7 +29,7 @@ class Station:
     #: ... at most ``produce_limit`` parts in all (0 = unlimited). A full station skips a production.
     produce_limit: int = 0
     area: tuple[tuple[float, float], ...] = ()
-    #: A charging point (docs/contract.md §4): ``charge`` actions in its reach refill the battery.
+    #: A charging point (SPEC §4): ``charge`` actions in its reach refill the battery.
     charger: bool = False
     produced: int = 0
     _shape: Any = field(default=None, repr=False)

@@ -149,7 +149,7 @@ def _same_items(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
 
 def _same_text(a: Any, b: Any) -> bool:
     """Whether two JSON values are written alike. ``==`` alone says -0.0 is 0.0; a trace must keep the sign
-    a fleet manager wrote (docs/contract.md §6: the decoded value; a leg to x = -0.0 is another leg, bit for bit)."""
+    a fleet manager wrote (SPEC §6: the decoded value; a leg to x = -0.0 is another leg, bit for bit)."""
     return a == b and orjson.dumps(a) == orjson.dumps(b)
 
 

@@ -1,5 +1,5 @@
 """Scenario files (TOML): read the fleet, the stations, the settings and the message script, or the
-closed loop's jobs, link and fleet manager (docs/contract.md §9), into a :class:`~vcran.core.scenario.Scenario`.
+closed loop's jobs, link and fleet manager (SPEC §9), into a :class:`~vcran.core.scenario.Scenario`.
 
 The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
 an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
@@ -56,7 +56,7 @@ def bundled() -> dict[str, Path]:
     folder = Path(str(resources.files("vcran") / "scenarios"))
     return {f.stem: f for f in sorted(folder.glob("*.toml"))}
 
-#: Actions a script may send: the configurable ones and ``charge`` (docs/contract.md §4, a robot with a battery).
+#: Actions a script may send: the configurable ones and ``charge`` (SPEC §4, a robot with a battery).
 SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
@@ -219,12 +219,12 @@ def _robot(t: Table) -> RobotConfig:
     accel = t.number("max_acceleration", 0.0, minimum=0.0)
     if "charge" in t.strings("actions", []):  # an action a script sends, but not one listed here
         t.fail("actions", "'charge' is not listed among a robot's actions: a robot with [robots.battery] can charge "
-                          f"(docs/contract.md §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
+                          f"(SPEC §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
     actions = t.choices("actions", ACTION_KINDS, list(ACTION_KINDS), what="action")
     footprint = t.points("footprint", list(RobotConfig.__dataclass_fields__["footprint"].default))  # type: ignore[arg-type]
     problem = polygon_problem(footprint) if footprint else None  # [] is no footprint: it never touches
     if problem:
-        t.fail("footprint", f"{problem} (docs/contract.md §4: a footprint is a simple polygon)")
+        t.fail("footprint", f"{problem} (SPEC §4: a footprint is a simple polygon)")
     r = RobotConfig(
         id=rid,
         pose=t.triple("pose", (0.0, 0.0, 0.0)),
@@ -359,7 +359,7 @@ def _mean(t: Table, key: str) -> float:
     return value
 
 
-#: The latest time a message can be stamped with: ROS time stamps hold int32 seconds (docs/contract.md §2).
+#: The latest time a message can be stamped with: ROS time stamps hold int32 seconds (SPEC §2).
 LAST_STAMP = 2**31 - 1
 
 
@@ -459,7 +459,7 @@ def _task_spec(t: Table) -> TaskSpec:
     return TaskSpec(tuple(path), tuple(actions))
 
 
-# --- the closed loop (docs/contract.md §9) --------------------------------------------------------------------------
+# --- the closed loop (SPEC §9) --------------------------------------------------------------------------
 
 
 def _station_ref(t: Table, key: str, stations: list[str]) -> str:

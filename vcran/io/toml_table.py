@@ -149,7 +149,7 @@ class Table:
         return v
 
     def text(self, key: str, default: str) -> str:
-        """A string that will be published: Orion refuses some characters in values (docs/contract.md §2)."""
+        """A string that will be published: Orion refuses some characters in values (SPEC §2)."""
         return self._publishable(key, self.string(key, default))
 
     def name(self, key: str, default: Any = _MISSING) -> Any:

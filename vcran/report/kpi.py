@@ -28,7 +28,7 @@ class Kpi:
     latency: float | None
     parts_moved: int
     errors: int
-    #: docs/contract.md §4: charge drawn per completed task (Ah; None without a battery or a completed task),
+    #: SPEC §4: charge drawn per completed task (Ah; None without a battery or a completed task),
     #: seconds held or out of service, collisions.
     energy_per_job: float | None = None
     downtime: float = 0.0

@@ -27,15 +27,15 @@ REASON_STYLE = {
     "timeout": ("X", "#c0392b"),
     "cancelled": ("D", "#7d3c98"),
     "action_failed": ("^", "#d35400"),
-    # docs/contract.md §4: the robot stopped on its own
+    # SPEC §4: the robot stopped on its own
     "battery_empty": ("v", "#b7950b"),
     "motion_failed": ("s", "#a04000"),
     "collision": ("*", "#e74c3c"),
 }
-#: Reasons the legend always lists; the docs/contract.md §4 ones are listed when they occur.
+#: Reasons the legend always lists; the §4 ones are listed when they occur.
 CORE_REASONS = ("timeout", "cancelled", "action_failed")
 
-#: docs/contract.md §4 incidents -> (marker, colour, legend label), on the timeline's state lane and, where the event
+#: SPEC §4 incidents -> (marker, colour, legend label), on the timeline's state lane and, where the event
 #: has a place, on the layout.
 INCIDENT_STYLE = {
     "fault": ("P", "#6e2c00", "fault injected"),

@@ -1,4 +1,4 @@
-"""A fleet manager in the loop, in simulated time (docs/contract.md §9): the transport the RAN sees is Orion, and
+"""A fleet manager in the loop, in simulated time (SPEC §9): the transport the RAN sees is Orion, and
 behind it runs a :class:`~vcran.core.manager.FleetManager`.
 
 :class:`ClosedLoop` implements the transport interface (:class:`vcran.core.wire.Transport`), so the RAN
@@ -6,7 +6,7 @@ and the model are the same as under a script or a replay. It starts the manager,
 scenario's jobs at their times, turns what reaches it over the :class:`~vcran.sim.link.Link` into its
 updates, and gives it a :class:`SimHandle` whose writes go back over the link and whose timers are
 SimPy events. Every callback runs at a simulated instant with its own priority (vcran/sim/timing.py:
-updates, then jobs, then timers), so the whole loop is deterministic (docs/contract.md §5).
+updates, then jobs, then timers), so the whole loop is deterministic (SPEC §5).
 
 A closed-loop run is over (``until_idle``) only when nothing is left to do on the manager's side either:
 no job still to come or still open, no timer pending, nothing the manager wrote still on its way, and
@@ -91,7 +91,7 @@ class ClosedLoop(Transport):
         self.link.publish(out)
 
     def outage(self, robot: str, until: float) -> bool:
-        """``link_down`` (docs/contract.md §4) is the link's: Orion between manager and RAN holds what was written, and
+        """``link_down`` (SPEC §4) is the link's: Orion between manager and RAN holds what was written, and
         what the robot publishes (its rows of the fleet's frames too) waits (:meth:`Link.outage`)."""
         if not isinstance(self.link, Link):
             return False

@@ -283,7 +283,7 @@ class Model:
         return self._busy[index] + (self.env.now - since if since is not None else 0.0)
 
     def summary(self) -> dict[str, Any]:
-        """summary.json (docs/contract.md §8): deterministic, no wall-clock figures."""
+        """summary.json (SPEC §8): deterministic, no wall-clock figures."""
         t = self.env.now
         robots = {}
         for r in self.robots:

@@ -1,4 +1,4 @@
-"""The battery at the telemetry cadence (docs/contract.md §4): ``battery_state`` publications, the low warning, idle drain.
+"""The battery at the telemetry cadence (SPEC §4): ``battery_state`` publications, the low warning, idle drain.
 
 Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. ``battery_state``
 (``sensor_msgs.BatteryState``) is published for a robot when its percentage, rounded to the battery's

@@ -1,4 +1,4 @@
-"""One robot's three processes: RanLogic, AGV and AgvAction, talking through mailboxes (docs/contract.md §1).
+"""One robot's three processes: RanLogic, AGV and AgvAction, talking through mailboxes (seed §2).
 
 The processes decide nothing. RanLogic's process hands each arriving signal to the pure
 :class:`~vcran.core.ranlogic.RanLogic` and carries out the effects it returns; the AGV drives the legs it is
@@ -102,7 +102,7 @@ class TimerFired:
 
 @dataclass(frozen=True, slots=True)
 class Halted:
-    """Robot -> RanLogic: the robot stopped where it is (docs/contract.md §4: battery, motion failure, collision)."""
+    """Robot -> RanLogic: the robot stopped where it is (SPEC §4: battery, motion failure, collision)."""
 
     reason: Reason
     code: str
@@ -112,7 +112,7 @@ class Halted:
 
 @dataclass(frozen=True, slots=True)
 class InService:
-    """Robot -> RanLogic: a fresh battery; take tasks again (docs/contract.md §4)."""
+    """Robot -> RanLogic: a fresh battery; take tasks again (SPEC §4)."""
 
 
 #: Interrupt causes for a working process (besides a :class:`Halted`): stop in place / go on / the work
@@ -123,7 +123,7 @@ HOLD, RELEASE, ABANDON = "hold", "release", "abandon"
 class RobotNode:
     """RanLogic + AGV + AgvAction of one robot. ``log`` receives ``(robot, event)`` for every event.
 
-    docs/contract.md §4 adds what happens to a robot on its own. A *work* (a leg, an action) can be held in place
+    SPEC §4 adds what happens to a robot on its own. A *work* (a leg, an action) can be held in place
     (pause, breakdown: it resumes exactly where it stopped, its remaining time unchanged), or stopped for
     good (battery empty, motion failure, collision): the working process is interrupted (SimPy's
     ``Process.interrupt``, which costs nothing until used) and RanLogic is told through a :class:`Halted`.
@@ -160,7 +160,7 @@ class RobotNode:
         #: The points of the dispatched path still to drive. RanLogic's commands edit it: StopAfterLeg
         #: empties it (R8), SkipMotion drops a point (R13). ``agv_commands`` only wakes the AGV up.
         self._route: deque[MotionAssignment] = deque()
-        #: docs/contract.md §4 state: the battery (shared fleet arrays; None when this robot has none), the process
+        #: SPEC §4 state: the battery (shared fleet arrays; None when this robot has none), the process
         #: currently working (a leg or an action), the holds in force, an armed action failure.
         self.battery = battery if battery is not None and config.battery is not None else None
         if self.battery is not None:
@@ -270,7 +270,7 @@ class RobotNode:
         :data:`ABANDON` (R14: the robot stays where the leg began).
 
         A hold stops the robot where it is and later resumes the same leg shifted in time by the hold's
-        length, so the rest of the leg (and the task) ends exactly that much later (docs/contract.md §4 breakdown).
+        length, so the rest of the leg (and the task) ends exactly that much later (SPEC §4 breakdown).
         """
         i, env = self.index, self.env
         self.fleet.start(i, leg)
@@ -426,7 +426,7 @@ class RobotNode:
             self._segment(REST)
             return cause
 
-    # --- working, holding, stopping (docs/contract.md §4) -----------------------------------------------------------
+    # --- working, holding, stopping (SPEC §4) -----------------------------------------------------------
 
     def _work(self, event: simpy.events.Event) -> Generator[simpy.events.Event, Any, Halted | str | None]:
         """Wait for ``event`` (the end of a work); an interrupt returns its cause (HOLD or a Halted)."""
@@ -499,7 +499,7 @@ class RobotNode:
         if self.on_move is not None:
             self.on_move(self)
 
-    # --- battery (docs/contract.md §4) ------------------------------------------------------------------------------
+    # --- battery (SPEC §4) ------------------------------------------------------------------------------
 
     def _segment(self, kind: int) -> float | None:
         """Begin a battery segment of ``kind`` now; returns the level it starts with (None: no battery)."""
@@ -594,7 +594,7 @@ class RobotNode:
         self.inbox.put(InService())
 
     def report(self, code: str, message: str, severity: str = "warning") -> None:
-        """Publish a ``ran_error`` for a docs/contract.md §4 incident RanLogic does not see itself."""
+        """Publish a ``ran_error`` for a §4 incident RanLogic does not see itself."""
         count = self.logic.count_error()
         self._log(self, Published(code, message, severity, count=count))
 

@@ -1,4 +1,4 @@
-"""One run of a sweep as a pure function of plain data: scenario text, overrides, seed -> row (docs/contract.md §10).
+"""One run of a sweep as a pure function of plain data: scenario text, overrides, seed -> row (SPEC §10).
 
 This is all a worker executes, in a process of the local pool or on a Dask worker on another machine, so
 it takes and returns only strings, numbers, lists and dicts: nothing about pools, clusters or files
@@ -67,8 +67,8 @@ KPIS = ("sim_time", "tasks_completed", "tasks_cancelled", *(f"cancelled_{r.value
 
 def kpis(summary: dict[str, Any]) -> dict[str, Any]:
     """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
-    distance, parts moved, errors and collisions (docs/contract.md §4: each involves two robots, and each robot's
-    summary counts it); with batteries the charge drawn (Ah); with a closed loop (docs/contract.md §9) every figure
+    distance, parts moved, errors and collisions (SPEC §4: each involves two robots, and each robot's
+    summary counts it); with batteries the charge drawn (Ah); with a closed loop (SPEC §9) every figure
     of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``."""
     robots = summary["robots"].values()
     reasons = [c["reason"] for r in robots for c in r["cancelled"]]
