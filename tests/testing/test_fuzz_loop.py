@@ -276,3 +276,13 @@ def test_strategy_options_out_of_range_are_clear_errors(strategy, says):
 
     with pytest.raises(ValueError, match=f"^{re.escape(says)}\n"):  # then hypothesis's note
         drawn()
+
+
+@settings(max_examples=10)
+@given(loop_variants(vcran.load_scenario(ROOT / "scenarios" / "warehouse-faults.toml"), horizon=60.0, settle=60.0))
+def test_a_variant_keeps_only_the_base_faults_within_its_end(scenario):
+    """warehouse-faults pauses robot_8 at 1800 s: a variant of 120 s kept it, and vcran.simulate refused the
+    variant ('the fault happens at t = 1800, after the run ends'): every example of vcran fuzz crashed."""
+    assert all(f.t <= 120.0 for f in scenario.faults) and len(scenario.random_faults) == 4
+    again = parse(tomllib.loads(dumps(loop_dict(scenario))), "<saved>")
+    assert again.faults == scenario.faults

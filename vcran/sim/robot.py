@@ -151,7 +151,7 @@ class RobotNode:
         self.action_orders = Mailbox(env)
         self.pose = config.pose
         self.footprint = PolygonStamped.from_xy(config.footprint)
-        self.carrying = config.carrying
+        self._carrying = config.carrying
         self.parts_moved = 0
         self._capable = frozenset(ActionKind(a) for a in config.actions)
         self._timers: dict[Id, simpy.events.Event] = {}
@@ -177,6 +177,18 @@ class RobotNode:
         env.process(self._ranlogic())
         env.process(self._agv())
         env.process(self._agv_action())
+
+    @property
+    def carrying(self) -> int:
+        """The parts on board. ``ran_status`` shows them (SPEC §2), so a change is a change of the robot's
+        status: published at the next tick even when RanLogic's state did not change with it."""
+        return self._carrying
+
+    @carrying.setter
+    def carrying(self, parts: int) -> None:
+        if parts != self._carrying:
+            self._carrying = parts
+            self._changed(self)
 
     # --- RanLogic ---------------------------------------------------------------------------------------
 
