@@ -5,8 +5,8 @@
 // once `await vcranView.ready` has resolved.
 //   seek(t) -> milliseconds the redraw took       time() -> the cursor
 //   poses(t) -> [{robot, x, y, theta}]            drawn() -> what the last draw put on the floor:
-//                                                  [{robot, x, y, theta, px, py, fill, task}] (px, py:
-//                                                  CSS pixels from the floor canvas's top left corner)
+//                                                  [{robot, x, y, theta, px, py, fill, task, selected}]
+//                                                  (px, py: CSS pixels from the floor canvas's top left)
 //   toPixel(x, y) -> [px, py]                      status(robot) -> {state, taskLabel, load, battery, error}
 //   parts(station) -> parts at the cursor          selectJob(id), selectRobot(id), clear()
 //   selected() -> {job, robots: [ids]}             play(), pause(), setSpeed(x)

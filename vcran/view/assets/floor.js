@@ -167,8 +167,8 @@ class Floor {
       const task = stepValue(this.data.col, "current", i, t, -1);
       const fill = taskColour(task);
       const [px, py] = this.toPixel(x, y);
-      this.drawn.push({ robot: robots[i].id, index: i, x, y, theta, px, py, fill, task });
       const on = selected.has(i);
+      this.drawn.push({ robot: robots[i].id, index: i, x, y, theta, px, py, fill, task, selected: on });
       ctx.globalAlpha = dim && !on ? 0.3 : 1;
       this.drawRobot(ctx, robots[i].footprint, x, y, theta, fill, on);
       if (labelled || on) {

@@ -68,7 +68,7 @@ class Panels {
     for (let i = 0; i < d.robots.length; i++) {
       const s = robotStatus(d, i, t), entry = this.cells[i];
       const texts = [s.state, s.taskLabel || "—", `${s.load}/${d.robots[i].capacity}`,
-        Number.isNaN(s.battery) ? "—" : `${s.battery.toFixed(0)}%`, s.error || "—"];
+        s.battery === null ? "—" : `${s.battery.toFixed(0)}%`, s.error || "—"];
       for (let k = 0; k < texts.length; k++) {
         if (entry.last[k] !== texts[k]) { entry.cells[k + 1].textContent = texts[k]; entry.last[k] = texts[k]; }
       }

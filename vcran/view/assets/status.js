@@ -23,7 +23,7 @@ function robotStatus(data, i, t) {
     task,
     taskLabel: task >= 0 ? data.taskLabels[c["tasks.label"][task]] : "",
     load,
-    battery,
+    battery: Number.isNaN(battery) ? null : battery,
     error: error >= 0 ? data.errorTexts[error] : "",
   };
 }
