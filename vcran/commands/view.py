@@ -10,8 +10,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError
+
+if TYPE_CHECKING:
+    from vcran.view.live import LiveView
 
 HELP = "write a run's folder as one interactive page (floor, robots moving, jobs, incidents) that opens from disk"
 PAGE = "view.html"
@@ -56,3 +60,44 @@ def write(run_dir: Path, out: Path, quiet: bool = False) -> Path:
     if not quiet:
         print(f"page in {page} ({page.stat().st_size / 1e6:.1f} MB): open it in a web browser")
     return page
+
+
+def add_live_argument(parser: argparse.ArgumentParser) -> None:
+    """``--view PORT`` of ``vcran live`` and ``vcran manage``."""
+    parser.add_argument("--view", type=int, metavar="PORT",
+                        help="serve the run's page (as vcran view writes it) on 127.0.0.1:PORT, following the run "
+                             "as it goes (docs/view.md); needs --out")
+
+
+def check_view(port: int | None, out: Path | None) -> None:
+    """Refuse a ``--view`` that cannot work, before the command opens anything."""
+    if port is None:
+        return
+    if out is None:
+        raise CommandError("--view shows the run folder as it is written: give --out")
+    if not 0 < port < 65536:
+        raise CommandError(f"--view takes a port number, 1-65535, got {port}")
+
+
+def serve_live(port: int | None, out: Path | None, quiet: bool = False) -> LiveView | None:
+    """The live page of the run being written into ``out`` on 127.0.0.1:``port`` (None: no --view); a port
+    that cannot be bound is a CommandError."""
+    check_view(port, out)
+    if port is None or out is None:
+        return None
+    from vcran.view.live import LiveView, live_folder
+
+    try:
+        view = LiveView(live_folder(out), port)
+    except OSError as exc:
+        raise CommandError(f"cannot serve the view on 127.0.0.1:{port}: {exc.strerror}") from None
+    if not quiet:
+        print(f"view: {view.url} (follows the run as it goes)", flush=True)
+    return view
+
+
+def end_live(view: LiveView | None) -> None:
+    """The run has ended: the page gets its last state before the server stops."""
+    if view is not None:
+        view.finish()
+        view.close()

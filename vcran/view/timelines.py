@@ -51,8 +51,8 @@ def task_timelines(robots: list[str], events: list[dict[str, Any]], end: float) 
             pending[i][e["task"]] = len(rows)
             rows.append([i, k, t, math.nan, end, 1])
         elif kind in ("task_completed", "task_cancelled") and isinstance(e.get("task"), str):
-            k = pending[i].pop(e["task"], None)
-            if k is None:
+            k = pending[i].pop(e["task"], -1)
+            if k < 0:
                 continue
             outcome = "completed" if kind == "task_completed" else str(e.get("reason", "cancelled"))
             if outcome not in outcomes:

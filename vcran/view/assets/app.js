@@ -19,17 +19,13 @@ class App {
     this.fleet = new Fleet(data);
     this.selection = { robots: new Set(), paths: [], job: -1 };
     const $ = (id) => document.getElementById(id);
-    document.title = `vcran view: ${data.title}`;
-    $("title").textContent = data.title;
-    const notes = $("notes");
-    for (const note of data.notes) notes.appendChild(element("li", {}, note));
-    notes.hidden = !data.notes.length;
+    this.heading();
     this.floor = new Floor($("floor"), data, this.fleet);
     this.floor.onChange = () => this.draw();
     $("floor").addEventListener("click", (e) => {
       if (this.floor.wasDrag()) return;
       const i = this.floor.hit(e.offsetX, e.offsetY);
-      if (i >= 0) this.selectRobot(i); else this.clear();
+      if (i >= 0) { this.panels.show("robots"); this.selectRobot(i); } else this.clear();
     });
     $("fit").addEventListener("click", () => { this.floor.fit(); this.draw(); });
     this.timeline = new Timeline({
@@ -44,6 +40,37 @@ class App {
       if (e.key === "ArrowLeft") this.seek(this.t - (e.shiftKey ? 10 : 1));
     });
     this.seek(0);
+  }
+
+  heading() {
+    const data = this.data, notes = document.getElementById("notes");
+    document.title = `vcran view: ${data.title}`;
+    document.getElementById("title").textContent = data.title;
+    notes.replaceChildren(...data.notes.map((note) => element("li", {}, note)));
+    notes.hidden = !data.notes.length;
+  }
+
+  // The run grew (a live page): new data in place of the old, the view, the selection and the cursor
+  // kept, unless the cursor was at the end, where it stays.
+  replaceData(data) {
+    const atEnd = this.t >= this.data.end;
+    const job = this.selection.job >= 0 ? this.data.jobs[this.selection.job].id : null;
+    const robots = [...this.selection.robots].map((i) => this.data.robots[i].id);
+    this.data = data;
+    this.fleet = new Fleet(data);
+    this.heading();
+    this.floor.setData(data, this.fleet);
+    this.timeline.setData(data);
+    this.panels.clear();
+    this.panels = new Panels(document.body, data, this);
+    const k = job === null ? -1 : data.jobs.findIndex((j) => j.id === job);
+    if (k >= 0) {
+      this.selectJob(k, false);
+    } else {
+      const kept = robots.map((id) => data.robots.findIndex((r) => r.id === id)).filter((i) => i >= 0);
+      this.selection = { robots: new Set(kept), paths: [], job: -1 };
+    }
+    this.seek(atEnd ? data.end : this.t);
   }
 
   // Move the cursor to t and redraw everything; returns how long the redraw took (ms).
@@ -70,7 +97,7 @@ class App {
 
   // A job: its robots highlighted, its tasks listed, the path driven while they were current drawn;
   // the cursor moves to its first task's start when it is outside the job's life.
-  selectJob(k) {
+  selectJob(k, move = true) {
     const c = this.data.col, job = this.data.jobs[k];
     const paths = [];
     let first = Infinity, last = -Infinity;
@@ -82,7 +109,7 @@ class App {
     }
     this.selection = { robots: new Set(job.robots), paths, job: k };
     this.panels.showJob(k);
-    if (Number.isFinite(first) && (this.t < first || this.t > last)) this.seek(first); else this.draw();
+    if (move && Number.isFinite(first) && (this.t < first || this.t > last)) this.seek(first); else this.draw();
   }
 
   clear() {
@@ -105,28 +132,32 @@ function robotIndex(data, id) {
 }
 
 function debugApi(app) {
-  const d = app.data;
+  const d = () => app.data;  // a live page replaces its data: always the current
   return {
     seek: (t) => app.seek(t),
     time: () => app.t,
-    poses: (t) => d.robots.map((r, i) => { const [x, y, theta] = app.fleet.pose(i, t); return { robot: r.id, x, y, theta }; }),
+    poses: (t) => d().robots.map((r, i) => { const [x, y, theta] = app.fleet.pose(i, t); return { robot: r.id, x, y, theta }; }),
     drawn: () => app.floor.drawn.map((e) => ({ ...e })),
     toPixel: (x, y) => app.floor.toPixel(x, y),
-    status: (id) => robotStatus(d, robotIndex(d, id), app.t),
-    parts: (id) => stationParts(d, d.stations.findIndex((s) => s.id === id), app.t),
-    selectJob: (id) => app.selectJob(d.jobs.findIndex((j) => j.id === id)),
-    selectRobot: (id) => app.selectRobot(robotIndex(d, id)),
+    status: (id) => robotStatus(d(), robotIndex(d(), id), app.t),
+    parts: (id) => stationParts(d(), d().stations.findIndex((s) => s.id === id), app.t),
+    selectJob: (id) => app.selectJob(d().jobs.findIndex((j) => j.id === id)),
+    selectRobot: (id) => app.selectRobot(robotIndex(d(), id)),
     clear: () => app.clear(),
-    selected: () => ({ job: app.selection.job >= 0 ? d.jobs[app.selection.job].id : null,
-      robots: [...app.selection.robots].map((i) => d.robots[i].id) }),
+    selected: () => ({ job: app.selection.job >= 0 ? d().jobs[app.selection.job].id : null,
+      robots: [...app.selection.robots].map((i) => d().robots[i].id) }),
     play: () => { if (!app.timeline.playing) app.timeline.toggle(); },
     pause: () => { if (app.timeline.playing) app.timeline.toggle(); },
     setSpeed: (x) => { app.timeline.speed = x; },
-    jobs: () => d.jobs,
-    incidents: () => Array.from(d.col["incidents.t"], (t, k) => ({
-      t, kind: d.incidentKinds[d.col["incidents.kind"][k]].kind,
-      robot: d.col["incidents.robot"][k] >= 0 ? d.robots[d.col["incidents.robot"][k]].id : null, text: d.incidentTexts[k] })),
-    end: () => d.end,
+    jobs: () => d().jobs,
+    incidents: () => {
+      const c = d().col;
+      return Array.from(c["incidents.t"], (t, k) => ({
+        t, kind: d().incidentKinds[c["incidents.kind"][k]].kind,
+        robot: c["incidents.robot"][k] >= 0 ? d().robots[c["incidents.robot"][k]].id : null,
+        text: d().incidentTexts[k] }));
+    },
+    end: () => d().end,
   };
 }
 
@@ -138,7 +169,7 @@ window.vcranView.ready = (async () => {
     const app = new App(data);
     Object.assign(window.vcranView, debugApi(app));
     window.vcranView.app = app;
-    if (typeof startLive === "function") startLive(app);
+    if (typeof startLive === "function") startLive(app);  // live.js, on a page vcran live --view serves
   } catch (error) {
     document.getElementById("failure").hidden = false;
     document.getElementById("failure").textContent = `This page could not show the run: ${error.message}`;

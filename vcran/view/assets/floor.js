@@ -23,6 +23,15 @@ class Floor {
     this.listen();
   }
 
+  // The run's data grew (a live page): the same view of the floor, the static layer redrawn.
+  setData(data, fleet) {
+    const first = !this.data.geometry && data.geometry;
+    this.data = data;
+    this.fleet = fleet;
+    this.dirty = true;
+    if (first) this.fit();
+  }
+
   resize() {
     const dpr = window.devicePixelRatio || 1;
     const w = Math.max(1, this.canvas.clientWidth), h = Math.max(1, this.canvas.clientHeight);

@@ -24,6 +24,14 @@ class Panels {
     this.buildJobs();
     this.buildIncidents();
     this.buildAbout();
+    this.show(app.panels ? app.panels.current : data.jobs.length ? "jobs" : "robots");
+  }
+
+  // Empty what the constructor filled: a live page builds the panels anew as the run grows.
+  clear() {
+    for (const selector of ["#tabs", "#robots tbody", "#jobs tbody", "#incidents", "#panel-about", "#job-detail"]) {
+      this.root.querySelector(selector).replaceChildren();
+    }
   }
 
   buildTabs() {
@@ -37,7 +45,6 @@ class Panels {
       tabs.appendChild(b);
       this.tabs[name] = b;
     }
-    this.show(d.jobs.length ? "jobs" : "robots");
   }
 
   show(name) {
@@ -47,10 +54,12 @@ class Panels {
       this.root.querySelector(`#panel-${n}`).hidden = n !== name;
     }
     if (name === "incidents") this.listIncidents(this.app.t, true);
+    if (name === "robots" && this.selected) this.update(this.t, this.selected);
   }
 
   buildRobots() {
     const body = this.root.querySelector("#robots tbody");
+    this.root.querySelector("#panel-robots").onscroll = () => { if (this.selected) this.update(this.t, this.selected); };
     this.data.robots.forEach((r, i) => {
       const row = element("tr", { "data-robot": r.id });
       const cells = [element("td", {}, r.id)];
@@ -62,10 +71,19 @@ class Panels {
     });
   }
 
-  // Refresh the robot table at t: only the cells whose text changed are touched.
+  // Refresh the robot table at t: only while it is shown, only the rows in sight (a thousand rows'
+  // layout was most of a scrub's time), only the cells whose text changed.
   update(t, selected) {
-    const d = this.data;
-    for (let i = 0; i < d.robots.length; i++) {
+    this.t = t;
+    this.selected = selected;
+    if (this.current === "incidents") this.listIncidents(t, false);
+    if (this.current !== "robots") return;
+    const d = this.data, box = this.root.querySelector("#panel-robots");
+    const first = this.cells.length ? this.cells[0].row : null;
+    const height = first && first.offsetHeight > 0 ? first.offsetHeight : 20;
+    const from = Math.max(0, Math.floor(box.scrollTop / height) - 5);
+    const to = Math.min(d.robots.length, from + Math.ceil(box.clientHeight / height) + 10);
+    for (let i = from; i < to; i++) {
       const s = robotStatus(d, i, t), entry = this.cells[i];
       const texts = [s.state, s.taskLabel || "—", `${s.load}/${d.robots[i].capacity}`,
         s.battery === null ? "—" : `${s.battery.toFixed(0)}%`, s.error || "—"];
@@ -77,7 +95,6 @@ class Panels {
       const on = selected.has(i);
       if (entry.on !== on) { entry.row.classList.toggle("selected", on); entry.on = on; }
     }
-    if (this.current === "incidents") this.listIncidents(t, false);
   }
 
   buildJobs() {
@@ -93,9 +110,9 @@ class Panels {
       return row;
     });
     this.root.querySelectorAll("#jobs th[data-sort]").forEach((th) => {
-      th.addEventListener("click", () => this.sortJobs(th.dataset.sort));
+      th.onclick = () => this.sortJobs(th.dataset.sort);  // one handler, whichever Panels is current
     });
-    if (!d.jobs.length) this.root.querySelector("#panel-jobs .empty").hidden = false;
+    this.root.querySelector("#panel-jobs .empty").hidden = d.jobs.length > 0;
   }
 
   sortJobs(key) {

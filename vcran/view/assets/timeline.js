@@ -13,10 +13,9 @@ class Timeline {
     this.t = 0;
     this.playing = false;
     this.speed = 10;
+    this.follow = false;  // a live page: playing goes on past the end as the run grows
     this.strip = document.createElement("canvas");
-    const c = data.col;
-    this.kinds = data.incidentKinds.filter((k, n) => c["incidents.kind"].includes(n));
-    this.rowOf = new Map(this.kinds.map((k, r) => [data.incidentKinds.indexOf(k), r]));
+    this.kindsOf(data);
     for (const s of SPEEDS) {
       const o = document.createElement("option");
       o.value = String(s); o.textContent = `${s}×`;
@@ -33,10 +32,19 @@ class Timeline {
     this.resize();
   }
 
-  setEnd(end) {
-    this.data.end = end;
-    this.el.slider.max = String(end);
-    this.el.end.textContent = formatTime(end);
+  kindsOf(data) {
+    const present = data.col["incidents.kind"];
+    this.kinds = data.incidentKinds.filter((k, n) => present.includes(n));
+    this.rowOf = new Map(this.kinds.map((k, r) => [data.incidentKinds.indexOf(k), r]));
+  }
+
+  // The run's data grew (a live page).
+  setData(data) {
+    this.data = data;
+    this.kindsOf(data);
+    this.el.slider.max = String(data.end);
+    this.el.end.textContent = formatTime(data.end);
+    this.resize();
   }
 
   toggle() {
@@ -48,7 +56,7 @@ class Timeline {
       let last = performance.now();
       const step = (now) => {
         if (!this.playing) return;
-        const next = Math.min(this.data.end, this.t + (now - last) / 1000 * this.speed);
+        const next = Math.min(this.data.end, this.t + (now - last) / 1000 * this.speed);  // a live run: waits at its end
         last = now;
         this.onSeek(next);
         if (next >= this.data.end && !this.follow) { this.toggle(); return; }
