@@ -32,7 +32,9 @@ class App {
       slider: $("slider"), play: $("play"), speed: $("speed"), time: $("time"), end: $("end"), strip: $("strip"),
     }, data, (t) => this.seek(t), (k) => this.jumpToIncident(k));
     this.panels = new Panels(document.body, data, this);
-    window.addEventListener("resize", () => { this.floor.resize(); this.floor.fit(); this.timeline.resize(); this.draw(); });
+    window.addEventListener("resize", () => {
+      this.floor.resize(); this.floor.fit(); this.timeline.resize(); this.panels.measure(); this.draw();
+    });
     window.addEventListener("keydown", (e) => {
       if (e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement) return;
       if (e.key === " ") { e.preventDefault(); this.timeline.toggle(); }

@@ -54,12 +54,22 @@ class Panels {
       this.root.querySelector(`#panel-${n}`).hidden = n !== name;
     }
     if (name === "incidents") this.listIncidents(this.app.t, true);
+    if (name === "robots") this.measure();
     if (name === "robots" && this.selected) this.update(this.t, this.selected);
+  }
+
+  // Which rows of the robot table are in sight: its scroll offset, height and row height.
+  measure() {
+    const box = this.root.querySelector("#panel-robots"), first = this.cells.length ? this.cells[0].row : null;
+    this.sight = { top: box.scrollTop, height: box.clientHeight || window.innerHeight,
+      row: first && first.offsetHeight > 0 ? first.offsetHeight : 20 };
   }
 
   buildRobots() {
     const body = this.root.querySelector("#robots tbody");
-    this.root.querySelector("#panel-robots").onscroll = () => { if (this.selected) this.update(this.t, this.selected); };
+    this.sight = { top: 0, height: window.innerHeight, row: 20 };
+    const box = this.root.querySelector("#panel-robots");
+    box.onscroll = () => { this.measure(); if (this.selected) this.update(this.t, this.selected); };
     this.data.robots.forEach((r, i) => {
       const row = element("tr", { "data-robot": r.id });
       const cells = [element("td", {}, r.id)];
@@ -78,11 +88,9 @@ class Panels {
     this.selected = selected;
     if (this.current === "incidents") this.listIncidents(t, false);
     if (this.current !== "robots") return;
-    const d = this.data, box = this.root.querySelector("#panel-robots");
-    const first = this.cells.length ? this.cells[0].row : null;
-    const height = first && first.offsetHeight > 0 ? first.offsetHeight : 20;
-    const from = Math.max(0, Math.floor(box.scrollTop / height) - 5);
-    const to = Math.min(d.robots.length, from + Math.ceil(box.clientHeight / height) + 10);
+    const d = this.data, sight = this.sight;  // measured when shown and scrolled: reading the layout
+    const from = Math.max(0, Math.floor(sight.top / sight.row) - 5);  // here would force it at every scrub
+    const to = Math.min(d.robots.length, from + Math.ceil(sight.height / sight.row) + 10);
     for (let i = from; i < to; i++) {
       const s = robotStatus(d, i, t), entry = this.cells[i];
       const texts = [s.state, s.taskLabel || "—", `${s.load}/${d.robots[i].capacity}`,
