@@ -217,3 +217,11 @@ def test_folders_that_cannot_be_shown_are_one_clear_error(runs, tmp_path):
     write_lines(broken / EVENTS_FILE, ['{"t": 1.0, "robot": "r"}'])
     with pytest.raises(ViewError, match=r"events.jsonl.zst:1: not an event"):
         read_folder(broken)
+
+
+def test_a_format_1_recording_is_shown_with_a_note_that_its_robots_stay_put():
+    """tests/data/v1-demo (format 1: telemetry.bin, no leg log): tasks and states shown, robots not moving."""
+    model = build_model(read_folder(ROOT / "tests" / "data" / "v1-demo"))
+    assert any("format 1" in note for note in model.notes)
+    assert model.legs is None and model.geometry
+    assert [model.tasks.labels[k] for k in model.tasks.label] == ["100", "200", "300"]

@@ -96,7 +96,11 @@ class Panels {
       const texts = [s.state, s.taskLabel || "—", `${s.load}/${d.robots[i].capacity}`,
         s.battery === null ? "—" : `${s.battery.toFixed(0)}%`, s.error || "—"];
       for (let k = 0; k < texts.length; k++) {
-        if (entry.last[k] !== texts[k]) { entry.cells[k + 1].textContent = texts[k]; entry.last[k] = texts[k]; }
+        if (entry.last[k] !== texts[k]) {
+          entry.cells[k + 1].textContent = texts[k];
+          if (k === 4) entry.cells[k + 1].title = texts[k];  // the whole error, where the cell cuts it
+          entry.last[k] = texts[k];
+        }
       }
       const colour = taskColour(s.task);
       if (entry.colour !== colour) { entry.cells[2].style.borderLeft = `6px solid ${colour}`; entry.colour = colour; }
