@@ -70,7 +70,7 @@ class Tasks:
 
     ``started``: when it became the robot's current task (NaN: never, cancelled while queued); ``end``:
     when it completed or was cancelled (the run's end while open); ``outcome``: an index into
-    :data:`OUTCOMES` order as given by ``outcomes``."""
+    ``outcomes`` (``completed``, ``open``, then the cancel reasons the run had)."""
 
     robot: np.ndarray  # int32
     label: np.ndarray  # int32, into labels
