@@ -49,7 +49,7 @@ from transports.orion.workers import poll, resilient
 from vcran.core.codec import CodecError, decode_attribute, encode_attribute, split_batch
 from vcran.core.jobs import Log
 from vcran.core.manager import FleetManager
-from vcran.core.messages import INBOUND, OUTBOUND, Message
+from vcran.core.messages import INBOUND, OUTBOUND, Message, RanStatus
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Deliver, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
@@ -289,12 +289,45 @@ class OrionLink(ManagerLink):
 
 
 class OrionLoop(ClosedLoop):
-    """:class:`ClosedLoop` whose link is a real Orion: the manager's side of ``vcran manage``."""
+    """:class:`ClosedLoop` whose link is a real Orion: the manager's side of ``vcran manage``.
+
+    Besides the ``job_*`` events, ``log`` gets what the manager heard of the robots through Orion, from
+    each robot's ``ran_status`` (issue 29 item 12: ``vcran report`` draws the fleet figure from them): a
+    ``state`` event when its RanLogic state changed, ``task_completed`` and ``task_cancelled`` (with the
+    reason) for each task newly in its lists, at the instant the notification (or read) reached the
+    manager, before the manager's hooks see it. The first status heard of a robot is the baseline: tasks
+    that ended before ``manage`` started are not logged as ending then."""
 
     def __init__(self, scenario: Scenario, manager: FleetManager, log: Log, client: OrionClient,
                  options: ManageOptions) -> None:
         super().__init__(scenario, manager, log)
         self.client, self.options = client, options
+        self._log = log
+        self._heard: dict[str, RanStatus] = {}
+
+    def notified(self, batch: list[Outbound]) -> None:
+        assert self.handle is not None
+        for out in batch:
+            if isinstance(out, Publish) and out.attribute == "ran_status" and isinstance(out.message, RanStatus):
+                self._hear(self.handle.now, out.robot, out.message)
+        super().notified(batch)
+
+    def _hear(self, t: float, robot: str, status: RanStatus) -> None:
+        before = self._heard.get(robot)
+        self._heard[robot] = status
+        state = before.state if before is not None else "WAITING"  # every robot starts WAITING (R1)
+        if status.state != state:
+            self._log(t, robot, "state", {"from": state, "to": status.state})
+        if before is None:
+            return
+        done = set(before.completed)
+        for task in status.completed:
+            if task not in done:
+                self._log(t, robot, "task_completed", {"task": task.label})
+        ended = {end.task_id for end in before.cancelled}
+        for end in status.cancelled:
+            if end.task_id not in ended:
+                self._log(t, robot, "task_cancelled", {"task": end.task_id.label, "reason": end.reason})
 
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> OrionLink:
         assert isinstance(env, LiveEnvironment)

@@ -14,6 +14,10 @@ if TYPE_CHECKING:
 BUNDLED = ("battery", "crossing", "demo", "faults", "warehouse")
 
 
+#: What ``--manager`` adds to each command's help: which options the class gets (vcran.api.manager_options).
+MANAGER_OPTIONS = "; it gets the scenario's [manager] options only if it is the class the scenario names"
+
+
 class CommandError(Exception):
     """A command cannot go on: ``main`` prints ``vcran COMMAND: message`` and returns ``code``."""
 

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from vcran.commands import CommandError, add_scenario_argument, check_positive, load_scenario
+from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
@@ -34,7 +34,7 @@ POLL_INTERVAL = 0.25
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scenario_argument(parser, " with the fleet and its jobs")
     add_connection_arguments(parser)
-    parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])")
+    parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])" + MANAGER_OPTIONS)
     parser.add_argument("--notify-url", metavar="URL",
                         help="subscribe: Orion notifies the manager of the robots' updates at this URL (vcran "
                              "listens there); default: poll Orion, for a manager Orion cannot reach")
@@ -157,7 +157,8 @@ def run(args: argparse.Namespace) -> int:
     t = env.now
     jobs = loop.jobs.summary(t)
     if work is not None:
-        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
+        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "seed": scenario.settings.seed,
+                             "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
         publish(work, args.out)
     end_live(view)
     if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling

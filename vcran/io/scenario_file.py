@@ -60,16 +60,18 @@ def bundled() -> dict[str, Path]:
 SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
-def resolve(path: str | Path) -> Path:
-    """``path``, or the bundled scenario of that name when no such file exists."""
+def resolve(path: str | Path, folder: Path | None = None) -> Path:
+    """``path`` (relative to ``folder`` when given: a sweep file's ``scenario`` is relative to the sweep
+    file), or the bundled scenario of that name when no such file exists."""
     path = Path(path)
-    if not path.exists() and path.name == str(path):
+    where = folder / path if folder is not None else path
+    if not where.exists() and path.name == str(path):
         names = bundled()
         if path.suffix or path.name not in names:
-            raise ScenarioError(f"{path}: no such file (and no bundled scenario of that name; "
+            raise ScenarioError(f"{where}: no such file (and no bundled scenario of that name; "
                                 f"bundled: {', '.join(names)})")
         return names[path.name]
-    return path
+    return where
 
 
 def load(path: str | Path) -> Scenario:
@@ -492,7 +494,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
     rate, interval = t.number("rate", None, positive=True), t.number("mean_interval", None, positive=True)
     if (rate is None) == (interval is None):
         t.fail("rate", "give exactly one of rate (jobs per hour) and mean_interval (seconds)")
-    mean = 3600.0 / rate if rate is not None else interval
+    per_hour = rate if rate is not None else 3600.0 / interval  # JobStream.rate, as the file's key says
     start = t.number("start", 0.0, minimum=0.0)
     _check_start(t, start, settings.duration, "job stream")
     until = t.number("until", settings.duration, minimum=0.0)
@@ -509,7 +511,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
     if clash is not None:
         t.fail("prefix", f"the stream names its jobs {prefix}_1, {prefix}_2, ...; [[jobs]] id {clash!r} would clash")
     stream = JobStream(
-        mean_interval=mean, pickups=pickups, dropoffs=dropoffs, until=until,
+        rate=per_hour, pickups=pickups, dropoffs=dropoffs, until=until,
         seed=t.integer("seed", settings.seed), start=start, prefix=prefix,
         priority=t.integer("priority", 0), deadline_after=t.number("deadline_after", None, positive=True),
     )
