@@ -35,6 +35,8 @@ class Body:
         self.leg: dict[int, Leg] = {}
         self.token: dict[int, int] = {}
         self.log: list[tuple[float, str, int, Any]] = []
+        #: called with (robot, now) when a robot has arrived at the end of a leg (a fleet manager's hook)
+        self.arrived: Callable[[int, float], None] | None = None
 
     def at(self, t: float, call: Callable[[float], None]) -> None:
         heapq.heappush(self.heap, (t, next(self.order), call))
@@ -61,6 +63,8 @@ class Body:
         leg = self.leg[i]
         self.log.append((now, "arrived", i, (leg.x1, leg.y1)))
         self.apply(self.traffic.rest(i, (leg.x1, leg.y1, leg.end_theta), now), now)
+        if self.arrived is not None:
+            self.arrived(i, now)
 
     def apply(self, effects: list[Effect], now: float) -> None:
         for e in effects:
