@@ -45,10 +45,14 @@ class Body:
         """Robot ``i`` starts ``leg`` at its ``t0``."""
         self.at(leg.t0, lambda now: self._start(i, leg, now, self.traffic.drive(i, leg, now)))
 
-    def run(self, until: float) -> list[tuple[float, str, int, Any]]:
+    def run(self, until: float, limit: int = 100_000) -> list[tuple[float, str, int, Any]]:
+        """Play events up to ``until``; more than ``limit`` of them is a runaway (an assertion fails)."""
+        played = 0
         while self.heap and self.heap[0][0] <= until:
             t, _, call = heapq.heappop(self.heap)
             call(t)
+            played += 1
+            assert played <= limit, f"more than {limit} events by t = {t}: {self.log[-6:]}"
         return self.log
 
     def _start(self, i: int, leg: Leg, now: float, effects: list[Effect]) -> None:
@@ -80,6 +84,7 @@ class Body:
                 self.token[e.robot] = self.token.get(e.robot, 0) + 1  # the running leg will not arrive
                 self.log.append((now, "brake", e.robot, (e.braking.t_stop, e.braking.pose)))
             elif isinstance(e, DriveOn):
+                assert not self.traffic.watch.holding(e.robot), "drives on with a robot in its field"
                 self.log.append((now, "drive_on", e.robot, None))
                 self._start(e.robot, e.leg, now, [])
             elif isinstance(e, BlockedBy):

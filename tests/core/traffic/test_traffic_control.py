@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.core.traffic.body import Body
 from vcran.core.collisions import Footprint
@@ -104,3 +106,38 @@ def test_a_new_leg_for_a_blocked_robot_ends_its_block() -> None:
     # the fleet manager sends robot 0 back west from where it stopped (12, 0): unblocked at once
     effects = t.drive(0, Leg(20.0, 12.0, 0.0, 0.0, 0.0, 0.0, None, LIMITS), 20.0)
     assert not t.blocked(0) and type(effects[0]).__name__ == "Unblocked"
+
+
+def test_a_robot_parked_beyond_the_goal_does_not_block_the_arrival() -> None:
+    """Robot 0 drives (0, 0) -> (20, 0), arriving at t = 22; robot 1 rests at (21.6, 0), its near side 0.6 m
+    past robot 0's front at the goal (20.5). An uncut field (2 m at rest) would reach it from t = 20 (during
+    the last 2 s the field's tip stays at 20.5 + 2 = 22.5: the robot slows as much as it advances); cut at
+    the goal it never does, and robot 0 arrives on time. Robot 1 0.4 m further back (21.2, near side 20.7):
+    still no block (the cut field ends at 20.5)."""
+    for x in (21.6, 21.2):
+        body = Body(traffic([(0.0, 0.0, 0.0), (x, 0.0, 0.0)]))
+        body.send(0, Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, LIMITS))
+        log = body.run(100.0)
+        assert events(log, "blocked", "arrived") == [(22.0, "arrived", 0, (20.0, 0.0))]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20), st.integers(0, 20), st.integers(0, 20),
+                          st.integers(0, 5)), min_size=2, max_size=4, unique_by=lambda r: (r[0], r[1])))
+def test_random_fleets_never_run_away_and_blocks_pair_up(robots: list[tuple[int, int, int, int, int]]) -> None:
+    """Robots on a 20 m square each sent once to a random point: the run ends (no endless stop-and-go at
+    one instant), nobody drives on with a robot in its field (the body asserts it), blocked and unblocked
+    alternate per robot, and every robot of a reported cycle had stopped."""
+    poses = [(float(x), float(y), 0.0) for x, y, *_ in robots]
+    t = traffic(poses, bound=50.0)
+    body = Body(t)
+    for i, (x, y, gx, gy, start) in enumerate(robots):
+        if (gx, gy) != (x, y):
+            body.send(i, Leg(float(start), float(x), float(y), 0.0, float(gx), float(gy), None, LIMITS))
+    log = body.run(500.0, limit=20_000)
+    for i in range(len(robots)):
+        spells = [what for _, what, robot, _ in log if robot == i and what in ("blocked", "unblocked")]
+        assert spells == ["blocked", "unblocked"] * (len(spells) // 2) + ["blocked"] * (len(spells) % 2)
+    for _, what, _, d in log:
+        if what == "deadlock" and d.kind == CYCLE:
+            assert all(r in t.stopped for r in d.robots)

@@ -46,6 +46,11 @@ class Braking:
         return Leg(t, x, y, theta, leg.x1, leg.y1, leg.theta_goal, leg.limits)
 
     @property
+    def speed(self) -> float:
+        """The speed the robot had when it began to brake."""
+        return self.stop.limits.speed if self.stop is not None else 0.0
+
+    @property
     def resume_speed(self) -> float:
         """The top speed of :meth:`remainder`: what a waiting field's length is set for (vcran.core.traffic.fields)."""
         return self.remainder(self.t_stop).peak

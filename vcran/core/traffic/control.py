@@ -174,7 +174,7 @@ class Traffic:
         field = self.fields[i]
         assert field is not None
         track = Track(i, self.footprints[i], None, b.pose, math.inf)
-        effects = self._update(i, track, waiting(i, field, b.resume_speed, None, b.pose), now)
+        effects = self._update(i, track, waiting(i, field, _hold(b), None, b.pose, _goal(b)), now)
         found = self.waits.stopped(i, now)
         if found is not None:
             effects.append(Deadlocked(found))
@@ -194,7 +194,7 @@ class Traffic:
         until = b.stop.t_end if b.stop is not None else math.inf
         track = Track(i, self.footprints[i], b.stop, start, until)
         effects: list[Effect] = [Brake(i, b), Wake(i, b.t_stop, BRAKED, self.spells[i])]
-        return effects + self._update(i, track, waiting(i, field, b.resume_speed, b.stop, b.pose), now)
+        return effects + self._update(i, track, waiting(i, field, _hold(b), b.stop, b.pose, _goal(b)), now)
 
     def _drive_on(self, i: int, now: float) -> list[Effect]:
         b = self.brakings.pop(i)
@@ -216,3 +216,15 @@ class Traffic:
 
     def _update(self, i: int, track: Track, field: FieldTrack | None, now: float) -> list[Effect]:
         return [Predicted(c) for c in self.watch.update(i, track, field, now)]
+
+
+def _hold(b: Braking) -> float:
+    """The speed a waiting field's length is set for: the speed the robot will drive on at, or the one it
+    braked from if higher, so that the waiting field holds whatever the driving field held (no block and
+    clear at one instant)."""
+    return max(b.speed, b.resume_speed)
+
+
+def _goal(b: Braking) -> tuple[float, float]:
+    """Where the braked motion ends: a waiting field is cut there, as the driving field was."""
+    return b.leg.x1, b.leg.y1

@@ -15,9 +15,13 @@ at least ``margin`` short of an obstacle standing still (a robot coming the othe
 both close the gap: docs/robots.md, "Traffic", says how long fields must be then). A turn in place has
 speed 0: the field keeps its length at rest and turns with the robot.
 
+The field never reaches past where the robot will stop: it is cut at the distance from the robot to the
+end of its motion (every leg ends at rest). A robot arriving at a goal with a robot parked just beyond it
+is not blocked (else it would wait at its goal, its motion never done, for a robot it will never reach).
+
 A *waiting* field is the field of a robot that was blocked: its length is fixed at the length for the
-speed the robot will drive on at (:attr:`vcran.core.traffic.braking.Braking.resume_speed`), whatever its
-speed while braking and waiting. The robot drives on only when that field is clear, so a robot that starts
+speed the robot will drive on at (:attr:`vcran.core.traffic.braking.Braking.resume_speed`), or the speed
+it braked from if that was higher, whatever its speed while braking and waiting. The robot drives on only when that field is clear, so a robot that starts
 again does not find the obstacle in its field a moment later at the speed it gains (no stop-and-go within
 an instant: the hysteresis of a real scanner's field switching).
 
@@ -97,6 +101,7 @@ class FieldTrack:
     """Robot ``index``'s field along ``leg`` (or at rest at ``pose``) until ``until``.
 
     ``fixed``: the length of a waiting field (module docstring); None: the length follows the speed.
+    ``goal``: where the robot's motion ends: the field is cut at the robot's distance to it (None: not cut).
     Treat as immutable (a plain dataclass for the same reason as :class:`vcran.core.collisions.Track`).
     """
 
@@ -106,6 +111,7 @@ class FieldTrack:
     pose: tuple[float, float, float]
     until: float
     fixed: float | None = None
+    goal: tuple[float, float] | None = None
 
     @property
     def longest(self) -> float:
@@ -154,12 +160,14 @@ class FieldTrack:
 
 
 def driving(index: int, field: Field, leg: Leg) -> FieldTrack:
-    """The field of robot ``index`` driving ``leg``: its length follows the speed."""
-    return FieldTrack(index, field, leg, (leg.x0, leg.y0, leg.theta0), leg.t_end)
+    """The field of robot ``index`` driving ``leg``: its length follows the speed, cut at the leg's end."""
+    return FieldTrack(index, field, leg, (leg.x0, leg.y0, leg.theta0), leg.t_end, goal=(leg.x1, leg.y1))
 
 
-def waiting(index: int, field: Field, speed: float, leg: Leg | None, pose: tuple[float, float, float]) -> FieldTrack:
+def waiting(index: int, field: Field, speed: float, leg: Leg | None, pose: tuple[float, float, float],
+            goal: tuple[float, float] | None = None) -> FieldTrack:
     """The waiting field of robot ``index``, blocked: the length for ``speed`` (the speed it will drive on
-    at), along its braking ``leg`` or at rest at ``pose`` (``leg`` None)."""
+    at), along its braking ``leg`` or at rest at ``pose`` (``leg`` None), cut at ``goal`` (the end of the
+    motion it will drive on; None: not cut)."""
     until = leg.t_end if leg is not None else math.inf
-    return FieldTrack(index, field, leg, pose, until, fixed=field.length(speed))
+    return FieldTrack(index, field, leg, pose, until, fixed=field.length(speed), goal=goal)
