@@ -17,6 +17,8 @@ module:
   for a whole fleet at near-linear cost (the grid of :mod:`vcran.core.collisions`);
 - :mod:`~vcran.core.traffic.deadlock`: cycles of robots stopped on one another, and robots blocked longer
   than a bound;
+- :mod:`~vcran.core.traffic.control`: the fleet's state machine (brake, wait, drive on; ``blocked``,
+  ``unblocked``, ``deadlock``) with inputs carrying ``now`` and effects as data: what the SimPy body drives;
 - :mod:`~vcran.core.traffic.reservations`: node reservations for a fleet manager's robots, so that they
   neither meet nor deadlock on a roadmap.
 
