@@ -135,6 +135,16 @@ def test_charging_starts_standing_and_stops_on_request() -> None:
     assert bench.seen()["order"] == ("o", 0)
 
 
+def test_charging_is_reported_as_the_vehicle_decides_it_with_or_without_a_battery_model() -> None:
+    """The state says what the acceptance rules use: a master that sees charging false must not get an
+    orderError for charging (found by the fuzzing machine: a robot without a battery model reported false)."""
+    bench = Bench()
+    assert bench.battery is None
+    bench.instant(instant(action("startCharging", "c1", "NONE")))
+    bench.finish("c1")
+    assert bench.last.battery_state.charging and bench.last.battery_state.battery_charge == 100.0
+
+
 def test_charging_is_refused_while_driving() -> None:
     bench = Bench()
     bench.order(order("o", 0, [A, B]))

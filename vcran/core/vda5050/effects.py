@@ -56,7 +56,7 @@ class Body:
     vx: float = 0.0
     vy: float = 0.0
     omega: float = 0.0
-    #: State of charge in percent; None: the robot has no battery model (reported as 100, never charging).
+    #: State of charge in percent; None: the robot has no battery model (reported as 100).
     battery: float | None = None
     #: What the body carries (``state.loads``); None: the body cannot tell (the field is left out).
     loads: tuple[Load, ...] | None = ()

@@ -102,7 +102,7 @@ class ReportingMixin:
             new_base_request=self.new_base_request,
             distance_since_last_node=since,
             action_states=self.actions.states(),
-            battery_state=BatteryState(battery_charge=charge, charging=self.charging and body.battery is not None),
+            battery_state=BatteryState(battery_charge=charge, charging=self.charging),
             operating_mode=OperatingMode.AUTOMATIC,
             errors=self.errors.listed(),
             safety_state=_FIELD if self.field_violation else _NO_FIELD,
