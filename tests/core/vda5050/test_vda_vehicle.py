@@ -52,6 +52,17 @@ def test_pause_holds_the_body_and_its_actions_and_resume_goes_on() -> None:
     assert Release("pause") in effects and not bench.last.paused and bench.last.driving
 
 
+def test_the_pause_button_pauses_as_start_pause_does() -> None:
+    """§6.10.6 paused: "either because of the push of a physical button on the AGV or because of an
+    instantAction" (SPEC §4's pause and resume faults)."""
+    bench = Bench()
+    bench.order(order("o", 0, [A, B]))
+    assert Hold("pause") in bench.call("on_pause_button", True)
+    assert bench.last.paused and not bench.last.driving and bench.seen()["actions"] == {}
+    assert Release("pause") in bench.call("on_pause_button", False)
+    assert bench.last.driving
+
+
 def test_paused_actions_are_reported_paused_where_configured() -> None:
     """§6.11 PAUSED: "The action is paused because of a pause instantAction" (``report_paused``)."""
     bench = Bench(VehicleConfig(MANUFACTURER, SERIAL, report_paused=True))

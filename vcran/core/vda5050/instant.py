@@ -19,7 +19,7 @@ from vcran.core.vda5050 import errors
 from vcran.core.vda5050.actions import FAILED, FINISHED, WAITING, Run
 from vcran.core.vda5050.codec import Invalid
 from vcran.core.vda5050.config import ActionSpec
-from vcran.core.vda5050.effects import Hold, Place, PublishFactsheet, Release, Where
+from vcran.core.vda5050.effects import Place, PublishFactsheet, Where
 from vcran.core.vda5050.enums import ActionScope
 from vcran.core.vda5050.order import Action
 from vcran.core.vda5050.state import Error
@@ -51,6 +51,8 @@ class InstantActionsMixin:
         def executing(self) -> bool: ...
 
         def cancel_order(self, now: float, run: Run) -> None: ...
+
+        def set_paused(self, on: bool) -> None: ...
 
         def _warn(self, e: Error) -> None: ...
 
@@ -115,15 +117,8 @@ class InstantActionsMixin:
         self._warn(errors.error(errors.INSTANT_ACTION, why, refs))
 
     def _pause(self, run: Run, on: bool) -> None:
-        """startPause/stopPause: the body holds (goes on) and running actions pause (resume) with it."""
-        if on and not self.paused:
-            self.paused = True
-            self._out.append(Hold("pause"))
-            self.actions.hold(True)
-        elif not on and self.paused:
-            self.paused = False
-            self._out.append(Release("pause"))
-            self.actions.hold(self.broken)
+        """startPause/stopPause: FINISHED once pause mode is on (off), at once (§6.8.2)."""
+        self.set_paused(on)
         self.actions.set(run, FINISHED)
 
     def _init_position(self, run: Run, where: Where) -> None:

@@ -22,6 +22,7 @@ from vcran.core.effects import LocalProtocolError
 from vcran.core.vda5050 import acceptance, errors
 from vcran.core.vda5050.actions import FAILED, FINISHED, RUNNING, ActionBook, Run
 from vcran.core.vda5050.codec import Invalid
+from vcran.core.vda5050.conditions import ConditionsMixin
 from vcran.core.vda5050.config import VehicleConfig
 from vcran.core.vda5050.effects import (
     Abandon,
@@ -44,7 +45,7 @@ from vcran.core.vda5050.effects import (
     Waypoint,
     Where,
 )
-from vcran.core.vda5050.enums import ActionScope, ErrorLevel
+from vcran.core.vda5050.enums import ActionScope
 from vcran.core.vda5050.header import Stamper
 from vcran.core.vda5050.instant import InstantActionsMixin
 from vcran.core.vda5050.order import InstantActions, Order
@@ -54,15 +55,7 @@ from vcran.core.vda5050.state import Error
 
 #: Two instants closer than this are the same instant (seconds; R14's tolerance).
 TOLERANCE = 1e-6
-#: Why a body halts for good (SPEC §4), and the error each is reported as.
-HALTS: dict[str, tuple[str, ErrorLevel]] = {
-    "battery_empty": (errors.BATTERY_EMPTY, ErrorLevel.FATAL),
-    "motion_failed": (errors.MOTION_FAILED, ErrorLevel.WARNING),
-    "collision": (errors.COLLISION, ErrorLevel.WARNING),
-}
-
-
-class Vehicle(InstantActionsMixin, ReportingMixin):
+class Vehicle(InstantActionsMixin, ConditionsMixin, ReportingMixin):
     """One vehicle's protocol logic. Construct once; feed it inputs in time order."""
 
     def __init__(self, config: VehicleConfig, *, last_node_id: str = "", last_node_sequence_id: int = 0) -> None:
@@ -172,80 +165,6 @@ class Vehicle(InstantActionsMixin, ReportingMixin):
                 refs.append(("orderId", self.order_id))
             self._warn(errors.error(errors.ACTION_FAILED, message or f"{run.action.action_type} failed", refs))
         self._advance(now)
-        return self._end()
-
-    def on_halted(self, now: float, why: str, message: str = "") -> list[Effect]:
-        """The body stopped for good (SPEC §4): ``battery_empty``, ``motion_failed`` or ``collision``. Its
-        running leg and actions are over; the order is given up: what had not ended FAILED, nodeStates and
-        edgeStates emptied, orderId kept. An empty battery is FATAL until :meth:`on_serviced`."""
-        self._begin(now)
-        error_type, level = HALTS[why]
-        refs = [("lastNodeId", self.last_node_id)]
-        if self._active:
-            refs.append(("orderId", self.order_id or ""))
-        self.route.clear()
-        self._entered.clear()
-        self.actions.halt()
-        self.path.clear()
-        if self._cancel is not None:
-            self._finish_cancel()
-        if self._active:
-            self._end_order(why)
-        found = errors.error(error_type, message or why.replace("_", " "), refs, level)
-        if level is ErrorLevel.FATAL:
-            self.out_of_service = True
-            self._raised(self.errors.set_condition(found))
-        else:
-            self._warn(found)
-        self._advance(now)
-        return self._end()
-
-    def on_serviced(self, now: float) -> list[Effect]:
-        """The empty battery was charged or swapped: the vehicle takes orders again."""
-        self._begin(now)
-        self.out_of_service = False
-        self._cleared(self.errors.clear_condition(errors.BATTERY_EMPTY))
-        return self._end()
-
-    def on_breakdown(self, now: float, message: str = "") -> list[Effect]:
-        """The body broke down (SPEC §4): it holds where it is until :meth:`on_repaired`; FATAL meanwhile."""
-        self._begin(now)
-        self.broken = True
-        self.actions.hold(True)
-        self._raised(self.errors.set_condition(errors.error(
-            errors.BREAKDOWN, message or "the vehicle broke down", [("lastNodeId", self.last_node_id)],
-            ErrorLevel.FATAL)))
-        return self._end()
-
-    def on_repaired(self, now: float) -> list[Effect]:
-        self._begin(now)
-        self.broken = False
-        self.actions.hold(self.paused)
-        self._cleared(self.errors.clear_condition(errors.BREAKDOWN))
-        self._advance(now)
-        return self._end()
-
-    def on_battery_low(self, now: float, low: bool) -> list[Effect]:
-        """The battery fell below (``low``) or rose above the scenario's warning level (SPEC §4)."""
-        self._begin(now)
-        if low:
-            self._raised(self.errors.set_condition(errors.error(errors.BATTERY_LOW, "battery low")))
-        else:
-            self._cleared(self.errors.clear_condition(errors.BATTERY_LOW))
-        return self._end()
-
-    def on_charging_ended(self, now: float) -> list[Effect]:
-        """The body stopped charging on its own (battery full, §6.8.1 stopCharging)."""
-        self._begin(now)
-        self.charging = False
-        self._advance(now)
-        return self._end()
-
-    def on_field_violation(self, now: float, violated: bool) -> list[Effect]:
-        """Another robot entered (left) the protective field: the body brakes (drives on) by itself
-        (SPEC §12); the state says ``safetyState.fieldViolation``."""
-        self._begin(now)
-        self.field_violation = violated
         return self._end()
 
     # --- orders (§6.6) -----------------------------------------------------------------------------------
