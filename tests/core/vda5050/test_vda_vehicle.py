@@ -10,12 +10,12 @@ from collections.abc import Sequence
 import orjson
 import pytest
 
-from vcran.core.effects import LocalProtocolError
 from vcran.core.vda5050 import codec, validation
 from vcran.core.vda5050.config import VehicleConfig
 from vcran.core.vda5050.effects import (
     Act,
     Hold,
+    LocalProtocolError,
     NodeTag,
     OrderEnded,
     Place,

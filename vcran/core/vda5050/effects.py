@@ -224,6 +224,11 @@ class ErrorCleared:
     error: Error
 
 
+class LocalProtocolError(RuntimeError):
+    """The driver misused the vehicle (time going backwards, a waypoint or action it never started): a bug
+    of the driver's, never the master's (h11's LocalProtocolError; OPIL's RanLogic has its own)."""
+
+
 Command = (Drive | StopAfterLeg | StopNow | Abandon | Act | Interrupt | Hold | Release | Place | PublishState
            | PublishFactsheet | StartTimer)
 Event = (OrderAccepted | OrderRejected | OrderDiscarded | OrderEnded | NodeTraversed | ActionChanged | ErrorRaised

@@ -11,14 +11,13 @@ The driver's obligations: deliver ``on_timer`` at each :class:`StartTimer` insta
 later ``now``; report each waypoint of a :class:`Drive` once, in order, unless a stop or abandon dropped
 it; report each :class:`Act` once (``on_acted``) unless an :class:`Interrupt` or a halt ended it. Misuse
 (time going backwards, a waypoint or action nobody started) raises
-:class:`~vcran.core.effects.LocalProtocolError`; nothing a master sends ever raises.
+:class:`~vcran.core.vda5050.effects.LocalProtocolError`; nothing a master sends ever raises.
 
 Where VDA 5050 leaves the vehicle a choice, docs/vda5050.md says which one vcran makes.
 """
 
 from __future__ import annotations
 
-from vcran.core.effects import LocalProtocolError
 from vcran.core.vda5050 import acceptance, errors
 from vcran.core.vda5050.actions import FAILED, FINISHED, RUNNING, ActionBook, Run
 from vcran.core.vda5050.codec import Invalid
@@ -31,6 +30,7 @@ from vcran.core.vda5050.effects import (
     ErrorCleared,
     ErrorRaised,
     Hold,
+    LocalProtocolError,
     NodeTag,
     NodeTraversed,
     OrderAccepted,
