@@ -66,6 +66,20 @@ def test_figures_5_to_7_an_order_and_its_extension() -> None:
     assert bench.last.new_base_request is True
 
 
+def test_an_update_may_delete_the_horizon() -> None:
+    """§6.6.2: "Master control has the option to make changes to the horizon by sending entirely different
+    nodes as the new base. The horizon can also be deleted." An update of the decision point g alone
+    stitches at g and adds nothing: the horizon b h goes, and the order ends at g."""
+    bench = Bench()
+    bench.order(figure5())
+    bench.order(order("1234", 1, [G], start=4))
+    assert bench.seen() == {"order": ("1234", 1), "last": ("f", 0), "nodes": ["d2", "g4"], "edges": ["e1", "e3"],
+                            "actions": {}, "driving": True, "errors": []}
+    bench.reach()
+    bench.reach()
+    assert bench.seen()["nodes"] == [] and bench.last.new_base_request is False
+
+
 def test_6_a_resent_update_is_discarded() -> None:
     """Figure 8 (6) "is order update currently on vehicle? yes - vehicle already has received update ->
     discard message"; §6.6.4.3: "If the AGV receives an order with the same orderId and orderUpdateId
