@@ -55,6 +55,8 @@ from vcran.core.vda5050.state import Error
 
 #: Two instants closer than this are the same instant (seconds; R14's tolerance).
 TOLERANCE = 1e-6
+
+
 class Vehicle(InstantActionsMixin, ConditionsMixin, ReportingMixin):
     """One vehicle's protocol logic. Construct once; feed it inputs in time order."""
 
@@ -105,7 +107,7 @@ class Vehicle(InstantActionsMixin, ConditionsMixin, ReportingMixin):
         """An ``order`` message (§6.6); ``where``: the body now (for Figure 8 (4))."""
         self._begin(now)
         if isinstance(order, Invalid):
-            self._refuse(None, None, self.invalid_error(order))
+            self._refuse(order.order_id, order.order_update_id, self.invalid_error(order))
         else:
             self._order(now, order, where)
         return self._end()
