@@ -41,6 +41,7 @@ COMMANDS: dict[str, str] = {
     "fuzz": "fuzz",
     "sweep": "sweep",
     "report": "report",
+    "view": "view",
     "broker": "broker",
     "decode": "decode",
     "schema": "schema",

@@ -31,6 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress bar either)")
     parser.add_argument("--report", action="store_true",
                         help="then write the report (figures, KPI tables) into DIR/report; needs vcran[report]")
+    parser.add_argument("--view", action="store_true",
+                        help="then write the run as one interactive page, DIR/view.html (vcran view; docs/view.md)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,6 +74,11 @@ def run(args: argparse.Namespace) -> int:
         return signals.exit_code
     if not args.quiet:
         print_summary(result, args.out)
+    if args.view:
+        from vcran.commands.view import PAGE
+        from vcran.commands.view import write as write_view
+
+        write_view(args.out, args.out / PAGE, quiet=args.quiet)
     if args.report:
         from vcran.commands.report import write
 

@@ -22,6 +22,7 @@ from vcran.core.battery import BatteryConfig
 from vcran.core.faults import FaultSpec, RandomFaults
 from vcran.core.messages import ActionKind, Message, MotionAssignment
 from vcran.core.schema import slot_init, unchecked
+from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.wire import Inbound
 
 #: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
@@ -85,6 +86,8 @@ class StationConfig:
     #: Where a robot stands to load or unload here, ``(x, y, theta)``; theta None: any heading. A fleet
     #: manager reads it to plan paths (:meth:`vcran.core.manager.Fleet.dock`); None means the position.
     dock: tuple[float, float, float | None] | None = None
+    #: The roadmap node the dock is (SPEC §12: ``dock = "id"`` in a file); ``dock`` then holds its position.
+    dock_node: str | None = None
 
 
 @slot_init
@@ -310,6 +313,8 @@ class Scenario:
     job_stream: JobStream | None = None
     link: LinkSettings = field(default_factory=LinkSettings)
     manager: ManagerSpec | None = None
+    #: The lanes robots may drive (SPEC §12); None: robots drive anywhere.
+    roadmap: Roadmap | None = None
 
     def messages(self) -> Script:
         """The whole script in time order, cycles expanded lazily; equal times keep file order."""
@@ -329,7 +334,7 @@ class Scenario:
     def fleet_dict(self) -> dict[str, Any]:
         """Everything but the script, as JSON that :func:`vcran.io.scenario_file.parse` reads back: a trace header carries it."""
         s = self.settings
-        # Keys added with §4 appear only when set, so older scenarios keep their exact trace header.
+        # Keys added with §4 and §12 appear only when set, so older scenarios keep their exact trace header.
         return _drop_none({
             "simulation": {
                 "name": s.name, "seed": s.seed, "duration": s.duration, "until_idle": s.until_idle,
@@ -355,12 +360,13 @@ class Scenario:
                     "area": [list(p) for p in st.area], "parts": st.parts, "capacity": st.capacity,
                     "produce_every": st.produce_every, "produce_start": st.produce_start,
                     "produce_limit": st.produce_limit, "charger": True if st.charger else None,
-                    "dock": _point(st.dock),
+                    "dock": st.dock_node if st.dock_node is not None else _point(st.dock),
                 }
                 for st in self.stations
             ],
             "faults": [f.as_dict() for f in self.faults] or None,
             "random_faults": [r.as_dict() for r in self.random_faults] or None,
+            "roadmap": self.roadmap.as_dict() if self.roadmap is not None else None,
         })
 
 
