@@ -58,6 +58,9 @@ class Result:
     event_count: int
     _events: list[dict[str, Any]] | None = field(default=None, repr=False)
     _frames: list[tuple[float, np.ndarray]] | None = field(default=None, repr=False)
+    #: The scenario that ran: the loop properties judge a job's failure against its fleet and stations
+    #: (:mod:`vcran.testing.loop`).
+    scenario: Scenario | None = field(default=None, repr=False)
 
     @cached_property
     def events(self) -> list[dict[str, Any]]:
@@ -180,7 +183,7 @@ def run(
     return Result(summary, loop.jobs.records() if loop is not None else (), folder, wall,
                   tuple(r.id for r in sc.robots), events.count,
                   events.events if isinstance(events, EventList) else None,
-                  trace.frames if isinstance(trace, Frames) else None)
+                  trace.frames if isinstance(trace, Frames) else None, scenario=sc)
 
 
 def _check_mode(sc: Scenario, managed: bool) -> None:

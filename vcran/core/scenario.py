@@ -64,6 +64,11 @@ class RobotConfig:
     vendor: str = "vcran"
     battery: BatteryConfig | None = None
 
+    @property
+    def moves_parts(self) -> bool:
+        """Configured for a transport job (SPEC §9): to ``load`` and ``unload``, with room for a part."""
+        return "load" in self.actions and "unload" in self.actions and self.capacity >= 1
+
 
 @dataclass(frozen=True, slots=True)
 class StationConfig:
