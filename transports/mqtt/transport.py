@@ -194,6 +194,12 @@ class MqttTransport(Transport):
 
     # --- status -----------------------------------------------------------------------------------------
 
+    @property
+    def waiting(self) -> int:
+        """Messages that arrived before :meth:`attach`, to enter the simulation at its start."""
+        with self._lock:
+            return len(self._early)
+
     def client(self, robot: str) -> BrokerClient:
         """``robot``'s connection (its health; tests cut its socket to see the last will)."""
         return self._sides[robot].client

@@ -15,9 +15,9 @@ import subprocess
 import time
 from pathlib import Path
 
+from tests.view.browser import in_ci  # the house rule for CI, one definition
 
-def in_ci() -> bool:
-    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+__all__ = ["Mosquitto", "free_port", "in_ci", "mosquitto", "unavailable"]
 
 
 def mosquitto() -> str | None:
@@ -33,8 +33,11 @@ def unavailable() -> str | None:
         import paho.mqtt  # noqa: F401
     except ImportError:
         return "paho-mqtt is not installed (pip install -e '.[test]')"
-    if mosquitto() is None:
+    found = mosquitto()
+    if found is None:
         return "no Mosquitto on this machine (apt-get install mosquitto, or set VCRAN_MOSQUITTO to its binary)"
+    if not os.access(found, os.X_OK):
+        return f"VCRAN_MOSQUITTO names {found}, which is no program"
     return None
 
 

@@ -75,19 +75,22 @@ def test_orders_and_instant_actions_enter_the_simulation_as_sent(broker):
     configs = {"r1": config("S1"), "r2": config("S2")}
     transport = MqttTransport(parse_url(broker.url), Driver.fleet(configs))
     transport.open()
-    driver = Driver(transport, configs, speed=10.0, period=5.0).start()
     master = Watcher(broker.url, ("nothing/#",))
+    master.publish("uagv/v2/vcran/S1/order", b'{"early": true}')  # before the run: kept for its start
+    assert wait_until(lambda: transport.waiting == 1)
+    driver = Driver(transport, configs, speed=10.0, period=5.0).start()
     try:
         order = b'{"headerId": 7, "orderId": "o\xc3\xa9"}'
         master.publish("uagv/v2/vcran/S2/order", order)
         master.publish("uagv/v2/vcran/S9/order", b"{}")  # no such vehicle in this fleet
         master.publish("uagv/v2/vcran/S1/instantActions", b'{"actions": []}')
-        assert wait_until(lambda: len(driver.delivered) >= 2)
+        assert wait_until(lambda: len(driver.delivered) >= 3)
     finally:
         master.close()
         driver.stop()
     got = [(i.entity, i.attribute, i.raw) for _, i in driver.delivered]
-    assert sorted(got) == [("r1", "instantActions", '{"actions": []}'), ("r2", "order", order.decode())]
+    assert got[0] == ("r1", "order", '{"early": true}')
+    assert sorted(got[1:]) == [("r1", "instantActions", '{"actions": []}'), ("r2", "order", order.decode())]
     assert all(t > 0 for t, _ in driver.delivered)  # stamped with the simulated time of their arrival
 
 
