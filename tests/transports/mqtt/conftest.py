@@ -3,7 +3,7 @@ comes from and when they are skipped); never a mock."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 
@@ -11,16 +11,31 @@ from tests.transports.mqtt.mosquitto import Mosquitto, in_ci, unavailable
 
 
 @pytest.fixture
-def broker(tmp_path) -> Iterator[Mosquitto]:
-    """A fresh Mosquitto per test: retained messages of one test never reach another."""
+def brokers(tmp_path) -> Iterator[Callable[..., Mosquitto]]:
+    """Start Mosquittos (``brokers(anonymous=False)``: one that refuses anonymous clients); all stopped after."""
     reason = unavailable()
     if reason is not None:
         if in_ci():
             pytest.fail(f"CI runs the MQTT tests against Mosquitto (SPEC §11), but {reason}")
         pytest.skip(f"the MQTT edge's tests need a broker: {reason}")
-    server = Mosquitto(tmp_path)
-    server.start()
+    started: list[Mosquitto] = []
+
+    def start(**kwargs: bool) -> Mosquitto:
+        folder = tmp_path / f"mosquitto-{len(started)}"
+        folder.mkdir()
+        server = Mosquitto(folder, **kwargs)
+        started.append(server)
+        server.start()
+        return server
+
     try:
-        yield server
+        yield start
     finally:
-        server.stop()
+        for server in started:
+            server.stop()
+
+
+@pytest.fixture
+def broker(brokers) -> Mosquitto:
+    """A fresh Mosquitto per test: retained messages of one test never reach another."""
+    return brokers()

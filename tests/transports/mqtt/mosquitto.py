@@ -50,13 +50,14 @@ def free_port() -> int:
 class Mosquitto:
     """One broker process on ``port``; :meth:`stop` and :meth:`start` again keep the port (a restart)."""
 
-    def __init__(self, folder: Path, port: int | None = None) -> None:
+    def __init__(self, folder: Path, port: int | None = None, *, anonymous: bool = True) -> None:
         self.port = port or free_port()
         self.url = f"mqtt://127.0.0.1:{self.port}"
         self.config = folder / "mosquitto.conf"
         self.log = folder / "mosquitto.log"
         # persistence false: a restart loses retained messages and sessions, the harsher case for the edge
-        self.config.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
+        self.config.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous {str(anonymous).lower()}\n"
+                               "persistence false\n"
                                "log_dest stderr\nlog_type error\nlog_type warning\n")
         self.process: subprocess.Popen[bytes] | None = None
 

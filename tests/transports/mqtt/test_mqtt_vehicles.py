@@ -246,3 +246,14 @@ def test_the_transport_refuses_what_is_not_a_vehicle_s_to_publish():
     with pytest.raises(TypeError, match="LiveEnvironment"):
         transport.attach(simpy.Environment(), lambda _: None)
     transport.close()
+
+
+def test_a_broker_that_refuses_the_vehicles_fails_open_with_its_reason(brokers):
+    """A broker that takes no anonymous clients: open() says the broker refused, and why (CONNACK's code)."""
+    closed = brokers(anonymous=False)
+    transport = MqttTransport(parse_url(closed.url), Driver.fleet({"r1": config("S1")}),
+                              MqttOptions(backoff_start=0.05, backoff_cap=0.1))
+    with pytest.raises(MqttUnavailable, match=r"not connected after 2 s \(the broker refused the connection: "
+                                              r"Not authorized\)"):
+        transport.open(timeout=2)
+    transport.close()
