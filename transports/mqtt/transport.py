@@ -65,6 +65,7 @@ class _Side:
         self.lock = threading.Lock()  # up and held, between the simulation thread and the network thread
         self.up = False
         self.held: dict[Topic, bytes] = {}
+        self.counts: Counter[str] = Counter()  # under lock: sent, dropped, superseded
         options = transport.options
         self.client = BrokerClient(
             transport.url, f"{options.client_prefix}/{vehicle.address}", options,
@@ -76,10 +77,9 @@ class _Side:
         self.connection.send(self.client, self.connection.online())
         with self.lock:
             for topic in HELD:
-                payload = self.held.pop(topic, None)
-                if payload is not None:
-                    delivery = DELIVERY[topic]
-                    self.client.publish(self.vehicle.address.topic(topic), payload, delivery.qos, delivery.retain)
+                payload = self.held.get(topic)
+                if payload is not None and self._publish(topic, payload):  # else: gone again, still held
+                    del self.held[topic]
             self.up = True
 
     def went_down(self) -> None:
@@ -87,18 +87,22 @@ class _Side:
             self.up = False
 
     def send(self, topic: Topic, payload: bytes) -> None:
-        delivery = DELIVERY[topic]
         with self.lock:
-            if self.up and self.client.publish(self.vehicle.address.topic(topic), payload, delivery.qos,
-                                               delivery.retain) is not None:
-                self.transport.counts["sent"] += 1
+            if self.up and self._publish(topic, payload):
                 return
             if topic in HELD:
                 if topic in self.held:
-                    self.transport.counts["superseded"] += 1
+                    self.counts["superseded"] += 1
                 self.held[topic] = payload
             else:
-                self.transport.counts["dropped"] += 1
+                self.counts["dropped"] += 1
+
+    def _publish(self, topic: Topic, payload: bytes) -> bool:
+        delivery = DELIVERY[topic]
+        if self.client.publish(self.vehicle.address.topic(topic), payload, delivery.qos, delivery.retain) is None:
+            return False
+        self.counts["sent"] += 1
+        return True
 
     def received(self, topic: str, payload: bytes) -> None:
         kind = self.topics.get(topic)
@@ -123,7 +127,6 @@ class MqttTransport(Transport):
         self.options = options or MqttOptions()
         self.vehicles = check_fleet(vehicles)
         self.tally = Tally()
-        self.counts: Counter[str] = Counter()  # sent, dropped (visualization while down), superseded (held)
         self.latencies: deque[float] = deque(maxlen=100_000)  # wall seconds from arrival to the simulation
         self._env: LiveEnvironment | None = None
         self._deliver: Deliver | None = None
@@ -193,6 +196,16 @@ class MqttTransport(Transport):
         stop_all([side.client for side in self._sides.values()])
 
     # --- status -----------------------------------------------------------------------------------------
+
+    @property
+    def counts(self) -> Counter[str]:
+        """Messages ``sent``, visualization ``dropped`` and held messages ``superseded`` while a connection
+        was down, over the fleet."""
+        total: Counter[str] = Counter()
+        for side in self._sides.values():
+            with side.lock:
+                total.update(side.counts)
+        return total
 
     @property
     def waiting(self) -> int:
