@@ -20,13 +20,14 @@ is required only in some cases as optional, checked afterwards.
 from __future__ import annotations
 
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
 from vcran.core.validity.fields import (
     INT64,
     Rule,
+    choices_problem,
     describe,
     flag_problem,
     integer_problem,
@@ -38,9 +39,9 @@ from vcran.core.validity.fields import (
     place_problem,
     points_problem,
     pose_problem,
-    publishable_problem,
     string_problem,
     strings_problem,
+    text_problem,
     triple_problem,
     weights_problem,
 )
@@ -138,44 +139,40 @@ class Table:
     def _sub(self, key: str) -> str:
         return f"{self.where}.{key}" if self.where else key
 
+    def _check(self, key: str, v: Any, own: Callable[..., str | None], *bounds: Any) -> None:
+        """Fail with the problem of ``v``: its key's rule's (:mod:`vcran.core.validity`), or for a key without
+        one, the read's ``own`` check with the read's ``bounds``."""
+        rule = self.rules.get(key)
+        problem = own(v, *bounds) if rule is None else rule.check(v)
+        if problem:
+            self.fail(key, problem)
+
     def number(self, key: str, default: Any = _MISSING, *, minimum: float | None = None, positive: bool = False) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = number_problem(v, minimum, positive) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, number_problem, minimum, positive)
         return float(v)
 
     def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = integer_problem(v, minimum) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, integer_problem, minimum)
         return v
 
     def boolean(self, key: str, default: Any = _MISSING) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = flag_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, flag_problem)
         return v
 
     def string(self, key: str, default: Any = _MISSING) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = string_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, string_problem)
         return v
 
     def text(self, key: str, default: str) -> str:
@@ -183,10 +180,7 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = string_problem(v) or publishable_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, text_problem)
         return v  # type: ignore[no-any-return]
 
     def name(self, key: str, default: Any = _MISSING) -> Any:
@@ -196,10 +190,7 @@ class Table:
             return v
         if isinstance(v, int) and not isinstance(v, bool):
             v = str(v)
-        rule = self.rules.get(key)
-        problem = name_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, name_problem)
         return v
 
     def choice(self, key: str, options: Sequence[str] = (), default: Any = _MISSING, *, hint: str = "",
@@ -209,10 +200,7 @@ class Table:
         v = self.string(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = one_of_problem(v, options, what or key, hint) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, one_of_problem, options, what or key, hint)
         return v
 
     def choices(self, key: str, options: Sequence[str] = (), default: Any = _MISSING, *,
@@ -221,41 +209,28 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = (strings_problem(v) or next((p for x in v if (p := one_of_problem(x, options, what))), None)
-                   if rule is None else rule.check(v))
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, choices_problem, options, what)
         return list(v)
 
     def strings(self, key: str, default: list[str]) -> list[str]:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = strings_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, strings_problem)
         return list(v)
 
     def pair(self, key: str, default: Any = _MISSING) -> tuple[float, float]:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = pair_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, pair_problem)
         return float(v[0]), float(v[1])
 
     def triple(self, key: str, default: Any = _MISSING) -> tuple[float, float, float]:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = triple_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, triple_problem)
         return float(v[0]), float(v[1]), float(v[2])
 
     def sequence(self, key: str) -> tuple[int, int]:
@@ -270,10 +245,7 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = points_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, points_problem)
         return [(float(p[0]), float(p[1])) for p in v]
 
     def pose(self, key: str, default: Any = _MISSING) -> Any:
@@ -281,10 +253,7 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = pose_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, pose_problem)
         return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
 
     def place(self, key: str, default: Any = _MISSING) -> Any:
@@ -292,10 +261,7 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        rule = self.rules.get(key)
-        problem = place_problem(v) if rule is None else rule.check(v)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, v, place_problem)
         if isinstance(v, str):
             return v
         return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
@@ -309,10 +275,7 @@ class Table:
             pairs = list(v.items())
         else:
             self.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
-        rule = self.rules.get(key)
-        problem = weights_problem(pairs) if rule is None else rule.check(pairs)
-        if problem:
-            self.fail(key, problem)
+        self._check(key, pairs, weights_problem)
         return [(name, float(w)) for name, w in pairs]
 
     def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:

@@ -39,11 +39,11 @@ __all__ = ["Problem", "validate"]
 
 
 def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Problem]:
-    """Every problem of ``scenario``, in the order a file's reader meets them (settings, robots, stations,
-    the roadmap, link and manager, faults, jobs, the job stream, the script, then the whole); empty when it
-    can run. A part whose own fields are broken is not related to the others (its relations would be
-    about values it does not hold). ``fields_checked``: each field's own rule was applied already (by a
-    file's reader, to the value as written); only what relates fields and parts is left.
+    """Every problem of ``scenario``, part by part in the order of a file (settings, robots, stations, the
+    roadmap, link and manager, faults, jobs, the job stream, the script, then the whole); empty when it can
+    run. A part whose own fields are broken is not related to the others (its relations would be about
+    values it does not hold). ``fields_checked``: each field's own rule was applied already (by a file's
+    reader, to the value as written); only what relates fields and parts is left.
     """
     if not isinstance(scenario, Scenario):
         return [Problem("", f"expected a Scenario, got {type(scenario).__name__}")]

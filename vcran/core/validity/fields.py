@@ -143,8 +143,18 @@ def strings_problem(v: Any) -> str | None:
     return None
 
 
+def text_problem(v: Any) -> str | None:
+    """A non-empty string Orion takes as a value."""
+    return string_problem(v) or publishable_problem(v)
+
+
 def one_of_problem(v: str, options: Sequence[str], what: str, hint: str = "") -> str | None:
     return None if v in options else f"unknown {what} {v!r}; known: {', '.join(options)}{hint}"
+
+
+def choices_problem(v: Any, options: Sequence[str], what: str) -> str | None:
+    """A list of values, each one of ``options``."""
+    return strings_problem(v) or next((p for x in v if (p := one_of_problem(x, options, what))), None)
 
 
 def _coordinates(v: Any, sizes: tuple[int, ...], heading: bool = False) -> bool:
@@ -230,7 +240,7 @@ class Text:
     then: Then | None = None
 
     def check(self, v: Any) -> str | None:
-        problem = string_problem(v) or (publishable_problem(v) if self.publishable else None)
+        problem = text_problem(v) if self.publishable else string_problem(v)
         return problem or (self.then(v) if self.then else None)
 
 
@@ -270,8 +280,7 @@ class Choices:
         problem = strings_problem(v)
         if problem:
             return problem
-        hinted = next((self.hints[x] for x in v if x in self.hints), None)
-        return hinted or next((p for x in v if (p := one_of_problem(x, self.options, self.what))), None)
+        return next((self.hints[x] for x in v if x in self.hints), None) or choices_problem(v, self.options, self.what)
 
 
 @dataclass(frozen=True, slots=True)
