@@ -1,0 +1,101 @@
+"""The master's side of VDA 5050 over MQTT: what ``vcran manage --mqtt`` will use to run a Python master
+live (SPEC §11), and what tests use to drive vcran's vehicles as any master would.
+
+One connection (a master has no last will in VDA 5050), subscribed with wildcards to the ``state``,
+``connection`` and ``factsheet`` topics of every interface name of its fleet; ``visualization`` too when
+asked. Messages of vehicles outside the fleet (another fleet on the same broker) are reported once per
+topic and ignored. Each message of a fleet vehicle is handed to ``on_message`` on the network thread as
+``Inbound(entity=<robot id>, attribute=<topic>, raw=<the payload as text>)``, as the vehicles' transport
+hands theirs; decoding (:func:`vcran.core.vda5050.codec.decode`) is the receiver's business.
+
+:meth:`MqttMaster.send` publishes an ``order`` or ``instantActions`` message (QoS 0, not retained, §6.2),
+encoded for the vehicle's version, and says whether the broker connection took it: while the broker is
+unreachable nothing is queued, since a stale order sent on reconnect could do harm; the master decides
+what to send again.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from collections import Counter
+from collections.abc import Callable, Iterable
+
+from transports.mqtt.client import BrokerClient, MqttOptions, Tally, screened, start_all
+from transports.mqtt.topics import DELIVERY, TO_VEHICLE, BrokerUrl, FleetVehicle, check_fleet, fleet_filter, parse_topic
+from vcran.core.vda5050.codec import encode
+from vcran.core.vda5050.enums import Topic
+from vcran.core.vda5050.order import InstantActions, Order
+from vcran.core.wire import Inbound
+
+_MASTERS = itertools.count(1)
+_TOPICS = {Order: Topic.ORDER, InstantActions: Topic.INSTANT_ACTIONS}
+
+
+class MqttMaster:
+    """A master's connection to the fleet ``vehicles`` on the broker at ``url``."""
+
+    def __init__(self, url: BrokerUrl, vehicles: Iterable[FleetVehicle], on_message: Callable[[Inbound], None], *,
+                 options: MqttOptions | None = None, visualization: bool = False,
+                 on_up: Callable[[], None] | None = None) -> None:
+        self.url = url
+        self.options = options or MqttOptions()
+        self.vehicles = check_fleet(vehicles)
+        self.tally = Tally()
+        self.counts: Counter[str] = Counter()  # sent, unsent (broker unreachable), received
+        self._on_message = on_message
+        self._by_topic = {v.address.topic(t): (v.robot, t) for v in self.vehicles.values()
+                          for t in (Topic.STATE, Topic.CONNECTION, Topic.FACTSHEET, Topic.VISUALIZATION)}
+        topics = [Topic.STATE, Topic.CONNECTION, Topic.FACTSHEET] + ([Topic.VISUALIZATION] if visualization else [])
+        interfaces = sorted({(v.address.interface_name, v.address.major) for v in self.vehicles.values()})
+        subscriptions = [fleet_filter(name, major, t) for name, major in interfaces for t in topics]
+        self._wanted = frozenset(topics)
+        client_id = f"{self.options.client_prefix}-master-{os.getpid()}-{next(_MASTERS)}"
+        self.client = BrokerClient(url, client_id, self.options, subscriptions=subscriptions,
+                                   on_message=self._received, on_up=on_up)
+
+    def open(self, timeout: float | None = 10.0) -> None:
+        """Connect; with a ``timeout``, wait that long and raise :class:`MqttUnavailable` if still down."""
+        start_all([self.client], self.url, timeout)
+
+    @property
+    def up(self) -> bool:
+        return self.client.up
+
+    def send(self, robot: str, message: Order | InstantActions) -> bool:
+        """Publish ``message`` to ``robot``; False if the broker connection did not take it."""
+        vehicle = self.vehicles.get(robot)
+        if vehicle is None:
+            raise ValueError(f"no vehicle {robot!r} in this master's fleet")
+        topic = _TOPICS.get(type(message))
+        if topic is None:
+            raise ValueError(f"a master sends orders and instant actions, not {type(message).__name__}")
+        delivery = DELIVERY[topic]
+        sent = self.client.publish(vehicle.address.topic(topic), encode(message, vehicle.version),
+                                   delivery.qos, delivery.retain) is not None
+        self.counts["sent" if sent else "unsent"] += 1
+        return sent
+
+    def close(self) -> None:
+        self.client.stop()
+
+    def status(self) -> str:
+        c = self.counts
+        state = "connected" if self.client.up else self.client.last_error
+        return (f"MQTT {self.url}: master {state}, {max(0, self.client.connects - 1)} reconnects; "
+                f"out {c['sent']} sent, {c['unsent']} not sent; in {c['received']}, {self.tally.describe()}")
+
+    def _received(self, topic: str, payload: bytes) -> None:
+        found = self._by_topic.get(topic)
+        if found is None or found[1] not in self._wanted:
+            parsed = parse_topic(topic)
+            what = "a vehicle outside the fleet" if parsed is not None else "not a VDA 5050 topic"
+            self.tally.report("foreign topics", topic, f"a message on {topic!r} ({what}) ignored")
+            return
+        inbound = screened(self.tally, self.options, *found, topic, payload)
+        if inbound is not None:
+            self.counts["received"] += 1
+            self._on_message(inbound)
+
+
+assert set(_TOPICS.values()) == set(TO_VEHICLE)
