@@ -246,7 +246,7 @@ def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
     task), yet byte for byte ``json.dumps(indent=2, ensure_ascii=False)`` and a newline, across batches."""
     import json
 
-    from vcran.runner import write_summary
+    from vcran.io.sinks import write_summary
 
     summary = {"scenario": "Förderband", "sim_time": 3600.0, "errors": 0, "robots": {
         f"robot_{i}": {"completed": [f"r{i}_{k}_1" for k in range(300)], "cancelled": [{"task": "T", "reason": "timeout"}],
