@@ -2,7 +2,7 @@
 
 One path for every in-process run: a scenario with a message script plays it (as ``vcran run`` always
 did); a scenario with a fleet manager, named in the scenario or passed in, runs a closed loop
-(:class:`vcran.sim.loop.ClosedLoop`). With ``out`` the usual run folder is written and the result reads
+(:class:`vcran.sim.opil.loop.ClosedLoop`). With ``out`` the usual run folder is written and the result reads
 its events and telemetry back on demand; without, nothing touches the disk and everything stays in
 memory. ``vcran run`` is a thin shell on :func:`run`.
 """
@@ -31,8 +31,8 @@ if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager 
     import numpy as np
 
     from vcran.core.jobs import JobRecord
-    from vcran.core.manager import FleetManager
-    from vcran.sim.loop import ClosedLoop
+    from vcran.core.opil.manager import FleetManager
+    from vcran.sim.opil.loop import ClosedLoop
 
 #: What names a fleet manager: an instance, a FleetManager subclass, or ``"module:Class"``.
 ManagerLike: TypeAlias = "FleetManager | type[FleetManager] | str"
@@ -164,7 +164,7 @@ def run(
     if fleet_manager is None:
         transport = ScriptedTransport(sc.messages(), frames=False)
     else:
-        from vcran.sim.loop import ClosedLoop
+        from vcran.sim.opil.loop import ClosedLoop
 
         transport = loop = ClosedLoop(sc, fleet_manager, sinks.events.write)
     ran = execute(sc, transport, sinks, progress=progress, on_start=on_start,
@@ -206,7 +206,7 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
     class or ``module:Class`` gets the options :func:`manager_options` gives it, an instance none."""
     if manager is None and scenario.manager is None:
         return None, ""
-    from vcran.core.manager import FleetManager
+    from vcran.core.opil.manager import FleetManager
 
     if manager is None:
         assert scenario.manager is not None

@@ -14,7 +14,7 @@ from vcran.io.scenario_file import parse
 from vcran.io.sinks import MemorySinks
 from vcran.io.trace import records, trace_in
 from vcran.runner import execute
-from vcran.sim.loop import ClosedLoop
+from vcran.sim.opil.loop import ClosedLoop
 
 FLEET = """
 [simulation]

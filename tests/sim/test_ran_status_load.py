@@ -11,7 +11,7 @@ from vcran.core.messages import RanStatus
 from vcran.io.scenario_file import parse
 from vcran.io.sinks import MemorySinks
 from vcran.runner import execute
-from vcran.sim.loop import ClosedLoop
+from vcran.sim.opil.loop import ClosedLoop
 from vcran.sim.timing import FAULT, at
 
 # One robot, a station with parts within reach of (2, 0) and an empty one within reach of (6, 0).
