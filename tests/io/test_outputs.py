@@ -310,7 +310,7 @@ def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # §6, 
     f.write(long)
     f.write(b'{"n":1}\n')
     f.flush()
-    assert len(f._batch.getvalue()) < BATCH  # what the batch holds now: the short line's buffer only
+    assert len(f.batch.getvalue()) < BATCH  # what the batch holds now: the short line's buffer only
     f.close()
     with open_input(path) as g:
         assert g.read() == long + b'{"n":1}\n'
