@@ -132,6 +132,11 @@ def kind_of(a: Assignment) -> str:
     return "motion" if isinstance(a, MotionAssignment) else "action"
 
 
+def _where(a: Assignment) -> tuple[str, bytes]:
+    """``a``'s key in :attr:`Task.where`."""
+    return ("motion", a.motion_id.uuid) if isinstance(a, MotionAssignment) else ("action", a.action_id.uuid)
+
+
 @dataclass(slots=True, eq=False)
 class Task:
     """One task id's assignments and progress. Lives in the queue until it ends, then in the history."""
@@ -142,8 +147,10 @@ class Task:
     length: int
     deadline: float
     slots: dict[int, Assignment] = field(default_factory=dict)
-    #: (kind, assignment id) -> position, for duplicate and replacement lookups (R10).
-    where: dict[tuple[str, Id], int] = field(default_factory=dict)
+    #: (kind, assignment id's uuid) -> position, for duplicate and replacement lookups (R10). Keyed by the
+    #: uuid, which is what makes two ids equal, so that a lookup hashes bytes, not an Id through its
+    #: Python-level ``__hash__`` (issue 30).
+    where: dict[tuple[str, bytes], int] = field(default_factory=dict)
     #: Number of motions, fixed when the path is dispatched (R3); None before.
     m: int | None = None
     #: Positions of the dispatched path still to drive, the running leg first (R13 may drop later ones).
@@ -186,10 +193,10 @@ class Task:
             del self.slots[replacing]
         pos = a.sequence.sequence_number
         self.slots[pos] = a
-        self.where[(kind_of(a), assignment_id(a))] = pos
+        self.where[_where(a)] = pos
 
     def lookup(self, a: Assignment) -> int | None:
-        return self.where.get((kind_of(a), assignment_id(a)))
+        return self.where.get(_where(a))
 
     # --- R3, R4, R5 -------------------------------------------------------------------------------------
 
@@ -197,14 +204,19 @@ class Task:
         """``m`` when R3 holds (positions 1..m are motions and m == length or m+1 is an action)."""
         if self.m is not None:
             return self.m
-        first_action = min((p for p, a in self.slots.items() if isinstance(a, ActionAssignment)), default=None)
-        motions = sum(1 for a in self.slots.values() if isinstance(a, MotionAssignment))
+        first_action: int | None = None  # one loop, not two generators: this runs for every assignment received
+        motions = 0
+        for p, a in self.slots.items():
+            if isinstance(a, MotionAssignment):
+                motions += 1
+            elif isinstance(a, ActionAssignment) and (first_action is None or p < first_action):
+                first_action = p
         m = self.length if first_action is None else first_action - 1
         return m if motions == m else None
 
     def actions_complete(self) -> bool:
         """R4, given that R3 holds: every position m+1..length is a received action."""
-        m = self.motion_count()
+        m = self.m if self.m is not None else self.motion_count()
         return m is not None and len(self.slots) == self.length
 
     @property
@@ -215,7 +227,10 @@ class Task:
     def path(self) -> tuple[MotionAssignment, ...]:
         """The motions to drive: positions 1..m but those cancelled before dispatch (R13)."""
         assert self.m is not None
-        return tuple(self.slots[p] for p in range(1, self.m + 1) if p not in self.skipped)  # type: ignore[misc]
+        path = range(1, self.m + 1)
+        if not self.skipped:
+            return tuple(map(self.slots.__getitem__, path))  # type: ignore[arg-type]
+        return tuple(self.slots[p] for p in path if p not in self.skipped)  # type: ignore[misc]
 
     def skip_cancelled_actions(self) -> None:
         """Move ``next_action`` past actions cancelled before their turn (R13)."""
