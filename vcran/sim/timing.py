@@ -59,7 +59,7 @@ def at(env: simpy.Environment, when: float, priority: int) -> Event:
     them bit for bit. SimPy has no public absolute-time schedule, so this pushes onto the environment's
     queue the same ``(time, priority, id, event)`` entry that ``Environment.schedule`` pushes.
     """
-    if when < env.now:
+    if when < env._now:  # type: ignore[attr-defined]  # ``now`` is a property: a Python call per event
         raise ValueError(f"time {when} is in the past (now {env.now})")
     event = Event(env)
     event._ok = True
