@@ -409,21 +409,73 @@ def _npy_header(rows: int) -> bytes:
 
 _BLANK_EVENT: dict[str, Any] = dict.fromkeys(EVENT_KEYS)
 
+#: How the event lines of one name and one set of field keys are written (:func:`_event_plan`): the text
+#: after the robot's id up to the first field's value, then each field's key with the text after its value;
+#: None: as a dict.
+_EventPlan = tuple[bytes, tuple[tuple[str, bytes], ...]] | None
+
+
+def _event_plan(name: str, keys: tuple[str, ...]) -> _EventPlan:
+    """The fixed text of the event lines named ``name`` with fields ``keys``: every key of :data:`EVENT_KEYS`
+    in order, ``null`` where the event has no such field, then the fields not listed there in their order,
+    as ``json_line`` writes the dict that :class:`EventWriter` describes. None when a field would take the
+    place of ``t`` or ``robot``: such a line is written as that dict."""
+    if "t" in keys or "robot" in keys:
+        return None
+    text, rest, field, head = b"", [], None, b""
+    for key in EVENT_KEYS[2:] + tuple(k for k in keys if k not in EVENT_KEYS):
+        text += b"," + _dumps(key) + b":"
+        if key in keys:
+            if field is None:
+                head = text
+            else:
+                rest.append((field, text))
+            field, text = key, b""
+        else:
+            text += _dumps(name) if key == "event" else b"null"
+    text += b"}\n"
+    if field is None:
+        return text, ()
+    rest.append((field, text))
+    return head, tuple(rest)
+
 
 class EventWriter:
-    """``events.jsonl.zst``: one object per line, the same keys in the same order (:data:`EVENT_KEYS`)."""
+    """``events.jsonl.zst``: one object per line, the same keys in the same order (:data:`EVENT_KEYS`).
+
+    A line is ``{"t", "robot", "event"}`` and the event's fields over :data:`EVENT_KEYS` (``null`` for the
+    keys it has not), as ``json_line`` writes that dict. An event sets two to five of the 28 keys, so
+    most of a line is the same text line after line: made once per event name and set of field keys
+    (:func:`_event_plan`), a line is those pieces with the event's values between them, each rendered by
+    orjson as it renders them in the dict. Copying, filling and rendering a dict of 28 keys per line cost
+    more than half of writing an event (issue 30).
+    """
 
     def __init__(self, path: Path) -> None:
         self._f = open_output(path)
         self._lines = self._f.batch  # written to directly, as TraceWriter's records are
+        self._plans: dict[tuple[str, ...], _EventPlan] = {}
         self.count = 0
 
     def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        line = _BLANK_EVENT.copy()  # half of what dict.fromkeys(EVENT_KEYS) cost per line
-        line["t"], line["robot"], line["event"] = t, robot, name
-        line.update(fields)
+        key = (name, *fields)
+        try:
+            plan = self._plans[key]
+        except KeyError:
+            plan = self._plans[key] = _event_plan(name, key[1:])
+        if plan is None:
+            line = _BLANK_EVENT.copy()
+            line["t"], line["robot"], line["event"] = t, robot, name
+            line.update(fields)
+            text = _dumps(line, option=_LINE)
+        else:
+            head, rest = plan
+            parts = [b'{"t":', _dumps(t), b',"robot":', _dumps(robot), head]
+            for field, after in rest:
+                parts += _dumps(fields[field]), after
+            text = b"".join(parts)
         lines = self._lines
-        lines.write(_dumps(line, option=_LINE))
+        lines.write(text)
         if lines.tell() >= BATCH:
             self._f.hand_on()
         self.count += 1
