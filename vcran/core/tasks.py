@@ -62,15 +62,17 @@ def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
                 walk(spec.cls, here)  # type: ignore[arg-type]
             else:
                 name = f"_a{len(helpers)}"
+                # (an empty array, the usual motion area, makes no generator)
                 if spec.cls is None and spec.ros[:-2] in _FLOATS:
-                    helpers[name] = lambda items: (len(items), *(v + 0.0 for v in items))
+                    helpers[name] = lambda items: (len(items), *(v + 0.0 for v in items)) if items else (0,)
                 elif spec.cls is None:
                     helpers[name] = lambda items: (len(items), *items)
                 elif spec.cls is Id:
-                    helpers[name] = lambda items: (len(items), *(i.uuid for i in items))
+                    helpers[name] = lambda items: (len(items), *(i.uuid for i in items)) if items else (0,)
                 else:
                     inner = _flattener(spec.cls)
-                    helpers[name] = lambda items, inner=inner: (len(items), *(v for i in items for v in inner(i)))
+                    helpers[name] = (lambda items, inner=inner:
+                                     (len(items), *(v for i in items for v in inner(i))) if items else (0,))
                 parts.append(f"*{name}({here})")
 
     walk(cls, "m", skip)
@@ -98,8 +100,11 @@ def fingerprint(a: Assignment | CancelTask) -> bytes:
     cost of one is small: a re-read that should have been reported (R9 ``task_completed``/``task_cancelled``)
     goes silent; an ended task applies nothing either way.
     """
-    content = (type(a).__name__, *_flattener(type(a), "header")(a))  # only MotionAssignment has one
-    return blake2b(_pickled(content), digest_size=FINGERPRINT_SIZE).digest()
+    cls = type(a)
+    flat = _FLATTENERS.get((cls, "header"))  # only MotionAssignment has one
+    if flat is None:
+        flat = _flattener(cls, "header")
+    return blake2b(_pickled((cls.__name__, *flat(a))), digest_size=FINGERPRINT_SIZE).digest()
 
 
 _PICKLERS = threading.local()
@@ -393,7 +398,8 @@ class History:
             self._head = offset
         self._count += 1
         self._bytes += len(record) + ENTRY_OVERHEAD
-        self._set_cancel(key, ended.cancel)
+        if ended.cancel or self._cancels:  # else _set_cancel changes nothing (an entry just made has none)
+            self._set_cancel(key, ended.cancel)
         self._insert(key, offset)
         while self._count > self.limit or (self._bytes > self.max_bytes and self._count > 1):
             self._evict_oldest()
