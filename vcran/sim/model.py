@@ -27,7 +27,7 @@ from vcran.sim.contacts import Contacts
 from vcran.sim.faults import Faults
 from vcran.sim.ran import Decode, Ran
 from vcran.sim.robot import RobotNode
-from vcran.sim.timing import END, PRODUCTION, at
+from vcran.sim.timing import END, PRODUCTION, Environment, at
 
 
 class EventSink(Protocol):
@@ -135,7 +135,7 @@ class Model:
         an observer for a progress display, which sees the run but cannot change it. It rides on the tick
         rather than on events of its own, so a run with a progress bar schedules exactly the same events."""
         self.scenario = scenario
-        self.env = env if env is not None else simpy.Environment(0.0)  # times are floats from the start
+        self.env = env if env is not None else Environment(0.0)  # times are floats from the start
         self.transport = transport
         self.events = events
         s = scenario.settings
