@@ -171,7 +171,7 @@ class RanLogic:
         """The AGV reached the point of ``motion_id`` (the next leg of the current path)."""
         self._begin(now)
         task = self._head
-        if task is None or not self._driving(task):
+        if task is None or self.state is not _MOTION or not task.route:  # not driving (see _driving)
             raise LocalProtocolError(f"{self.robot}: motion {motion_id.label} finished but no leg was running")
         expected = task.slots[task.route[0]].motion_id  # type: ignore[union-attr]  # the route holds motions
         if expected.uuid != motion_id.uuid:  # Id equality, without its Python-level __eq__
@@ -252,7 +252,7 @@ class RanLogic:
     @property
     def current_motion(self) -> Id:
         task = self._head
-        if task is None or not self._driving(task):
+        if task is None or self.state is not _MOTION or not task.route:  # not driving (see _driving)
             return NIL
         return assignment_id(task.slots[task.route[0]])
 

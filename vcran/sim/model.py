@@ -221,7 +221,8 @@ class Model:
                 self._busy[robot.index] += now - (self._busy_since[robot.index] or 0.0)
                 self._busy_since[robot.index] = None
         elif kind is TaskCompleted:
-            self.completed[robot.id].append(event.task.label)  # type: ignore[attr-defined]
+            task = event.task  # type: ignore[attr-defined]
+            self.completed[robot.id].append(task.description or task.label)  # Event: the label without its call
             self.tasks_done += 1
         elif kind is TaskCancelled:
             self.cancelled[robot.id].append(event.task.label, event.reason.value)  # type: ignore[attr-defined]
