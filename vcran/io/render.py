@@ -20,7 +20,7 @@ from typing import Any
 
 import orjson
 
-from vcran.core.ids import Id, NamedId, canonical_uuid, id_for
+from vcran.core.ids import NIL, Id, NamedId, canonical_uuid, id_for
 from vcran.core.schema import FieldSpec, specs
 
 Convert = Callable[[Any], Any]
@@ -79,8 +79,8 @@ def _id_source(style: str, expr: str) -> str:
     """Source text rendering the id held in ``expr`` (a name or attribute) in ``style``, for the generated
     converters: a compact :class:`NamedId` inline, as :func:`_compact` does; any other through ``_id``.
     A run renders a few dozen ids per task, and a call per id was a tenth of writing a record (issue 30)."""
-    if style == "compact":
-        return f"({expr}.description if type({expr}) is _NamedId else _id({expr}))"
+    if style == "compact":  # the nil id (NIL itself: no current motion, no action, ...) is null
+        return f"({expr}.description if type({expr}) is _NamedId else None if {expr} is _NIL else _id({expr}))"
     return f"_id({expr})"
 
 
@@ -90,7 +90,7 @@ def converter(cls: type, style: str = "plain") -> Convert:
     found = _CONVERTERS.get(key)
     if found is not None:
         return found
-    helpers: dict[str, Any] = {"_id": ID_STYLES[style], "_NamedId": NamedId}
+    helpers: dict[str, Any] = {"_id": ID_STYLES[style], "_NamedId": NamedId, "_NIL": NIL}
     parts = []
     for spec in specs(cls):
         parts.append(f"{spec.name!r}: {_value_source(spec, style, f'm.{spec.name}', helpers)}")
@@ -135,7 +135,8 @@ def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, di
     found = _DELTAS.get(key)
     if found is not None:
         return found
-    helpers: dict[str, Any] = {"_is": is_, "_dumps": orjson.dumps, "_id": ID_STYLES[style], "_NamedId": NamedId}
+    helpers: dict[str, Any] = {"_is": is_, "_dumps": orjson.dumps, "_id": ID_STYLES[style], "_NamedId": NamedId,
+                               "_NIL": NIL}
     body = []
     for spec in specs(cls):
         name = spec.name
