@@ -20,6 +20,8 @@ from typing import Any
 import simpy
 from simpy.events import NORMAL, Event
 
+from vcran.sim.timing import triggered
+
 
 class Mailbox:
     __slots__ = ("env", "items", "_reader")
@@ -33,23 +35,20 @@ class Mailbox:
         reader = self._reader
         if reader is not None:
             self._reader = None
-            _succeed(self.env, reader, item)
+            reader._ok = True  # reader.succeed(item), written out (module docstring)
+            reader._value = item
+            env = self.env
+            heappush(env._queue, (env._now, NORMAL, next(env._eid), reader))  # type: ignore[attr-defined]
         else:
             self.items.append(item)
 
     def get(self) -> Event:
-        event = Event(self.env)
-        if self.items:
-            _succeed(self.env, event, self.items.popleft())
-        elif self._reader is not None:
+        if self.items:  # an event succeeded with the first item, scheduled now (module docstring)
+            env = self.env
+            event = triggered(env, self.items.popleft())
+            heappush(env._queue, (env._now, NORMAL, next(env._eid), event))  # type: ignore[attr-defined]
+            return event
+        if self._reader is not None:
             raise RuntimeError("a Mailbox has one reader; a second get() is waiting already")
-        else:
-            self._reader = event
+        event = self._reader = Event(self.env)
         return event
-
-
-def _succeed(env: simpy.Environment, event: Event, value: Any) -> None:
-    """``event.succeed(value)`` for a pending event, in one call instead of two (module docstring)."""
-    event._ok = True
-    event._value = value
-    heappush(env._queue, (env._now, NORMAL, next(env._eid), event))  # type: ignore[attr-defined]
