@@ -221,7 +221,7 @@ def test_manager_options_the_class_refuses_are_a_manager_error():
 
 def test_a_scenario_changed_in_code_is_checked_as_its_file_would_be(tmp_path):
     # docs/library.md varies scenarios with dataclasses.replace; a value the loader refuses failed deep in
-    # SimPy (a negative latency), with a ZeroDivisionError (mean_interval 0) or not at all (seed 1.5)
+    # SimPy (a negative latency), with a ZeroDivisionError (rate 0) or not at all (seed 1.5)
     from dataclasses import replace
 
     w = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
@@ -229,7 +229,7 @@ def test_a_scenario_changed_in_code_is_checked_as_its_file_would_be(tmp_path):
     for changed, message in [
         (replace(w, link=replace(w.link, latency=-1.0)), "link: field 'latency': must be positive, got -1.0"),
         (replace(w, link=replace(w.link, latency="0.1")), "link: field 'latency': expected a finite number"),
-        (replace(w, job_stream=replace(w.job_stream, mean_interval=0.0)), "field 'mean_interval': must be positive"),
+        (replace(w, job_stream=replace(w.job_stream, rate=0.0)), "field 'rate': must be positive"),
         (replace(w, settings=replace(w.settings, seed=1.5)), "simulation: field 'seed': expected an integer, got 1.5"),
     ]:
         with pytest.raises(vcran.ScenarioError, match=re.escape(message)):

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 
 from transports.scripted import ScriptedTransport
 from vcran.core.motion import Leg
-from vcran.core.scenario import Scenario
+from vcran.core.scenario import ManagerSpec, Scenario
 from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.io.runfolder import publish, staging
 from vcran.io.scenario_file import ScenarioError, load, parse
@@ -58,6 +58,9 @@ class Result:
     event_count: int
     _events: list[dict[str, Any]] | None = field(default=None, repr=False)
     _frames: list[tuple[float, np.ndarray]] | None = field(default=None, repr=False)
+    #: The scenario that ran: the loop properties judge a job's failure against its fleet and stations
+    #: (:mod:`vcran.testing.loop`).
+    scenario: Scenario | None = field(default=None, repr=False)
 
     @cached_property
     def events(self) -> list[dict[str, Any]]:
@@ -180,7 +183,7 @@ def run(
     return Result(summary, loop.jobs.records() if loop is not None else (), folder, wall,
                   tuple(r.id for r in sc.robots), events.count,
                   events.events if isinstance(events, EventList) else None,
-                  trace.frames if isinstance(trace, Frames) else None)
+                  trace.frames if isinstance(trace, Frames) else None, scenario=sc)
 
 
 def _check_mode(sc: Scenario, managed: bool) -> None:
@@ -199,21 +202,22 @@ def _check_mode(sc: Scenario, managed: bool) -> None:
 
 
 def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[FleetManager | None, str]:
-    """The fleet manager to run and its name (``module:Class``), from the argument or the scenario.
-    The scenario's ``[manager.options]`` are keyword arguments of the class it names, and of no other."""
-    options: dict[str, Any] = {}
-    if manager is None and scenario.manager is not None:
-        manager, options = scenario.manager.path, dict(scenario.manager.options)
-    if manager is None:
+    """The fleet manager to run and its name (``module:Class``), from the argument or the scenario; a
+    class or ``module:Class`` gets the options :func:`manager_options` gives it, an instance none."""
+    if manager is None and scenario.manager is None:
         return None, ""
     from vcran.core.manager import FleetManager
 
+    if manager is None:
+        assert scenario.manager is not None
+        manager = scenario.manager.path
     if isinstance(manager, FleetManager):
         _check_attributes(manager)
         return manager, _name(type(manager))
     cls = _import(manager) if isinstance(manager, str) else manager
     if not (isinstance(cls, type) and issubclass(cls, FleetManager)):
         raise ManagerError(f"fleet manager {manager!r} is not a vcran.FleetManager subclass")
+    options = manager_options(scenario.manager, cls)
     try:
         built = cls(**options)
     except Exception as exc:  # noqa: BLE001 - the class refusing its options (Dispatcher's ValueError) is bad input
@@ -221,6 +225,25 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
                            f"{_described(exc)}") from None
     _check_attributes(built)
     return built, _name(cls)
+
+
+def manager_options(own: ManagerSpec | None, manager: str | type) -> dict[str, Any]:
+    """The one rule for a scenario's ``[manager] options`` (issue 29 item 9; docs/loop.md, "Which options
+    a fleet manager gets"), for ``vcran run``, ``sweep``, ``fuzz``, ``manage`` and :func:`simulate` alike:
+    they are keyword arguments of the class the scenario names, so that class gets them however it is
+    named (``--manager`` with the same class, or another ``module:Class`` path to the same class object),
+    and any other class, a subclass too, gets none, for vcran cannot know which keywords another class
+    takes. ``--manager`` used to drop them even for the scenario's own class, while a sweep gave them to
+    every class, which then refused them. A class the scenario's own path does not import is another."""
+    if own is None or not own.options:
+        return {}
+    if isinstance(manager, str) and manager == own.path:
+        return dict(own.options)
+    try:
+        same = _import(own.path) is (_import(manager) if isinstance(manager, str) else manager)
+    except ManagerError:  # the scenario's class is not there (or the named one, which build_manager says)
+        same = False
+    return dict(own.options) if same else {}
 
 
 def _check_attributes(manager: FleetManager) -> None:

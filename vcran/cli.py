@@ -15,12 +15,14 @@ and ``VCRAN_DEBUG=1`` shows its traceback.
 from __future__ import annotations
 
 import argparse
+import difflib
 import gc
 import importlib
 import os
+import re
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from vcran import __version__
 from vcran.commands import CommandError
@@ -39,6 +41,7 @@ COMMANDS: dict[str, str] = {
     "fuzz": "fuzz",
     "sweep": "sweep",
     "report": "report",
+    "view": "view",
     "broker": "broker",
     "decode": "decode",
     "schema": "schema",
@@ -48,12 +51,37 @@ COMMANDS: dict[str, str] = {
 OK, FOUND, BAD_INPUT, BUG, INTERRUPTED, TERMINATED = 0, 1, 2, 70, 130, 143
 
 
+class _UsageError(Exception):
+    """argparse refused the command line; :func:`main` words it, after looking for unknown options."""
+
+    def __init__(self, prog: str, message: str) -> None:
+        super().__init__(message)
+        self.prog = prog
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse with the boundary's manners: a usage error is one line ``vcran COMMAND: message`` (the
-    usage itself is one ``--help`` away), exit status 2."""
+    """argparse with the boundary's manners: a usage error reaches :func:`main`, which says it as one line
+    ``vcran COMMAND: message`` (the usage itself is one ``--help`` away), exit status 2. Options are spelled
+    in full (``allow_abbrev`` off): SPEC §8 lets options grow, and an abbreviation that is unique today
+    (``--rep``) would change meaning or turn ambiguous the day a command gains an option, under a script
+    that used it; a prefix is an unknown option, and the error names the option it is short for."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
-        self.exit(BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
+        raise _UsageError(self.prog, message)
+
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        """argparse's check of a choice, with the nearest choice named first (``orion int`` -> ``init``)."""
+        choices = action.choices
+        if choices is None or value in choices:
+            return
+        listed = ", ".join(map(repr, choices))
+        guess = _nearest(str(value), [str(choice) for choice in choices])
+        meant = f"did you mean {guess!r}? " if guess else ""
+        raise argparse.ArgumentError(action, f"invalid choice: {value!r} ({meant}choose from {listed})")
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -85,11 +113,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         build_parser().print_help()
         return OK
     named = argv[0] in COMMANDS
-    args, extra = build_parser(argv[0] if named else None).parse_known_args(argv)
+    if not named and not argv[0].startswith("-"):  # `vcran rn demo`: argparse would list all 13 commands
+        guess = _nearest(argv[0], list(COMMANDS))
+        meant = f" (did you mean {guess!r}?)" if guess else ""
+        print(f"vcran: unknown command {argv[0]!r}{meant} (see vcran --help)", file=sys.stderr)
+        return BAD_INPUT
+    parser = build_parser(argv[0] if named else None)
+    try:
+        args, extra = parser.parse_known_args(argv)
+    except _UsageError as exc:
+        return _usage(parser, argv, exc.prog, str(exc))
     if extra:  # argparse would say so as "vcran:", though the command's own options are what was meant
         prog = f"vcran {args.command}" if named else "vcran"  # `vcran --bogus run ...`: not run's option
-        print(f"{prog}: unrecognized arguments: {' '.join(extra)} (see {prog} --help)", file=sys.stderr)
-        return BAD_INPUT
+        return _usage(parser, argv, prog, f"unrecognized arguments: {' '.join(extra)}")
     try:
         with terminate_like_interrupt():  # SIGTERM ends any command as Ctrl-C does
             return int(args._run(args) or 0)
@@ -119,6 +155,59 @@ def main(argv: Sequence[str] | None = None) -> int:
                                        "shows the traceback)", FOUND)
         return _fail(args.command, f"internal error (a bug in vcran; VCRAN_DEBUG=1 shows where): "
                                    f"{type(exc).__name__}: {exc}", BUG)
+
+
+def _usage(parser: argparse.ArgumentParser, argv: list[str], prog: str, message: str) -> int:
+    """A usage error as one line, exit status 2. Unknown options come first, whatever argparse found: it
+    checks the required options before it mentions an unknown one, so ``vcran run demo --outt x`` was
+    "the following arguments are required: --out", the consequence and not the mistake."""
+    unknown = _unknown_options(parser, argv)
+    if unknown:
+        prog = unknown[0][0]
+        named = [f"{option} (did you mean {guess}?)" if guess else option for _, option, guess in unknown]
+        message = f"unknown option{'s' if len(named) > 1 else ''} {', '.join(named)}"
+    print(f"{prog}: {message} (see {prog} --help)", file=sys.stderr)
+    return BAD_INPUT
+
+
+def _unknown_options(parser: argparse.ArgumentParser, argv: list[str]) -> list[tuple[str, str, str | None]]:
+    """(prog, option, nearest known option or None) for each option on ``argv`` its parser does not know:
+    vcran's own before the command, the command's after it. A word counts as an option as argparse counts
+    it: it starts with ``-``, and it is neither ``-`` alone, a negative number, a word with a space, nor
+    anything after ``--``."""
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    prog, known = "vcran", _option_strings(parser)
+    unknown: list[tuple[str, str, str | None]] = []
+    for word in argv:
+        if word == "--":
+            break
+        if prog == "vcran" and word in commands:
+            prog, known = f"vcran {word}", _option_strings(commands[word])
+            continue
+        if not word.startswith("-") or word == "-" or " " in word or _NUMBER.match(word):
+            continue
+        option = word.split("=", 1)[0] if word.startswith("--") else word[:2]
+        if option not in known:
+            unknown.append((prog, option, _nearest(option, sorted(o for o in known if o.startswith("--")))))
+    return unknown
+
+
+#: What argparse takes for a negative number (a value, not an option), as its ``_negative_number_matcher``.
+_NUMBER = re.compile(r"^-\d+$|^-\d*\.\d+$")
+
+
+def _option_strings(parser: argparse.ArgumentParser) -> set[str]:
+    return {option for action in parser._actions for option in action.option_strings}
+
+
+def _nearest(word: str, candidates: list[str]) -> str | None:
+    """The candidate ``word`` most likely misspells, if any is close: a unique one it is the start of
+    (``--ou``, an abbreviation), else the closest by difflib's ratio of at least 0.6 (``--quite``)."""
+    starts = [c for c in candidates if c.startswith(word) and len(word) > 2]
+    if len(starts) == 1:
+        return starts[0]
+    close = difflib.get_close_matches(word, candidates, n=1)
+    return close[0] if close else None
 
 
 #: Allocations between young garbage collections in a ``vcran`` process (CPython's default: 700); the

@@ -106,7 +106,8 @@ value = '{{"type": "x", "value": {huge}}}'
         (["run", str(tmp_path), "--out", out], "run", f"{tmp_path}: is a folder, not a scenario file"),
         (["run", str(not_utf8), "--out", out], "run", f"{not_utf8}: not UTF-8 text"),
         (["run", str(bom), "--out", out], "run", f"{bom}: starts with a byte-order mark, which TOML does not allow"),
-        (["run", DEMO, "--out", out, "--fast"], "run", "unrecognized arguments: --fast (see vcran run --help)"),
+        (["run", DEMO, "--out", out, "--fast"], "run", "unknown option --fast (see vcran run --help)"),
+        (["run", DEMO, "again", "--out", out], "run", "unrecognized arguments: again (see vcran run --help)"),
         (["run", DEMO, "--out", str(a_file)], "run", f"{a_file}: exists and is not a folder"),
         (["run", DEMO, "--out", str(a_file / "sub")], "run",
          f"{a_file / 'sub'}: cannot create sub.incomplete beside it to write the run in: Not a directory"),
@@ -288,5 +289,5 @@ def test_a_closed_pipe_is_no_error() -> None:
 
 def test_an_unknown_option_before_the_command_is_vcrans_not_the_commands(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = vcran(capsys, "--bogus", "run", DEMO, "--out", "never")
-    assert (code, out, err) == (2, "", "vcran: unrecognized arguments: --bogus (see vcran --help)\n")
+    assert (code, out, err) == (2, "", "vcran: unknown option --bogus (see vcran --help)\n")
     assert not Path("never").exists()

@@ -59,7 +59,7 @@ def test_an_unknown_name_lists_the_bundled_ones(tmp_path: Path, monkeypatch: pyt
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", "dmeo", "--out", "out"]) == 2
-    assert capsys.readouterr().err == "vcran run: dmeo: no such file (and no bundled scenario of that name; bundled: battery, crossing, demo, faults, warehouse)\n"
+    assert capsys.readouterr().err == "vcran run: dmeo: no such file (and no bundled scenario of that name; bundled: battery, crossing, demo, faults, warehouse-faults, warehouse)\n"
 
 
 # --- the wheel ---------------------------------------------------------------------------------------------
@@ -85,6 +85,9 @@ def test_the_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> N
     names = zipfile.ZipFile(wheel).namelist()
     assert {"vcran/py.typed", "transports/py.typed", *(f"vcran/scenarios/{n}.toml" for n in BUNDLED)} <= set(names)
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    schemas = "vcran/core/vda5050/schemas"  # the official VDA 5050 schemas, each copy with its licence (SPEC §11)
+    assert {f"{schemas}/{v}/{f}" for v in ("2.0.0", "2.1.0") for f in ("LICENSE.txt", "order.schema", "state.schema")
+            } | {f"{schemas}/2.0.0/factsheet.json", f"{schemas}/2.1.0/factsheet.schema"} <= set(names)
     assert not [n for n in names if n.startswith("tests/") or "/tests/" in n or "conftest" in n]
     metadata = zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
     assert "License-Expression: Apache-2.0" in metadata and "Provides-Extra: fuzz" in metadata
@@ -97,6 +100,9 @@ def test_the_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> N
     assert not [n for n in names if n.endswith((".so", ".c"))]
     assert _run([vcran, "--help"], cwd=home).stdout.startswith("usage: vcran")
     _run([vcran, "run", "demo", "--out", "out", "--quiet"], cwd=home)
+    refused = _run([str(bin_ / "python"), "-c", "from vcran.core.vda5050 import codec, enums; "
+                    "print(codec.decode(enums.Topic.ORDER, b'{}', enums.Version.V2_0_0))"], cwd=home)
+    assert refused.stdout == "order: $.headerId: required field missing\n"  # the schemas load from the wheel
     assert json.loads((home / "out" / "summary.json").read_text(encoding="utf-8"))["scenario"] == "demo"
     _run([vcran, "run", "warehouse", "--out", "loop", "--quiet"], cwd=home)  # the shipped fleet manager too
     jobs = json.loads((home / "loop" / "summary.json").read_text(encoding="utf-8"))["jobs"]

@@ -47,6 +47,21 @@ def test_turns_in_place_before_and_after():
     assert leg.pose_at(leg.t_end) == (0, 2, math.pi, 0.0, 0.0)
 
 
+@pytest.mark.parametrize(("theta0", "x1", "y1", "turn"), [
+    (0.0, 0, 4, math.pi / 2),  # facing +x, the point straight to the left: a quarter turn
+    (0.0, 0, -4, math.pi / 2),  # to the right: a quarter turn the other way, the same time
+    (-3 * math.pi / 4, 0, 4, 3 * math.pi / 4),  # the short way round (3π/4), not the long one (5π/4)
+])
+def test_s4_a_legs_duration_includes_its_first_turn(theta0, x1, y1, turn):
+    """SPEC §4: a leg turns in place to face its point, then drives. From (0, 0) to a point 4 m away at
+    2 m/s with no ramps, turning at 0.5 rad/s: turn / 0.5 s of turning (π s for a quarter turn) plus
+    4 / 2 = 2 s of driving; the leg starts at t0 = 10 (issue 29 item 14(e))."""
+    leg = Leg(10.0, 0, 0, theta0, x1, y1, None, Limits(2.0, 0, 0, 0.5))
+    assert leg.duration == pytest.approx(turn / 0.5 + 2)
+    assert leg.t_end == pytest.approx(10 + turn / 0.5 + 2)
+    assert leg.pose_at(10 + turn / 0.5)[:2] == pytest.approx((0, 0), abs=1e-9)  # on the spot until the turn ends
+
+
 def test_goal_theta_is_reached_exactly():
     leg = Leg(5.0, 1.1, 2.2, 0.3, -3.3, 4.4, 0.0, Limits(0.7, 0.3, 0.4, 0.9))
     assert leg.pose_at(leg.t_end)[:3] == (-3.3, 4.4, 0.0)

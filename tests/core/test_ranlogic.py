@@ -26,6 +26,7 @@ from vcran.core.effects import (
 )
 from vcran.core.ids import Id, id_for
 from vcran.core.ranlogic import TRANSITIONS, LocalProtocolError, RanLogic
+from vcran.core.stations import motion_area_problem
 
 T = id_for
 
@@ -319,6 +320,28 @@ def test_r8_nil_ids_in_cancel_mean_whole_task():
     assert of(out, TaskCancelled)
 
 
+@pytest.mark.parametrize("ending", ["cancel", "timeout"])
+def test_r8_an_assignment_for_a_task_whose_cancel_is_pending_is_rejected(ending):
+    """R8: the current task's running leg finishes before the task ends; an assignment arriving meanwhile
+    is rejected (docs/rules.md: task_cancelled, "or one being cancelled") and changes nothing. R7 hands a
+    timed-out current task to R8, so a pending timeout is the same case. Here A_a3 is the piece that
+    would complete the task: taken, it would assemble A (a ClearTimer) as if the cancel had not come."""
+    logic = RanLogic("r", task_timeout=10)
+    logic.on_motion(0, motion("A", "A_m1", 1, 3, 1, 0))
+    logic.on_action(0, action("A", "A_a2", 2, 3))  # R3 (m = 1): the leg to (1, 0) runs from 0; 3 is missing
+    pending = logic.on_cancel(1, cancel("A")) if ending == "cancel" else logic.on_timer(10, T("A"))
+    assert pending == [StopAfterLeg(T("A"))]  # R8: not ended yet, the leg is still running
+    errors = logic.error_count
+    out = logic.on_action(11, action("A", "A_a3", 3, 3))
+    (r,) = of(out, Rejected)
+    assert (r.code, r.severity, r.task, r.action) == ("task_cancelled", "error", T("A"), T("A_a3"))
+    assert out == [r] and logic.error_count == errors + 1  # nothing else: no ClearTimer, no TaskQueued
+    assert sorted(logic.queue[T("A")].slots) == [1, 2]
+    out = logic.on_motion_finished(12, T("A_m1"))
+    reason = Reason.CANCELLED if ending == "cancel" else Reason.TIMEOUT
+    assert of(out, TaskCancelled) == [TaskCancelled(T("A"), reason)] and not of(out, DispatchAction)
+
+
 # --- R9 ---------------------------------------------------------------------------------------------------
 
 
@@ -387,6 +410,57 @@ def test_r10_replacement_obeys_position_rules():
     out = logic.on_motion(1, motion("A", "A_m1", 2, 3, 1, 0))  # moving onto A_m2's position
     assert codes(out) == ["position_taken"]
     assert logic.queue[T("A")].slots[1].motion_id == T("A_m1")
+
+
+def test_r10_an_action_that_moved_before_dispatch_cannot_move_again_once_the_path_is_dispatched():
+    """R10 (docs/rules.md, R10 replacement): new content may move an assignment to a free position until
+    the path is dispatched; after that actions keep their position (position_changed). A_a3 moves once
+    while nothing is dispatched, then A_a2 completes R3 and the path goes; moving A_a3 back to the still
+    free position 4 is refused, and the task finishes with A_a3 where it was."""
+    logic = RanLogic("r")
+    logic.on_motion(0, motion("A", "A_m1", 1, 4, 1, 0))
+    logic.on_action(0, action("A", "A_a3", 4, 4))
+    moved = logic.on_action(1, action("A", "A_a3", 3, 4))  # 4 -> 3: R3 does not hold yet (2 is empty)
+    assert not of(moved, Rejected) and logic.queue[T("A")].slots[3].action_id == T("A_a3")
+    assert of(logic.on_action(2, action("A", "A_a2", 2, 4)), DispatchPath)  # R3: m = 1, the path goes
+    out = logic.on_action(3, action("A", "A_a3", 4, 4))  # moving again, to the free position 4
+    (r,) = of(out, Rejected)
+    assert (r.code, r.task, r.action) == ("position_changed", T("A"), T("A_a3")) and out == [r]
+    assert {p: a.action_id for p, a in logic.queue[T("A")].slots.items() if p > 1} == {2: T("A_a2"), 3: T("A_a3")}
+    logic.on_action(4, action("A", "A_a4", 4, 4))  # position 4 is still free for its own action
+    drive_all(logic, 5)
+    performed = []
+    while logic.current_action != Id(bytes(16)):
+        performed.append(logic.current_action)
+        logic.on_action_finished(6, logic.current_action)
+    assert performed == [T("A_a2"), T("A_a3"), T("A_a4")]
+
+
+# --- R12 --------------------------------------------------------------------------------------------------
+
+SQUARE = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)]
+TRIANGLE = [(0.0, 0.0), (4.0, 0.0), (0.0, 4.0)]
+
+
+@pytest.mark.parametrize(("area", "x", "y"), [
+    (SQUARE, 2.0, 0.0),  # the middle of the lower edge
+    (SQUARE, 0.0, 3.0),  # on the left edge
+    (SQUARE, 4.0, 4.0),  # a corner
+    (TRIANGLE, 1.5, 2.5),  # on the slanted edge x + y = 4 (exact in binary)
+])
+def test_r12_a_target_exactly_on_its_motion_areas_boundary_is_inside(area, x, y):
+    """R12 rejects a target *outside* a non-empty motion_area: the polygon's outline belongs to it
+    (shapely's covers, not contains), so a point drawn on the edge of the area is a valid target."""
+    logic = RanLogic("r", area_check=motion_area_problem)
+    out = logic.on_motion(0, motion("A", "A_m1", 1, 2, x, y, area=area))
+    assert not of(out, Rejected) and of(out, TaskQueued) == [TaskQueued(T("A"))]
+
+
+@pytest.mark.parametrize(("x", "y"), [(2.0, -0.001), (4.001, 4.0)])
+def test_r12_a_target_just_outside_its_motion_area_is_rejected(x, y):
+    logic = RanLogic("r", area_check=motion_area_problem)
+    out = logic.on_motion(0, motion("A", "A_m1", 1, 2, x, y, area=SQUARE))
+    assert codes(out) == ["outside_motion_area"] and not logic.queue
 
 
 # --- failures and misuse ------------------------------------------------------------------------------------

@@ -128,6 +128,36 @@ def test_tampered_outbound_record_is_the_first_difference(demo_run, tmp_path, ca
     assert "value.last_finished_motion.uuid" in err and f'expected "{id_for("forged").canonical}"' in err
 
 
+def without_the_load(path) -> None:
+    """``path`` as a vcran from before ran_status carried the load (issue 29 item 4) recorded it."""
+    lines = read_lines(path)
+    for i, line in enumerate(lines[1:], start=1):
+        record = json.loads(line)
+        if record.get("attr") == "ran_status":
+            record["value"].pop("carrying", None)
+            lines[i] = json.dumps(record)
+    write_lines(path, lines)
+
+
+def test_a_recording_made_before_ran_status_carried_the_load_verifies(demo_run, tmp_path, capsys):
+    """SPEC §2 added the load to ran_status; a recording without it verifies with it left out, and the
+    rest of its records are still compared."""
+    trace = demo_run / "trace.jsonl.zst"
+    without_the_load(trace)
+    assert not any('"ran_status"' in line and '"carrying"' in line for line in read_lines(trace))
+    assert replay(trace, tmp_path / "rep") == 0
+
+    def change(r):
+        if r.get("attr") == "ran_status" and r["t"] > 20 and "state" in r["value"]:
+            r["value"]["state"] = "WAITING" if r["value"]["state"] != "WAITING" else "ACTION"
+            return True
+        return False
+
+    rewrite(trace, change)
+    assert replay(trace, tmp_path / "rep2") == 1
+    assert "attribute=ran_status field value.state" in capsys.readouterr().err
+
+
 def test_tampered_leg_names_leg_robot_and_column(demo_run, tmp_path, capsys):
     path = demo_run / "legs.npy"
     legs = np.load(path)

@@ -214,3 +214,26 @@ def test_a_dock_at_the_edge_of_reach_or_area_loads():
     for station in ("position = [0.0, 0.0]\ndock = [1.0, 0.0, 3.0]",  # exactly the reach: as within_reach says
                     "position = [0.0, 0.0]\narea = [[-1, -1], [1, -1], [1, 1], [-1, 1]]\ndock = [1.0, 1.0]"):
         parse(tomllib.loads(FLEET.replace("position = [0.0, 0.0]", station, 1)), "<test>")
+
+
+def test_the_toml_key_rate_is_the_python_field_rate():
+    """issue 29 item 13: ``[job_stream] rate`` (jobs per hour) is ``JobStream.rate``, so
+    ``replace(stream, rate=...)`` says what a sweep's ``job_stream.rate`` says; ``mean_interval``
+    (seconds), the other spelling files may use, loads as ``rate = 3600 / mean_interval`` and stays
+    readable as a property. The first arrival, by hand: the stream's own generator, an exponential gap of
+    mean 3600 / 360 = 10 s (``random.expovariate(1 / 10)``), from start 0."""
+    import random
+    from dataclasses import replace
+
+    from vcran.io.scenario_toml import loop_dict
+
+    sc = load(stream().replace("mean_interval = 10.0", "rate = 360.0"))
+    assert sc.job_stream is not None and sc.job_stream.rate == 360.0 and sc.job_stream.mean_interval == 10.0
+    first = random.Random("job_stream:5").expovariate(1 / 10.0)
+    assert next(sc.workload()).t == first
+    assert loop_dict(sc)["job_stream"]["rate"] == 360.0 and "mean_interval" not in loop_dict(sc)["job_stream"]
+    faster = replace(sc.job_stream, rate=720.0)
+    assert faster.mean_interval == 5.0
+    old = load(stream())  # mean_interval = 10.0
+    assert old.job_stream is not None and old.job_stream.rate == 360.0
+    assert list(old.workload()) == list(sc.workload())

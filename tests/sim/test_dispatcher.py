@@ -10,6 +10,7 @@ import pytest
 import vcran
 from vcran.io.scenario_file import parse
 from vcran.managers import Dispatcher
+from vcran.testing.outcomes import check_failures_have_evidence
 
 FLEET = """
 [simulation]
@@ -231,14 +232,102 @@ def test_s4_a_motion_failure_costs_the_pickup_one_try_and_it_is_planned_again():
     assert result.job("j1").outcome == "completed"
 
 
+def resting(jobs: str, *, swap_after: float | None = None, others: str = "") -> vcran.Scenario:
+    """robot_1 rests with 0.05 Ah of 1 and draws 0.01 Ah/s: its battery runs empty at t = 5."""
+    text = FLEET.format(robot_2=others, parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\n" + battery(
+        0.05, swap_after=swap_after) + "per_idle_second = 0.01\n", 1)
+    return parse(tomllib.loads(text + jobs), "<test>")
+
+
 def test_s4_a_task_refused_by_a_robot_already_out_of_service_is_planned_again():
-    # robot_1 rests with 0.05 Ah and draws 0.01 Ah/s: empty at 5, before any job. j1 (t = 10) goes to it
-    # anyway (no charger to send it to): refused on landing (10.05) with ran_error battery_empty, heard
-    # 10.10, which is the only word on that task. Swapped at 35, published with that instant's tick,
-    # heard 35.05: j1 goes out again.
-    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\n" + battery(
-        0.05, swap_after=30.0) + "per_idle_second = 0.01\n", 1)
-    result = vcran.simulate(parse(tomllib.loads(text + job(10, "j1")), "<test>"), manager=Dispatcher())
+    # robot_1 is empty at 5, before any job. j1 (t = 10) goes to it anyway (no charger to send it to):
+    # refused on landing (10.05) with ran_error battery_empty, heard 10.10, which is the only word on that
+    # task. Swapped at 35, published with that instant's tick, heard 35.05: j1 goes out again.
+    result = vcran.simulate(resting(job(10, "j1"), swap_after=30.0), manager=Dispatcher())
     assert [(e["task"], e["t"]) for e in of(result, "job_assigned")][:2] == [("j1_pick1", 10.0),
                                                                            ("j1_pick2", pytest.approx(35.05))]
     assert result.job("j1").outcome == "completed"
+
+
+# --- SPEC §4 in the loop: a failed load or unload moves nothing (issue 29 item 5) ----------------------------
+
+ACTION_FAILURE = '\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "action_failure"\n'
+
+
+def test_s4_a_load_failed_by_a_fault_is_picked_up_again_and_the_job_completes():
+    # The load armed to fail at 0.5 ends at 12.05 (10 m at 1 m/s from 0.05, then 2 s) and takes no part: the
+    # retry after 10 s loads one. It used to take the part anyway, so the retries failed load_full.
+    result = vcran.simulate(scenario(job(0, "j1") + ACTION_FAILURE.format(t=0.5)), manager=Dispatcher())
+    assert result.job("j1").tasks == ("j1_pick1", "j1_pick2", "j1_drop2")
+    assert result.job("j1").outcome == "completed"
+    assert [c["reason"] for c in result.summary["robots"]["robot_1"]["cancelled"]] == ["action_failed"]
+    stations = result.summary["stations"]
+    assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (4, 1, 0)
+
+
+def test_s4_a_drop_off_failed_by_a_fault_is_sent_again_to_the_robot_that_carries_the_part():
+    # The load ends 12.05; the fault armed at 13 fails the unload at b (lands 13.10, 20 m, 2 s: 35.10),
+    # heard with the tick of 36 at 36.05. The part is still on board: the retry (10 s later) is a drop-off on
+    # the same robot, not a new pickup; it ends 2 s after landing at 46.10, heard at 49.05.
+    result = vcran.simulate(scenario(job(0, "j1") + ACTION_FAILURE.format(t=13.0)), manager=Dispatcher())
+    assert [(e["robot"], e["task"], e["t"]) for e in of(result, "job_assigned")] == [
+        ("robot_1", "j1_pick1", 0.0), ("robot_1", "j1_drop1", pytest.approx(13.05)),
+        ("robot_1", "j1_drop2", pytest.approx(46.05))]
+    assert result.job("j1").outcome == "completed" and result.job("j1").lead_time == pytest.approx(49.05)
+    stations = result.summary["stations"]
+    assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (4, 1, 0)
+    assert result.summary["robots"]["robot_1"]["parts_moved"] == 1
+
+
+def test_s4_the_warehouse_with_one_action_failure_completes_every_job():
+    """Issue 29 item 5: with one action failure at t = 1 on robot_1 the Dispatcher completed 203 of 224 jobs;
+    robot_1 kept the part of its failed load and failed a job every ~20 s (load_full) for the rest of the hour."""
+    from dataclasses import replace
+
+    from tests.conftest import ROOT
+    from vcran.core.faults import FaultSpec
+
+    warehouse = vcran.load_scenario(ROOT / "scenarios" / "warehouse.toml")
+    result = vcran.simulate(replace(warehouse, faults=(FaultSpec(1.0, "robot_1", "action_failure"),)))
+    jobs = result.summary["jobs"]
+    assert (jobs["completed"], jobs["failed"], jobs["open"]) == (jobs["arrived"], 0, 0)
+    [failed] = [e for e in result.events if e["event"] == "failed"]  # the one injected, nothing after it
+    assert (failed["robot"], failed["code"]) == ("robot_1", "action_fault")
+
+
+# --- jobs no robot can serve (SPEC §9: a job failed with evidence; issue 29 item 6) -------------------------
+
+def test_a_job_no_robot_can_serve_is_reported_unassignable_at_once():
+    # robot_1 cannot unload: it could never finish a job, so it gets none and each fails on arrival
+    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", 'max_velocity = 1.0\nactions = ["load"]\n', 1)
+    result = vcran.simulate(parse(tomllib.loads(text + job(0, "j1") + job(7, "j2")), "<test>"), manager=Dispatcher())
+    assert [(e["job"], e["reason"], e["t"]) for e in of(result, "job_failed")] == [
+        ("j1", "unassignable", 0.0), ("j2", "unassignable", 7.0)]
+    assert of(result, "job_assigned") == [] and check_failures_have_evidence(result) == []
+
+
+def test_jobs_waiting_when_the_last_robot_is_lost_for_good_are_reported_unassignable():
+    # 0.05 Ah at 0.01 Ah/m, never swapped: robot_1 runs empty 5 m into j1's pickup (5.05), heard 5.10; j1
+    # waits its 10 s back-off and comes back (15.10) to a fleet with no robot left: unassignable then, as
+    # is j2 on arrival at 30. They used to stay open until the run's end.
+    result = vcran.simulate(with_battery(job(0, "j1") + job(30, "j2"), 0.05), manager=Dispatcher())
+    assert [(e["job"], e["reason"], e["t"]) for e in of(result, "job_failed")] == [
+        ("j1", "unassignable", pytest.approx(15.10)), ("j2", "unassignable", 30.0)]
+    assert check_failures_have_evidence(result) == [] and result.summary["jobs"]["open"] == 0
+
+
+ROBOT_3 = '[[robots]]\nid = "robot_3"\npose = [2.0, 9.0, 0.0]\nmax_velocity = 1.0\nactions = ["dummy"]'
+
+
+def test_s4_robots_out_of_service_or_unable_to_move_parts_are_not_idle_while_a_job_waits():
+    """SPEC §4/§9 (vcran.testing.loop.check_no_idle_while_waiting): robot_1 is empty from 5 until swapped
+    at 205, robot_3 cannot load or unload; robot_2 does the three jobs of t = 10 one after the other (j2
+    from 37.05: 20 m to a, 2 s, 20 m to b, 2 s, heard done at 83.05), so j3 waits until 83.05. Neither
+    robot_1 nor robot_3 could have taken it: both were reported idle 10..83.05 while it waited."""
+    from vcran.testing.loop import check_no_idle_while_waiting
+
+    jobs = job(10, "j1") + job(10, "j2") + job(10, "j3")
+    result = vcran.simulate(resting(jobs, swap_after=200.0, others=ROBOT_2 + "\n" + ROBOT_3), manager=Dispatcher())
+    assert [(e["robot"], e["t"]) for e in of(result, "battery_empty")] == [("robot_1", 5.0)]
+    assert [e["t"] for e in of(result, "job_assigned") if e["job"] == "j3"][0] == pytest.approx(83.05)
+    assert check_no_idle_while_waiting(result) == []

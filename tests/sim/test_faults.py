@@ -77,6 +77,43 @@ def test_s4_link_down_holds_inbound_and_outbound_until_the_link_is_back(faults_r
     assert [i["description"] for i in back["ran_status"]["completed"]] == ["E0"]
 
 
+def _task(t: float, name: str, action: str) -> str:
+    # s1 stands at (10, 1) with reach 1: the robot's point (10, 0) is exactly in reach
+    return f't = {t}\nkind = "task"\ntask = "{name}"\npath = [[10.0, 0.0]]\nactions = ["{action}"]'
+
+
+ARMED = '\n[[faults]]\nt = 0.5\nrobot = "robot_1"\nkind = "action_failure"\n'
+
+
+def test_s4_a_load_failed_by_an_injected_action_failure_moves_no_part(run_toml):
+    """SPEC §4 (issue 29 item 5): a failed load moves nothing. The load was applied and its outcome replaced
+    afterwards: task L cancelled action_failed, yet the robot carried a part and s1 held 2 of its 3."""
+    out = run_toml(script(_task(1.0, "L", "load")) + ARMED)
+    assert [(e["task"], e["event"], e.get("reason")) for e in out.of("task_cancelled") + out.of("task_completed")] == [
+        ("L", "task_cancelled", "action_failed")]
+    assert out.robot()["carrying"] == 0 and out.summary["stations"]["s1"]["parts"] == 3
+    # the fault is spent on that load: the next one takes a part
+    again = run_toml(script(_task(1.0, "L", "load"), _task(30.0, "L2", "load")) + ARMED)
+    assert [e["task"] for e in again.of("task_completed")] == ["L2"]
+    assert again.robot()["carrying"] == 1 and again.summary["stations"]["s1"]["parts"] == 2
+
+
+def test_s4_an_unload_failed_by_an_injected_action_failure_keeps_the_part_on_board(run_toml):
+    """SPEC §4 (issue 29 item 5): a failed unload moves nothing: the robot still carries its part, s1 keeps
+    its 3, and no part counts as moved; the unload sent again delivers it."""
+    def loaded(*tasks: str) -> str:  # the robot starts with a part on board
+        return script(*tasks).replace("max_velocity = 1.0\n", "max_velocity = 1.0\ncarrying = 1\n", 1) + ARMED
+
+    once = run_toml(loaded(_task(1.0, "U", "unload")))
+    assert [e["task"] for e in once.of("task_cancelled")] == ["U"]
+    assert once.robot()["carrying"] == 1 and once.robot()["parts_moved"] == 0
+    assert once.summary["stations"]["s1"]["parts"] == 3
+    twice = run_toml(loaded(_task(1.0, "U", "unload"), _task(30.0, "U2", "unload")))
+    assert [e["task"] for e in twice.of("task_completed")] == ["U2"]
+    assert twice.robot()["carrying"] == 0 and twice.robot()["parts_moved"] == 1
+    assert twice.summary["stations"]["s1"]["parts"] == 4
+
+
 def test_s4_random_faults_are_seeded_and_reproducible(tmp_path):
     text = FLEET + """
 [[random_faults]]

@@ -9,8 +9,10 @@ import pytest
 
 import vcran
 from vcran.api import EventList, Frames
+from vcran.core.build import motion as build_motion
 from vcran.core.messages import AssignmentStatus, RanStatus
 from vcran.io.scenario_file import parse
+from vcran.io.trace import records, trace_in
 from vcran.runner import run_model
 from vcran.sim.loop import ClosedLoop
 
@@ -148,6 +150,28 @@ def test_polling_loses_a_write_overwritten_before_the_ran_reads_it():
     assert result.summary["robots"]["robot_1"]["completed"] == ["second"]
 
 
+class BackAndForth(vcran.FleetManager):
+    """Writes robot_1's motion_assignment as A at 0, B at 0.3 and A again at 0.35 (each lands 0.05 later)."""
+
+    def on_start(self) -> None:
+        first = build_motion("T", "T_m1", 1, 1, 1.0, 0.0)
+        other = build_motion("T", "T_m1", 1, 1, 2.0, 0.0)  # R10: the same assignment, new content
+        self.handle.send("robot_1", first)
+        self.handle.call_at(0.3, self.handle.send, "robot_1", other)
+        self.handle.call_at(0.35, self.handle.send, "robot_1", first)
+
+
+def test_r10_polling_does_not_forward_a_value_read_before_again(tmp_path):
+    """docs/loop.md, polling: the RAN gets each attribute that differs from what it read last. A lands at
+    0.05 and is read at 0.25; B (0.35) and A (0.4) land before the read at 0.5, which finds A again, the
+    value it already read: nothing goes to the RAN, so the trace holds one inbound record, not two (R10
+    would make the second silent anyway, but the trace would grow with every such read)."""
+    sc = scenario("\n[link]\ninbound = 'polling'\npoll_interval = 0.25\nlatency = 0.05\n")
+    vcran.simulate(sc, manager=BackAndForth(), out=tmp_path)
+    read = [r for _, r in records(trace_in(tmp_path)) if r["dir"] == "in"]
+    assert [(r["t"], r["robot"], r["attr"]) for r in read] == [(0.25, "robot_1", "motion_assignment")]
+
+
 class Burst(vcran.FleetManager):
     """Ten one-point tasks to robot_1, 10 ms apart: with jitter, they must still arrive in the order sent."""
 
@@ -196,3 +220,28 @@ def test_link_down_holds_writes_and_publications_until_it_is_restored():
     assert [e["t"] for e in queued] == [5.0]  # written at 1.0, landed at 1.05, read when the link is back
     # robot_1 published nothing while down (from t = 0); its held status goes out at 5.0, arrives 5.05
     assert manager.heard[0] == 5.05 and len(manager.heard) >= 2
+
+
+class Describe(vcran.FleetManager):
+    """Subscribed to robot_description only; keeps every update of it and what ``latest`` holds then."""
+
+    attributes = frozenset({"robot_description"})
+
+    def __init__(self) -> None:
+        self.got: list[tuple[float, str]] = []
+
+    def on_update(self, robot, attribute, message, t) -> None:
+        assert self.handle.latest(robot, attribute) == message
+        self.got.append((t, robot))
+
+
+def test_every_periodic_robot_description_reaches_the_manager_as_live_mode_forces_it():
+    """SPEC §2, issue 29 item 2: live, each periodic write of the (unchanged) description is forced through
+    Orion (options=forcedUpdate), so it notifies every subscriber; the link stands for Orion (SPEC §9), so
+    the manager gets it every description_period too, not only the first time. Expected by hand: written
+    at 0, 10, 20 (duration 25 s), each arriving 0.5 s later, robot_1 then robot_2 (fleet order)."""
+    sc = parse(tomllib.loads(FLEET.replace("until_idle = true", "description_period = 10.0").replace(
+        "duration = 300.0", "duration = 25.0") + "\n[link]\nlatency = 0.5\n"), "<test>")
+    manager = Describe()
+    vcran.simulate(sc, manager=manager)
+    assert manager.got == [(t, r) for t in (0.5, 10.5, 20.5) for r in ("robot_1", "robot_2")]

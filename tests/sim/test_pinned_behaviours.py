@@ -118,6 +118,19 @@ def test_s4_the_seeds_action_codes_0_1_2_are_dummy_load_unload(run_toml):
     assert out.robot()["parts_moved"] == 1  # an unload moves a part; a load does not count
 
 
+def test_s8_parts_moved_counts_unloads_only(run_toml):
+    """docs/outputs.md: ``parts_moved`` is the number of successful unloads. A robot that can carry 2
+    loads twice and unloads once: one part moved (two loads and a dummy count nothing), and a count
+    of loads would say 2. Times: 4 m from 1 (at 5), loads 5-7 and 7-9, unload 9-12, dummy 12-13."""
+    out = run_toml(fleet("capacity = 2", STATION) + go(1, "A", "A_m1", 1, 5, 4, 0, "is_waypoint = false")
+                   + act(1, "A", "A_a2", 2, 5, "load") + act(1, "A", "A_a3", 3, 5, "load")
+                   + act(1, "A", "A_a4", 4, 5, "unload") + act(1, "A", "A_a5", 5, 5, "dummy"))
+    assert action_done(out) == [(7.0, "A_a2", True), (9.0, "A_a3", True), (12.0, "A_a4", True),
+                                (13.0, "A_a5", True)]
+    assert parts(out) == {"s1": 2} and out.robot()["carrying"] == 1  # 3 - 2 + 1 on the station
+    assert out.robot()["parts_moved"] == 1
+
+
 def test_s4_an_action_the_robot_is_not_capable_of_fails_and_changes_nothing(run_toml):
     text = fleet('actions = ["dummy", "unload"]', STATION)
     out = run_toml(text + go(1, "A", "A_m1", 1, 2, 4, 0, "is_waypoint = false") + act(1, "A", "A_a2", 2, 2, "load"))

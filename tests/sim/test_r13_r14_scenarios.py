@@ -100,6 +100,27 @@ def test_r14_last_assignment_at_first_seen_plus_timeout_as_written_is_on_time(ru
     assert out.robot()["completed"] == ["A"] and not out.of("task_cancelled")
 
 
+def test_r14_an_assignment_at_the_instant_of_its_tasks_r7_deadline_comes_first(run_toml):
+    """docs/determinism.md's tie order: an instant's inbound messages (1) before its R7 deadlines (5).
+    A's first assignment at 1 with task_timeout 30: its timer fires at 1 + 30 + R14's 1 µs = 31.000001
+    (docs/rules.md, R14 instants). The missing action arriving at that very instant is taken first, so A
+    is assembled when its timer fires and runs: the leg to (1, 0) from 31.000001 to 32.000001, the
+    dummy to 33.000001. The re-read of A_m1 at 2 (silent, R10) makes the script schedule the action's
+    instant after A's timer was set, so the priorities decide the tie, not the order of scheduling."""
+    out = run_toml(script(motion(1, "A", "A_m1", 1, 2, 1, 0), motion(2, "A", "A_m1", 1, 2, 1, 0),
+                          action(31.000001, "A", "A_a2", 2, 2)))
+    assert out.robot()["completed"] == ["A"]
+    assert not out.of("task_cancelled") and not out.of("rejected")
+    assert finished(out, "action") == [(pytest.approx(33.000001, abs=1e-9), "A_a2")]
+
+
+def test_r14_an_assignment_just_after_its_tasks_r7_timer_is_too_late(run_toml):
+    """The same task with the action 1 µs after the timer (31.000002): A was cancelled at 31.000001."""
+    out = run_toml(script(motion(1, "A", "A_m1", 1, 2, 1, 0), action(31.000002, "A", "A_a2", 2, 2)))
+    assert [(e["t"], e["reason"]) for e in out.of("task_cancelled")] == [(31.000001, "timeout")]
+    assert [(e["t"], e["code"]) for e in out.of("rejected")] == [(31.000002, "task_cancelled")]
+
+
 def test_r14_a_timeout_at_the_instant_a_leg_ends_stops_the_robot_there(run_toml):
     text = script(
         motion(0, "A", "A_m1", 1, 4, 10, 0), motion(0, "A", "A_m2", 2, 4, 20, 0),

@@ -141,6 +141,13 @@ def test_the_demo_sweep_is_what_its_comment_says():
     assert tomllib.loads(sweep.scenario_text) == tomllib.loads(DEMO.read_text())
 
 
+def test_the_fleet_size_sweep_is_what_its_comment_says():
+    """issue 29 items 10 and 11: the bundled warehouse by name, four fleet sizes, one seed."""
+    sweep = load(ROOT / "scenarios" / "sweeps" / "fleet-size.toml")
+    assert sweep.scenario_text == (ROOT / "scenarios" / "warehouse.toml").read_text()
+    assert [r.variant.params for r in sweep.runs()] == [(("robots.count", n),) for n in (4, 7, 10, 14)]
+
+
 def test_a_broken_scenario_is_the_scenario_loaders_message_behind_the_sweep_file(tmp_path):
     broken = tmp_path / "broken.toml"
     broken.write_text(DEMO.read_text().replace("task_timeout = 30.0", "task_timeout = 0.0"))
@@ -165,3 +172,26 @@ manager = "mypkg.fleet:Mine"
     data = tomllib.loads((ROOT / "scenarios" / "warehouse.toml").read_text())
     assert data["manager"]["options"] == {"max_tries": 3}
     assert apply(data, run.variant.params)["manager"] == {"class": "mypkg.fleet:Mine", "options": {}}
+
+
+def test_a_bundled_scenario_by_name(tmp_path, capsys):
+    """issue 29 item 10: ``scenario = "warehouse"`` names the bundled scenario, as ``vcran run warehouse``
+    does, when no file of that name is beside the sweep file; a file there wins, as in the current folder
+    for ``vcran run``; a name that is neither says which names are bundled."""
+    from vcran.cli import main
+    from vcran.io.scenario_file import bundled
+
+    path = tmp_path / "s.toml"
+    path.write_text('scenario = "demo"\nseeds = [1]\n[grid]\n"simulation.task_timeout" = [1.5, 30.0]\n')
+    sweep = load(path)
+    assert sweep.scenario_path == bundled()["demo"] and sweep.scenario_text == DEMO.read_text()
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    rows = (out / "runs.csv").read_text().splitlines()
+    assert len(rows) == 3  # the header and the two variants, run on the demo
+    (tmp_path / "demo").write_text(DEMO.read_text().replace("task_timeout = 30.0", "task_timeout = 20.0"))
+    assert load(path).scenario_path == tmp_path / "demo"
+    path.write_text('scenario = "nosuch"\nseeds = [1]\n')
+    with pytest.raises(SweepError, match=r"^.*s\.toml: field 'scenario': .*nosuch: no such file \(and no bundled "
+                                         r"scenario of that name; bundled: .*demo.*warehouse"):
+        load(path)

@@ -26,7 +26,7 @@ def test_shell_lines_run_verbatim_and_run_3_alone_is_byte_identical(monkeypatch,
     monkeypatch.chdir(tmp_path)
     (tmp_path / "scenarios").symlink_to(ROOT / "scenarios")
     lines = [line for block in blocks("sh") for line in block.splitlines() if line.strip()]
-    assert len(lines) == 3
+    assert len(lines) == 4
     for line in lines:
         argv = shlex.split(line)
         assert argv[0] == "vcran"
@@ -35,9 +35,11 @@ def test_shell_lines_run_verbatim_and_run_3_alone_is_byte_identical(monkeypatch,
         assert (tmp_path / "out/demo-sweep/runs/0003" / name).read_bytes() == \
             (tmp_path / "out/demo-run-3" / name).read_bytes(), name
     assert (tmp_path / "out/warehouse-sweep/runs.csv").read_text().count("\n") == 1 + 8
+    assert (tmp_path / "out/fleet-size/runs.csv").read_text().count("\n") == 1 + 4  # issue 29 item 11
 
 
 def test_the_example_files_are_what_the_doc_says():
-    """The sweep file shown (no scenario: the generic docs test leaves it to this test) is the one in
-    scenarios/ (tests/sweep/test_sweep_file.py loads it)."""
-    assert blocks("toml") == [(ROOT / "scenarios" / "sweeps" / "demo-sweep.toml").read_text()]
+    """The sweep files shown (no scenario: the generic docs test leaves them to this test) are the ones in
+    scenarios/ (tests/sweep/test_sweep_file.py loads them)."""
+    assert blocks("toml") == [(ROOT / "scenarios" / "sweeps" / name).read_text()
+                              for name in ("demo-sweep.toml", "fleet-size.toml")]

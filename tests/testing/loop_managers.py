@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from vcran.core import build
 from vcran.core.codec import encode_attribute
+from vcran.core.manager import FleetManager
 from vcran.core.messages import ActionAssignment
+from vcran.core.scenario import Job
 from vcran.managers import Dispatcher
 from vcran.managers.dispatcher import Trip
 
@@ -56,3 +58,22 @@ class Exiting(Dispatcher):
 
     def on_job(self, job: object) -> None:
         raise SystemExit(3)
+
+
+class GiveUp(FleetManager):
+    """Reports every job failed as it arrives (issue 29 item 6): no task, no evidence."""
+
+    def on_job(self, job: Job) -> None:
+        self.handle.job_failed(job, "unassignable")
+
+
+class NeverSends(FleetManager):
+    """Takes every job and does nothing with it: no task is ever sent, no job ever ends."""
+
+
+class GivesUpAfterThePickup(Dispatcher):
+    """Reports a job failed as soon as its pickup completed: a task was sent for it, and none failed."""
+
+    def task_completed(self, robot: str, trip: Trip) -> None:
+        self.handle.job_failed(trip.job, "cancelled")
+        self.release(robot)

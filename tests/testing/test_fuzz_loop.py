@@ -113,6 +113,17 @@ def test_a_robot_out_of_reach_is_not_idle():
     assert len(check_no_idle_while_waiting(_Result(events[:1], 200.0), bound=20.0)) == 1
 
 
+def test_an_empty_battery_cuts_a_robots_idle_stretch_until_its_swap():
+    """SPEC §4: a robot out of service (its battery empty) is not idle for a job; one never swapped stays out."""
+    events = [{"t": 0.0, "robot": "", "event": "job_arrived", "job": "j"},
+              {"t": 30.0, "robot": "r1", "event": "battery_empty", "x": 0.0, "y": 0.0},
+              {"t": 75.0, "robot": "r1", "event": "battery_swapped"}]
+    assert check_no_idle_while_waiting(_Result(events, 100.0), bound=30.0) == []
+    assert [p.split(" (")[0] for p in check_no_idle_while_waiting(_Result(events, 100.0), bound=24.0)] == [
+        "r1 idle from t=0 to t=30", "r1 idle from t=75 to t=100"]
+    assert check_no_idle_while_waiting(_Result(events[:2], 200.0), bound=30.0) == []
+
+
 def test_rejections_while_a_robots_link_is_down_are_the_outages():
     # r1's link is down 20..65: the manager's writes held meanwhile are judged at 65 against a task that
     # timed out (R9), which it could not know; the same rejection a moment later, or on r2, is its own
@@ -276,3 +287,13 @@ def test_strategy_options_out_of_range_are_clear_errors(strategy, says):
 
     with pytest.raises(ValueError, match=f"^{re.escape(says)}\n"):  # then hypothesis's note
         drawn()
+
+
+@settings(max_examples=10)
+@given(loop_variants(vcran.load_scenario(ROOT / "scenarios" / "warehouse-faults.toml"), horizon=60.0, settle=60.0))
+def test_a_variant_keeps_only_the_base_faults_within_its_end(scenario):
+    """warehouse-faults pauses robot_8 at 1800 s: a variant of 120 s kept that pause, and vcran.simulate refused
+    the variant ('the fault happens at t = 1800, after the run ends'): every example of vcran fuzz crashed."""
+    assert all(f.t <= 120.0 for f in scenario.faults) and len(scenario.random_faults) == 4
+    again = parse(tomllib.loads(dumps(loop_dict(scenario))), "<saved>")
+    assert again.faults == scenario.faults

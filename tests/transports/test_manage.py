@@ -330,3 +330,43 @@ def test_a_notification_entity_with_an_id_that_is_no_string_is_skipped_not_raise
                                  {"id": "robot_2", "type": "ROBOT", "ran_status": status}])
     assert [updates(b) for b in batches] == [{("robot_2", "ran_status", RanStatus(state="WAITING"))}]
     link.client.close()
+
+
+def test_the_manager_is_told_of_each_forced_description_write_and_of_no_unchanged_one(tmp_path):
+    """SPEC §2, §9, issue 29 item 2: ``vcran live`` writes robot_description every period, unchanged, with
+    forcedUpdate; the manager is told of each such write (as in simulated time,
+    tests/sim/test_loop.py::test_every_periodic_robot_description_reaches_the_manager_as_live_mode_forces_it),
+    and not of the unchanged description that every notification of the whole entity carries."""
+    from vcran.core.messages import PolygonStamped
+    from vcran.core.scenario import RobotConfig
+    from vcran.sim.ran import description
+
+    config = RobotConfig(id="robot_1")
+    desc = description(config, PolygonStamped.from_xy(config.footprint))
+    broker = start_broker(port=0)
+    url = broker.url
+    put(url, "robot_1", robot_description=desc, ran_status=RanStatus(state="WAITING"))
+    batches: list[list[Outbound]] = []
+    options = ManageOptions("ROBOT", f"http://127.0.0.1:{free_port()}/notify")
+    link = OrionLink(CallNow(), OrionClient(url), ROBOTS, options, None, batches.append)  # type: ignore[arg-type]
+    link.open()
+    forced = {"actionType": "append", "entities": [
+        {"id": "robot_1", "type": "ROBOT", "robot_description": encode_attribute("robot_description", desc)}]}
+
+    def descriptions() -> int:
+        return sum(1 for b in batches for p in b if isinstance(p, Publish) and p.attribute == "robot_description")
+
+    try:
+        assert descriptions() == 1  # the first read: what Orion holds
+        put(url, "robot_1", ran_status=RanStatus(state="BUSY"))  # a notification of the whole entity
+        assert wait_until(lambda: any(("robot_1", "ran_status", RanStatus(state="BUSY")) in updates(b)
+                                      for b in batches), 10)
+        assert descriptions() == 1  # the description it carried is no write of it
+        for n in (2, 3):  # two periodic writes, as vcran live's sender makes them
+            assert httpx.post(f"{url}/v2/op/update?options=forcedUpdate", json=forced).status_code == 204
+            assert wait_until(lambda: descriptions() == n, 10)  # noqa: B023
+        assert len(httpx.get(f"{url}/v2/subscriptions").json()) == 2
+    finally:
+        link.close()
+        broker.stop()
+    assert all(p.message == desc for b in batches for p in b if isinstance(p, Publish) and p.attribute == "robot_description")

@@ -41,6 +41,7 @@ class FakeOrion:
         self.update_status = update_status
         self.fail_next_subscription_check = False
         self.lose_subscriptions = False  # answer 404 to a subscription check, as a restarted Orion does
+        self.entities: list[dict] = []  # what GET /v2/entities (a poll) answers
         self.lock = threading.Lock()
 
     def __call__(self, request: httpx.Request) -> httpx.Response:
@@ -66,6 +67,8 @@ class FakeOrion:
                 if self.lose_subscriptions:
                     return httpx.Response(404, json={"error": "NotFound", "description": "gone"})
                 return httpx.Response(200, json={"id": sid})
+            if path == "/v2/entities" and request.method == "GET":
+                return httpx.Response(200, json=self.entities)
             return httpx.Response(200, json=[])
 
 
@@ -355,6 +358,38 @@ def test_a_read_started_before_a_notification_does_not_revert_its_value():
     assert env._calls.qsize() == 1
     t._forward([{"id": "robot_9", "motion_assignment": old}], 0.0)  # not ours: not remembered either
     assert ("robot_9", "motion_assignment") not in t._last
+
+
+def test_r10_polling_forwards_a_value_once_however_often_it_is_read_again():
+    """R10 (docs/rules.md: live transports forward an unchanged attribute value only once): a poll reads
+    every robot's command attributes again and again; only a value that differs from the last one read
+    goes to the simulation, and each value that goes is one inbound record of the trace
+    (transports/record.py), so a quiet fleet's trace does not grow with every poll."""
+    orion = FakeOrion()
+    t = transport(orion)
+    env = t._env = LiveEnvironment(10)
+    delivered: list[tuple[str, str, object]] = []
+    t._deliver = lambda inbound: delivered.append((inbound.entity, inbound.attribute, inbound.raw))
+
+    def poll() -> int:
+        """One poll, its values handed over as the simulation would take them; returns how many went."""
+        before = len(delivered)
+        t._read_all()
+        while not env._calls.empty():
+            env._calls.get_nowait()()
+        return len(delivered) - before
+
+    first = encode_attribute("motion_assignment", motion("T", "T_m1", 1, 2, 1, 0))
+    second = encode_attribute("motion_assignment", motion("T", "T_m1", 1, 2, 5, 5))  # R10 new content
+    orion.entities = [{"id": "robot_1", "type": "ROBOT", "motion_assignment": first}]
+    assert [poll() for _ in range(3)] == [1, 0, 0]  # read three times, forwarded once
+    orion.entities = [{"id": "robot_1", "type": "ROBOT", "motion_assignment": second}]
+    assert [poll() for _ in range(2)] == [1, 0]  # a changed value goes, once
+    orion.entities = [{"id": "robot_1", "type": "ROBOT", "motion_assignment": first}]
+    assert poll() == 1  # back to the first: a change again from what was read last
+    assert delivered == [("robot_1", "motion_assignment", v) for v in (first, second, first)]
+    assert t._reads == 6
+    t.close()
 
 
 def test_busy_notification_port_is_a_clear_error(tmp_path, capsys):

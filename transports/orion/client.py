@@ -98,9 +98,11 @@ class OrionClient:
                 offset += PAGE
         return out
 
-    def update(self, body: bytes) -> None:
-        """``POST /v2/op/update`` with a ready body (``vcran.core.codec.split_batch``)."""
-        self._call("POST", "/v2/op/update", "batch update", content=body)
+    def update(self, body: bytes, *, forced: bool = False) -> None:
+        """``POST /v2/op/update`` with a ready body (``vcran.core.codec.split_batch``); ``forced`` adds
+        ``options=forcedUpdate``: Orion then notifies every attribute of the body, changed or not."""
+        params = {"options": "forcedUpdate"} if forced else None
+        self._call("POST", "/v2/op/update", "batch update", content=body, params=params)
 
     def append_attrs(self, entity_id: str, entity_type: str, attrs: dict[str, Any]) -> None:
         """``POST /v2/entities/{id}/attrs``: create or update attributes of an existing entity."""

@@ -16,7 +16,12 @@ the simulated link:
   :attr:`~vcran.core.manager.FleetManager.attributes`; every notification carries all of them, so
   ``handle.latest`` and ``handle.pose`` are as fresh as the robot's last notified change. The entities
   are read once after subscribing (what Orion already holds reaches the manager first). Notifications
-  arrive on the :class:`~transports.orion.listener.Listener`.
+  arrive on the :class:`~transports.orion.listener.Listener`. ``robot_description`` (the attributes of
+  :data:`~vcran.core.messages.FORCED_UPDATES`) has a subscription of its own: ``vcran live`` writes it
+  every period with Orion's forcedUpdate, unchanged, and a notification of the whole entity cannot tell
+  such a write from a description that merely rides along; this subscription's notifications can, so the
+  manager is told of each periodic write, as in simulated time (SPEC §2, §9). Elsewhere (the first read,
+  the other notifications, polling) a description reaches it only when it differs from the last one.
   Polling (``GET /v2/entities`` every ``poll_interval`` simulated seconds, for a manager Orion cannot
   reach) tells the manager what that subscription would: everything at the first read, then a robot's
   attributes, all of them, when one of its condition attributes changed since the previous read (the
@@ -49,7 +54,7 @@ from transports.orion.workers import poll, resilient
 from vcran.core.codec import CodecError, decode_attribute, encode_attribute, split_batch
 from vcran.core.jobs import Log
 from vcran.core.manager import FleetManager
-from vcran.core.messages import INBOUND, OUTBOUND, Message
+from vcran.core.messages import FORCED_UPDATES, INBOUND, OUTBOUND, Message, RanStatus
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Deliver, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
@@ -58,6 +63,7 @@ from vcran.sim.loop import ClosedLoop, ManagerLink
 log = logging.getLogger("vcran.orion")
 
 _ORDER = {name: k for k, name in enumerate(INBOUND)}  # the order in which the RAN reads an entity's attributes
+_NONE = object()  # no value seen yet
 
 
 @dataclass(frozen=True)
@@ -93,7 +99,11 @@ class OrionLink(ManagerLink):
         self.writes = self.requests = self.notifications = self.reads = 0
         #: Polling: each robot's condition values at the last read, to tell a change.
         self._seen: dict[str, tuple[Any, ...]] = {}
+        #: The forced attributes wanted (robot_description), and their last NGSI values handed on.
+        self._forced = [a for a in FORCED_UPDATES if attributes is None or a in attributes]
+        self._forced_seen: dict[tuple[str, str], Any] = {}
         self._subscription: str | None = None
+        self._forced_subscription: str | None = None
         self._listener: Listener | None = None
         self._sender: threading.Thread | None = None
         self._poller: threading.Thread | None = None
@@ -112,6 +122,8 @@ class OrionLink(ManagerLink):
         try:
             if notify_url is not None:
                 self._subscription = self.client.subscribe(self._subscription_body())
+                if self._forced:
+                    self._forced_subscription = self.client.subscribe(self._subscription_body(forced=True))
             entities = self._read()
         except BaseException:
             self.close()
@@ -143,12 +155,14 @@ class OrionLink(ManagerLink):
         if self._listener is not None:
             self._listener.stop()
             self._listener = None
-        if self._subscription is not None:
+        for sid in (self._subscription, self._forced_subscription):
+            if sid is None:
+                continue
             try:
-                self.client.unsubscribe(self._subscription)
+                self.client.unsubscribe(sid)
             except OrionError as exc:
-                log.warning("could not delete subscription %s: %s", self._subscription, exc)
-            self._subscription = None
+                log.warning("could not delete subscription %s: %s", sid, exc)
+        self._subscription = self._forced_subscription = None
 
     # --- ManagerLink --------------------------------------------------------------------------------------
 
@@ -224,15 +238,17 @@ class OrionLink(ManagerLink):
 
     # --- updates --------------------------------------------------------------------------------------------
 
-    def _subscription_body(self) -> dict[str, Any]:
+    def _subscription_body(self, forced: bool = False) -> dict[str, Any]:
+        """The manager's subscription, or (``forced``) the one to the forced attributes alone."""
+        what, condition, attrs = (("robot descriptions, each periodic write", self._forced, self._forced) if forced
+                                  else ("robot updates", self._condition, list(OUTBOUND)))
         return {
-            "description": "vcran manage: robot updates for the fleet manager",
+            "description": f"vcran manage: {what} for the fleet manager",
             "subject": {
                 "entities": [{"id": robot, "type": self.options.entity_type} for robot in self.robots],
-                "condition": {"attrs": self._condition},
+                "condition": {"attrs": condition},
             },
-            "notification": {"http": {"url": self.options.notify_url}, "attrs": list(OUTBOUND),
-                             "attrsFormat": "normalized"},
+            "notification": {"http": {"url": self.options.notify_url}, "attrs": attrs, "attrsFormat": "normalized"},
         }
 
     def _read(self) -> list[dict[str, Any]]:
@@ -262,14 +278,17 @@ class OrionLink(ManagerLink):
         return changed
 
     def _on_notification(self, subscription: str, data: list[dict[str, Any]]) -> None:
-        if subscription != self._subscription:
+        written = subscription is not None and subscription == self._forced_subscription
+        if not written and subscription != self._subscription:
             log.info("notification for unknown subscription %s ignored", subscription)
             return
         self.notifications += 1
-        self._forward(data)
+        self._forward(data, written=written)
 
-    def _forward(self, entities: list[dict[str, Any]]) -> None:
-        """Decode the robots' attributes and hand them to the manager's thread as one batch."""
+    def _forward(self, entities: list[dict[str, Any]], written: bool = False) -> None:
+        """Decode the robots' attributes and hand them to the manager's thread as one batch. A forced
+        attribute goes only when ``written`` (a notification of its own subscription: a write of it) or
+        when it differs from the last one handed on; the manager's loop takes each one as a write."""
         batch: list[Outbound] = []
         for entity in entities:
             robot = entity.get("id")
@@ -278,6 +297,11 @@ class OrionLink(ManagerLink):
             for attribute in OUTBOUND:
                 if attribute not in entity:
                     continue
+                if attribute in FORCED_UPDATES:
+                    value, key = entity[attribute], (robot, attribute)
+                    if not written and self._forced_seen.get(key, _NONE) == value:
+                        continue
+                    self._forced_seen[key] = value
                 try:
                     message = decode_attribute(attribute, entity[attribute])
                 except CodecError as exc:
@@ -289,12 +313,45 @@ class OrionLink(ManagerLink):
 
 
 class OrionLoop(ClosedLoop):
-    """:class:`ClosedLoop` whose link is a real Orion: the manager's side of ``vcran manage``."""
+    """:class:`ClosedLoop` whose link is a real Orion: the manager's side of ``vcran manage``.
+
+    Besides the ``job_*`` events, ``log`` gets what the manager heard of the robots through Orion, from
+    each robot's ``ran_status`` (issue 29 item 12: ``vcran report`` draws the fleet figure from them): a
+    ``state`` event when its RanLogic state changed, ``task_completed`` and ``task_cancelled`` (with the
+    reason) for each task newly in its lists, at the instant the notification (or read) reached the
+    manager, before the manager's hooks see it. The first status heard of a robot is the baseline: tasks
+    that ended before ``manage`` started are not logged as ending then."""
 
     def __init__(self, scenario: Scenario, manager: FleetManager, log: Log, client: OrionClient,
                  options: ManageOptions) -> None:
         super().__init__(scenario, manager, log)
         self.client, self.options = client, options
+        self._log = log
+        self._heard: dict[str, RanStatus] = {}
+
+    def notified(self, batch: list[Outbound]) -> None:
+        assert self.handle is not None
+        for out in batch:
+            if isinstance(out, Publish) and out.attribute == "ran_status" and isinstance(out.message, RanStatus):
+                self._hear(self.handle.now, out.robot, out.message)
+        super().notified(batch)
+
+    def _hear(self, t: float, robot: str, status: RanStatus) -> None:
+        before = self._heard.get(robot)
+        self._heard[robot] = status
+        state = before.state if before is not None else "WAITING"  # every robot starts WAITING (R1)
+        if status.state != state:
+            self._log(t, robot, "state", {"from": state, "to": status.state})
+        if before is None:
+            return
+        done = set(before.completed)
+        for task in status.completed:
+            if task not in done:
+                self._log(t, robot, "task_completed", {"task": task.label})
+        ended = {end.task_id for end in before.cancelled}
+        for end in status.cancelled:
+            if end.task_id not in ended:
+                self._log(t, robot, "task_cancelled", {"task": end.task_id.label, "reason": end.reason})
 
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> OrionLink:
         assert isinstance(env, LiveEnvironment)

@@ -7,6 +7,12 @@ applies the elements of a batch one after the other, as separate updates of the 
 delivered, in order, in the one request of the tick (more requests only when a body would pass Orion's
 1 MB limit).
 
+``robot_description`` (:data:`~vcran.core.messages.FORCED_UPDATES`) goes in a request of its own, after
+the tick's, with ``options=forcedUpdate``: its value never changes, and Orion notifies only changes, so
+without the option a planner that subscribed after the first write would never get it (SPEC §2). The
+option forces every attribute of its request, hence the separate request: nothing else is notified
+unchanged. It costs one more request per ``description_period`` (every robot's description in it).
+
 When a request fails the sender stops there, gives back what Orion did not take and waits before the
 next attempt (ticks meanwhile are coalesced into the outbox, so nothing queues up but the latest state
 and the errors):
@@ -35,7 +41,7 @@ from transports.orion.client import OrionClient, OrionError, OrionRejected
 from transports.orion.health import Backoff, Health
 from transports.orion.outbox import Batch, Outbox, PendingError
 from vcran.core.build import motion_message
-from vcran.core.messages import Message, Time
+from vcran.core.messages import FORCED_UPDATES, Message, Time
 from vcran.core.wire import Frame
 
 log = logging.getLogger("vcran.orion")
@@ -71,6 +77,7 @@ class Element:
     data: bytes
     state: dict[str, Message] = field(default_factory=dict)
     error: PendingError | None = None
+    forced: bool = False  # written with options=forcedUpdate (FORCED_UPDATES), in a request of its own
 
 
 class Sender:
@@ -132,17 +139,21 @@ class Sender:
         self._report_drops()
         if not batch:
             return None
-        elements = list(self._elements(batch))
+        elements = list(self._elements(batch))  # the tick's elements, then the forced ones
+        frame = batch.frame
         done = 0
-        for body, count in split_batch_counted(e.data for e in elements):
-            self.counts.attempts += 1
-            try:
-                self.client.update(body)
-            except OrionError as exc:
-                return self._failed(exc, batch.frame, elements[done:done + count], elements[done + count:])
-            self.counts.accepted += 1
-            self.counts.errors_delivered += sum(1 for e in elements[done:done + count] if e.error is not None)
-            done += count
+        for forced in (False, True):
+            group = [e for e in elements if e.forced is forced]
+            for body, count in split_batch_counted(e.data for e in group):
+                self.counts.attempts += 1
+                try:
+                    self.client.update(body, forced=forced)
+                except OrionError as exc:
+                    return self._failed(exc, frame, elements[done:done + count], elements[done + count:])
+                self.counts.accepted += 1
+                self.counts.errors_delivered += sum(1 for e in elements[done:done + count] if e.error is not None)
+                done += count
+            frame = None  # delivered with the tick's request(s)
         self.backoff.reset()
         if self.health.ok("delivered the fleet's latest state"):
             self.wake()  # Orion may have come back empty: restore everything, not only the changes
@@ -190,7 +201,8 @@ class Sender:
     # --- encoding ---------------------------------------------------------------------------------------
 
     def _elements(self, batch: Batch) -> Iterator[Element]:
-        """The entity elements of a batch, in fleet order, then each robot's further errors in order."""
+        """The entity elements of a batch, in fleet order, then each robot's further errors in order, then
+        the forced attributes (FORCED_UPDATES) of each robot, for a request of their own."""
         motions = {}
         if batch.frame is not None:
             stamp = Time.from_seconds(batch.frame.t)
@@ -199,9 +211,14 @@ class Sender:
         errors: dict[str, list[PendingError]] = {}
         for error in batch.errors:
             errors.setdefault(error.robot, []).append(error)
+        forced: list[tuple[str, dict[str, Message]]] = []
         for robot in self.robots:
-            state = {name: batch.state[robot][name] for name in ATTRIBUTE_ORDER[1:-1]
-                     if name in batch.state.get(robot, {})}
+            pending = batch.state.get(robot, {})
+            state = {name: pending[name] for name in ATTRIBUTE_ORDER[1:-1]
+                     if name in pending and name not in FORCED_UPDATES}
+            if any(name in pending for name in FORCED_UPDATES):
+                forced.append((robot, {name: pending[name] for name in ATTRIBUTE_ORDER if name in FORCED_UPDATES
+                                       and name in pending}))
             queue = errors.get(robot, [])
             first = queue.pop(0) if queue else None
             attrs = ({"current_motion": motions[robot]} if robot in motions else {}) | state
@@ -212,6 +229,8 @@ class Sender:
         for robot in self.robots:  # fleet order; each robot's errors oldest first
             for error in errors.get(robot, []):
                 yield from self._encoded(Element(robot, b"", {}, error), {"ran_error": error.message})
+        for robot, state in forced:
+            yield from self._encoded(Element(robot, b"", state, forced=True), dict(state))
 
     def _encoded(self, element: Element, attrs: dict[str, Message]) -> Iterator[Element]:
         from vcran.core.codec import CodecError, encode_entity_json

@@ -133,10 +133,15 @@ class Context:
     def changed(self, entity: Entity, changes: Mapping[str, Change]) -> None:
         """A write to ``entity`` is done: stamp ``dateModified`` if it changed anything, and queue one
         notification per subscription it triggers, in subscription creation order, numbered
-        ``cbnotif=1, 2, ...`` within the request."""
+        ``cbnotif=1, 2, ...`` within the request.
+
+        ``options=forcedUpdate`` makes every written attribute a change, as Orion's ``mergeAttrInfo``
+        does (mongoBackend/MongoCommonUpdate.cpp: ``valueChanged = forcedUpdate || ...``): it triggers
+        the subscriptions on those attributes and moves ``dateModified`` (the attribute was modified, so
+        the entity was), on every update endpoint and ``op/update`` alike."""
         forced = "forcedUpdate" in self.options
         now = self.clock()
-        if any(change.value or change.metadata for change in changes.values()):
+        if changes and (forced or any(change.value or change.metadata for change in changes.values())):
             entity.modified = now
         for subscription in self.tenant().subscriptions.values():
             if not subscription.triggered_by(entity, changes, forced=forced, now=now):

@@ -5,7 +5,7 @@ Triggering, as Orion 4.7 does it (and the recordings show): a write notifies a s
 entity matches one of ``subject.entities`` (``id``/``idPattern``, ``type``/``typePattern``) inside the
 subscription's service path, and one of the written attributes actually changed (value or type; its
 metadata when ``notifyOnMetadataChange``, the default) and is in ``condition.attrs`` (any attribute
-when that list is empty). ``options=forcedUpdate`` counts every written attribute as changed. No
+when that list is empty). ``options=forcedUpdate`` counts every written attribute (only those) as changed. No
 notification is sent when a subscription is created, nor when an entity is deleted; deleting an
 attribute is a change of it (Orion's functional tests 0000_subs_attrs_deletion).
 The payload carries the entity with ``notification.attrs`` in that order (all attributes when empty;

@@ -11,7 +11,11 @@ if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
 
 #: The scenarios shipped in the package (vcran/scenarios; a test keeps this list in step with it).
-BUNDLED = ("battery", "crossing", "demo", "faults", "warehouse")
+BUNDLED = ("battery", "crossing", "demo", "faults", "warehouse-faults", "warehouse")
+
+
+#: What ``--manager`` adds to each command's help: which options the class gets (vcran.api.manager_options).
+MANAGER_OPTIONS = "; it gets the scenario's [manager] options only if it is the class the scenario names"
 
 
 class CommandError(Exception):

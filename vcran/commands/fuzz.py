@@ -32,7 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vcran.commands import add_scenario_argument
+from vcran.commands import MANAGER_OPTIONS, add_scenario_argument
 from vcran.commands._pool import add_pool_arguments, check_pool_options, pool_for
 
 if TYPE_CHECKING:
@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_pool_arguments(parser, "the examples, as searches of at most 25 with consecutive seeds,", "1")
     loop = parser.add_argument_group("a fleet manager in the loop (SPEC §9)")
     loop.add_argument("--manager", metavar="MODULE:CLASS",
-                      help="fuzz this fleet manager (default: the scenario's [manager], if it has one)")
+                      help="fuzz this fleet manager (default: the scenario's [manager], if it has one)" + MANAGER_OPTIONS)
     loop.add_argument("--jobs", type=int, default=LOOP_OPTIONS["jobs"], metavar="N",
                       help="most jobs per example (default 8)")
     loop.add_argument("--horizon", type=float, default=LOOP_OPTIONS["horizon"], metavar="S",

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from vcran.commands import CommandError, add_scenario_argument, check_out, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
 from vcran.commands._signals import StopSignals
+from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
 if TYPE_CHECKING:
     from vcran.sim.model import Model
@@ -29,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--poll-interval", type=float, default=0.25, metavar="S",
                         help="polling period in simulated seconds (default 0.25)")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    add_live_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -48,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
         check_notify_url(args.notify_url)
     scenario = load_scenario(args.scenario)
     check_out(args.out)
+    check_view(args.view, args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)
@@ -85,6 +88,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"live: {len(scenario.robots)} robot(s) on {args.orion}, x{args.factor:g}, {mode}; Ctrl-C stops",
               flush=True)
     try:
+        view = serve_live(args.view, args.out, args.quiet)
+    except CommandError:
+        transport.close()
+        raise
+    try:
         with signals:
             result = run_to(scenario, args.out, transport, env=env, on_start=on_start, progress=progress,
                             flush_every_tick=True, options={"transport": "live", "factor": args.factor,
@@ -92,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if line is not None:
             line.close()
+        end_live(view)
     if not args.quiet:
         s = result.summary
         done = sum(len(r["completed"]) for r in s["robots"].values())

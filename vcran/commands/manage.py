@@ -15,11 +15,13 @@ from __future__ import annotations
 import argparse
 import shutil
 import signal
+import sys
 from pathlib import Path
 from typing import Any
 
-from vcran.commands import CommandError, add_scenario_argument, check_positive, load_scenario
+from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
+from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
 HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
 
@@ -32,7 +34,7 @@ POLL_INTERVAL = 0.25
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scenario_argument(parser, " with the fleet and its jobs")
     add_connection_arguments(parser)
-    parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])")
+    parser.add_argument("--manager", metavar="MODULE:CLASS", help="the fleet manager (default: the scenario's [manager])" + MANAGER_OPTIONS)
     parser.add_argument("--notify-url", metavar="URL",
                         help="subscribe: Orion notifies the manager of the robots' updates at this URL (vcran "
                              "listens there); default: poll Orion, for a manager Orion cannot reach")
@@ -44,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--jobs", type=int, metavar="N", help="only the first N jobs of the workload")
     parser.add_argument("--out", type=Path, metavar="DIR", help="write the job events (events.jsonl.zst) and summary.json into DIR, as a run folder")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    add_live_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -70,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError("--listen is where the notification listener binds: it needs --notify-url")
     elif args.poll_interval is not None:
         check_positive("--poll-interval", args.poll_interval)
+    check_view(args.view, args.out)
     polling = args.notify_url is None
     poll_interval = POLL_INTERVAL if args.poll_interval is None else args.poll_interval
     listen = "127.0.0.1" if args.listen is None else args.listen
@@ -84,12 +88,19 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(f"{args.scenario}: names no fleet manager: give one with --manager module:Class")
 
     client = client_from_args(args)  # a URL or token file that cannot work: refused before any folder exists
+    try:
+        view = serve_live(args.view, args.out, args.quiet)  # a port in use: refused before anything runs
+    except CommandError:
+        client.close()
+        raise
     # Written like a run folder: into <out>.incomplete, renamed when the run has ended; a manager that
     # raises leaves it incomplete, never new events beside an older summary (vcran.io.runfolder).
     try:
         work = staging(args.out) if args.out is not None else None
     except RunFolderError:
         client.close()
+        if view is not None:
+            view.close()
         raise
     events: EventLog | EventList = EventLog(work / EVENTS_FILE) if work is not None else EventList()
     env = LiveEnvironment(speed=args.factor)
@@ -101,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
     except (OSError, OrionError) as exc:
         client.close()
         events.close()
+        if view is not None:
+            view.close()
         if work is not None:  # nothing ran: no folder left behind
             shutil.rmtree(work, ignore_errors=True)
         if isinstance(exc, OrionError) and polling:
@@ -139,11 +152,15 @@ def run(args: argparse.Namespace) -> int:
         link.close()
         client.close()
         events.close()
+        if view is not None and sys.exc_info()[0] is not None:
+            view.close()
     t = env.now
     jobs = loop.jobs.summary(t)
     if work is not None:
-        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "sim_time": t, "jobs": jobs})
+        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "seed": scenario.settings.seed,
+                             "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
         publish(work, args.out)
+    end_live(view)
     if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling
         inbound = f"{link.reads} read(s)" if polling else f"{link.notifications} notification(s)"
         print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "

@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
             attrs = {
                 "current_motion": motion_message(Time(), *r.pose, 0.0, 0.0),
                 "assignment_state": AssignmentStatus(footprint=footprint),
-                "ran_status": RanStatus(),
+                "ran_status": RanStatus(carrying=r.carrying),
                 "robot_description": description(r, footprint),
             }
             entities.append(encode_entity_json(r.id, entity_type, attrs))

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-HELP = "draw a run's layout and timeline and tabulate its KPIs, from the folder `vcran run --out` wrote"
+HELP = ("draw a run's layout and timeline and tabulate its KPIs, from the folder `vcran run --out` wrote (or "
+        "`vcran live --out`; `vcran manage --out`: its jobs and fleet figure)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,10 +34,13 @@ def write(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None
     except ReportError as exc:
         raise CommandError(str(exc)) from None
     if not quiet:
-        print(console(report.kpis), end="")
+        if report.kpis:
+            print(console(report.kpis), end="")
         if report.jobs is not None:
             print(jobs_markdown(report.jobs), end="")
         print(f"report in {out}/: {', '.join(f.name for f in report.files)}")
+    if report.note is not None:
+        print(f"vcran report: {report.note}", file=sys.stderr)
     return 0
 
 

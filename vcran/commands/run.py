@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, add_scenario_argument, check_out, load_scenario
+from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_out, load_scenario
 from vcran.commands._signals import StopSignals
 
 if TYPE_CHECKING:
@@ -27,10 +27,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if missing)")
     parser.add_argument("--manager", metavar="MODULE:CLASS",
                         help="run the scenario's jobs with this fleet manager (default: the scenario's [manager]), "
-                             "e.g. vcran.managers:Dispatcher")
+                             "e.g. vcran.managers:Dispatcher" + MANAGER_OPTIONS)
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress bar either)")
     parser.add_argument("--report", action="store_true",
                         help="then write the report (figures, KPI tables) into DIR/report; needs vcran[report]")
+    parser.add_argument("--view", action="store_true",
+                        help="then write the run as one interactive page, DIR/view.html (vcran view; docs/view.md)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,6 +74,11 @@ def run(args: argparse.Namespace) -> int:
         return signals.exit_code
     if not args.quiet:
         print_summary(result, args.out)
+    if args.view:
+        from vcran.commands.view import PAGE
+        from vcran.commands.view import write as write_view
+
+        write_view(args.out, args.out / PAGE, quiet=args.quiet)
     if args.report:
         from vcran.commands.report import write
 

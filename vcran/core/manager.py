@@ -291,7 +291,8 @@ class FleetManager:
         """``job`` has arrived: it is the manager's to assign (and to report done or failed)."""
 
     def on_update(self, robot: str, attribute: str, message: Message, t: float) -> None:
-        """Orion notified a new value of ``robot``'s ``attribute``, decoded, at simulated time ``t``."""
+        """Orion notified a new value of ``robot``'s ``attribute``, decoded, at simulated time ``t`` (and
+        every periodic write of ``robot_description``, unchanged: live mode forces it through Orion)."""
 
     def _bind(self, fleet: Fleet, handle: Handle) -> None:
         self.fleet, self.handle = fleet, handle

@@ -388,7 +388,8 @@ class TaskEnd(Message):
 
 @dataclass(frozen=True, slots=True)
 class RanStatus(Message):
-    """RanLogic's state and queue (produced: ``ran_status``, every second; vcran extension)."""
+    """RanLogic's state and queue, and the robot's load (produced: ``ran_status``, published when it
+    changes; vcran extension)."""
 
     ROS_TYPE = "vcran_msgs.RanStatus"
     state: String = "WAITING"
@@ -399,6 +400,9 @@ class RanStatus(Message):
     queued: UInt32 = 0
     completed: tuple[Id, ...] = ()
     cancelled: tuple[TaskEnd, ...] = ()
+    #: The parts the robot carries now (SPEC §2): a fleet manager must see a load that a failed action
+    #: left where it was. Last, as a field added to a ROS message goes, so older readers keep their order.
+    carrying: UInt32 = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -465,6 +469,11 @@ OUTBOUND: dict[str, type[Message]] = {
     "battery_state": BatteryState,
 }
 ATTRIBUTES: dict[str, type[Message]] = {**INBOUND, **OUTBOUND}
+#: Attributes whose every write reaches subscribers, changed or not (SPEC §2): ``robot_description`` goes out
+#: every ``description_period`` so that a planner subscribing late still gets it, but it never changes, and
+#: Orion notifies only changes. Live, it is written with Orion's ``options=forcedUpdate``, in a request of
+#: its own (the option forces every attribute of a request); a closed loop's link notifies each write.
+FORCED_UPDATES: frozenset[str] = frozenset({"robot_description"})
 #: Attributes published under another name before vcran took OPIL's own (the OPIL RAN's launch file and the
 #: Motion Task Planner's FIROS configuration read ``assignment_state`` and ``battery_state``; SPEC §2, §4).
 #: Traces recorded before are read with the new names; a fleet manager naming an old one is told the new.

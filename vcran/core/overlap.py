@@ -9,16 +9,39 @@ issue 14). See :mod:`vcran.core.collisions` for the method.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 
 from vcran.core.collisions import COARSE, MAX_ROUNDS, MAX_SAMPLES, REFINE, TIME_TOL, Track
+from vcran.core.motion import Leg
 from vcran.core.sampling import leg_poses
 
 
-def poses(track: Track, times: np.ndarray) -> np.ndarray:
+class Moving(Protocol):
+    """What :func:`first_change` samples: a robot's leg (or its pose at rest) and bounds on how far from its
+    origin, and how fast, the shape it carries reaches: a :class:`Track`'s footprint, or a safety field
+    (:class:`vcran.core.traffic.fields.FieldTrack`)."""
+
+    @property
+    def leg(self) -> Leg | None: ...
+    @property
+    def pose(self) -> tuple[float, float, float]: ...
+    @property
+    def radius(self) -> float: ...
+    @property
+    def drive(self) -> float: ...
+    @property
+    def speed(self) -> float: ...
+
+
+#: Whether the shapes of two moving things meet at each of ``times``: :func:`touching`, or another test.
+Meets = Callable[[Any, Any, np.ndarray], np.ndarray]
+
+
+def poses(track: Moving, times: np.ndarray) -> np.ndarray:
     """``(len(times), 3)`` poses x, y, theta of ``track``."""
     if track.leg is None:
         out = np.empty((len(times), 3))
@@ -141,25 +164,28 @@ def touching(a: Track, b: Track, times: np.ndarray) -> np.ndarray:
 
 
 def first_change(
-    a: Track, b: Track, t0: float, t1: float, resolution: float, want: bool, exact: bool = True
+    a: Moving, b: Moving, t0: float, t1: float, resolution: float, want: bool, exact: bool = True,
+    meets: Meets = touching,
 ) -> float | None:
     """The first instant in ``[t0, t1]`` at which "the footprints touch" becomes ``want``, or None.
 
     With ``exact`` false the first sample at which it holds is returned, at most one sampling step after
     the change (no refinement): enough where only the order of events matters, not the instant.
+    ``meets`` replaces the footprint test (a safety field's: :mod:`vcran.core.traffic.intrusion`); the
+    sampling, the skipping and the refinement are the same.
     """
     if t1 < t0:
         return None
     speed = a.speed + b.speed
     if speed <= 0.0 or t1 == t0:
-        return t0 if bool(touching(a, b, np.array([t0]))[0]) == want else None
+        return t0 if bool(meets(a, b, np.array([t0]))[0]) == want else None
     span = t1 - t0 if math.isfinite(t1) else 0.0
     if span == 0.0:
-        return t0 if bool(touching(a, b, np.array([t0]))[0]) == want else None
+        return t0 if bool(meets(a, b, np.array([t0]))[0]) == want else None
     step = max(resolution / speed, span / MAX_SAMPLES)
     times = t0 + step * np.arange(math.ceil(span / step) + 1)
     times[-1] = t1
-    hits = np.flatnonzero(_touching_along(a, b, times, step) == want)
+    hits = np.flatnonzero(_touching_along(a, b, times, step, meets) == want)
     if not len(hits):
         return None
     k = int(hits[0])
@@ -167,10 +193,10 @@ def first_change(
         return t0
     if not exact:
         return float(times[k])
-    return _refine(a, b, float(times[k - 1]), float(times[k]), want)
+    return _refine(a, b, float(times[k - 1]), float(times[k]), want, meets)
 
 
-def _touching_along(a: Track, b: Track, times: np.ndarray, step: float) -> np.ndarray:
+def _touching_along(a: Moving, b: Moving, times: np.ndarray, step: float, meets: Meets) -> np.ndarray:
     """:func:`touching` at ``times`` (evenly ``step`` apart), skipping stretches where the robots are far apart.
 
     The robots' origins are first compared every ``COARSE`` samples: neither moves faster than its leg's
@@ -190,11 +216,11 @@ def _touching_along(a: Track, b: Track, times: np.ndarray, step: float) -> np.nd
     need = np.zeros(n, dtype=bool)
     for m in stretches.tolist():
         need[ends[m] : ends[m + 1] + 1] = True
-    out[need] = touching(a, b, times[need])
+    out[need] = meets(a, b, times[need])
     return out
 
 
-def _refine(a: Track, b: Track, lo: float, hi: float, want: bool) -> float:
+def _refine(a: Moving, b: Moving, lo: float, hi: float, want: bool, meets: Meets) -> float:
     """Narrow ``(lo, hi]`` (not ``want`` at ``lo``, ``want`` at ``hi``) to ``TIME_TOL``; return its end.
 
     Each round samples ``REFINE - 1`` instants inside the bracket in one vectorised call and keeps the gap
@@ -207,7 +233,7 @@ def _refine(a: Track, b: Track, lo: float, hi: float, want: bool) -> float:
         if hi - lo <= TIME_TOL:
             break
         inner = lo + (hi - lo) * fractions
-        hits = np.flatnonzero(touching(a, b, inner) == want)
+        hits = np.flatnonzero(meets(a, b, inner) == want)
         if not len(hits):
             lo = float(inner[-1])
             continue

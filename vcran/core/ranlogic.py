@@ -111,10 +111,10 @@ class RanLogic:
         #: ask for it, about 26 times per task), and its id: the attribute :attr:`current_task`.
         self._head: Task | None = None
         self.current_task: Id = NIL
-        #: Tasks that left the queue so far; with ``_arrivals`` and the state, what ``ran_status`` shows
-        #: is a function of these three (the last one built is kept in ``_status``).
+        #: Tasks that left the queue so far; with ``_arrivals``, the state and the load the robot gives,
+        #: what ``ran_status`` shows is a function of these four (the last one built is kept in ``_status``).
         self._ended = 0
-        self._status: tuple[tuple[State, int, int], RanStatus] | None = None
+        self._status: tuple[tuple[State, int, int, int], RanStatus] | None = None
         self.history = History(history_limit, history_bytes)
         self.recent_completed: deque[Id] = deque(maxlen=RECENT)
         self.recent_cancelled: deque[TaskEnd] = deque(maxlen=RECENT)
@@ -263,10 +263,11 @@ class RanLogic:
             return NIL
         return task.action_at(task.next_action).action_id
 
-    def ran_status(self) -> RanStatus:
-        """The status as published. Built again only when what it shows changed: the state, or the
-        queue (a task arrived or ended); telemetry asks for it whenever anything of the robot changed."""
-        key = (self.state, self._arrivals, self._ended)
+    def ran_status(self, carrying: int = 0) -> RanStatus:
+        """The status as published, with the parts the robot ``carrying`` (the AGV's, not RanLogic's to
+        know). Built again only when what it shows changed: the state, the queue (a task arrived or
+        ended) or the load; telemetry asks for it whenever anything of the robot changed."""
+        key = (self.state, self._arrivals, self._ended, carrying)
         cached = self._status
         if cached is not None and cached[0] == key:
             return cached[1]
@@ -277,6 +278,7 @@ class RanLogic:
             queued=len(self.queue),
             completed=tuple(self.recent_completed),
             cancelled=tuple(self.recent_cancelled),
+            carrying=carrying,
         )
         self._status = (key, status)
         return status

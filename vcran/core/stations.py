@@ -107,32 +107,41 @@ class StationMap:
         return best
 
 
-def perform(
+def attempt(
     kind: ActionKind, x: float, y: float, carried: int, capacity: int, stations: StationMap,
     capable: frozenset[ActionKind],
-) -> tuple[Outcome, int]:
-    """Carry out one action at ``(x, y)``; return the outcome and the new number of parts carried."""
+) -> tuple[Outcome, Station | None]:
+    """What one action at ``(x, y)`` would do, without doing it: its outcome and, for a load or unload that
+    would succeed, the station it would move a part to or from (:func:`transfer` moves it). Apart, so that
+    an action failed for another reason (an injected fault, SPEC §4) moves nothing."""
     if kind not in capable:
-        return Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}"), carried
+        return Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}"), None
     if kind is ActionKind.DUMMY or kind is ActionKind.CHARGE:  # a charge's energy is the battery's part
-        return Outcome(True), carried
+        return Outcome(True), None
     station = stations.nearest_in_reach(x, y)
     where = f"at {x:.3f}, {y:.3f}"
     if station is None:
-        return Outcome(False, "no_station_in_reach", f"{kind.value}: no station in reach {where}"), carried
+        return Outcome(False, "no_station_in_reach", f"{kind.value}: no station in reach {where}"), None
     if kind is ActionKind.LOAD:
         if station.parts <= 0:
-            return Outcome(False, "load_no_part", f"load: station {station.name} has no part", station.name), carried
+            return Outcome(False, "load_no_part", f"load: station {station.name} has no part", station.name), None
         if carried >= capacity:
-            return Outcome(False, "load_full", f"load: robot already carries {carried} of {capacity}", station.name), carried
-        station.parts -= 1
-        return Outcome(True, station=station.name), carried + 1
+            return Outcome(False, "load_full", f"load: robot already carries {carried} of {capacity}", station.name), None
+        return Outcome(True, station=station.name), station
     if carried <= 0:
-        return Outcome(False, "unload_nothing_carried", f"unload: robot carries nothing, station {station.name}", station.name), carried
+        return Outcome(False, "unload_nothing_carried", f"unload: robot carries nothing, station {station.name}", station.name), None
     if station.parts >= station.capacity:
-        return Outcome(False, "station_full", f"unload: station {station.name} is full", station.name), carried
+        return Outcome(False, "station_full", f"unload: station {station.name} is full", station.name), None
+    return Outcome(True, station=station.name), station
+
+
+def transfer(kind: ActionKind, station: Station, carried: int) -> int:
+    """Move one part of a load or unload that :func:`attempt` found possible; the parts now carried."""
+    if kind is ActionKind.LOAD:
+        station.parts -= 1
+        return carried + 1
     station.parts += 1
-    return Outcome(True, station=station.name), carried - 1
+    return carried - 1
 
 
 def area_problem(points: list[tuple[float, float]], x: float, y: float) -> str | None:

@@ -18,14 +18,15 @@ import re
 import shutil
 from pathlib import Path
 
-#: Everything a run folder may hold (both trace formats, `--report`'s subfolder, and the scenario a sweep
-#: keeps beside a run, docs/sweeps.md).
+#: Everything a run folder may hold (both trace formats, `--report`'s subfolder, `vcran view`'s page, and the
+#: scenario a sweep keeps beside a run, docs/sweeps.md).
 RUN_FILES = frozenset({
     "trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json",
-    "trace.jsonl", "telemetry.bin", "events.jsonl", "report", "scenario.toml",
+    "trace.jsonl", "telemetry.bin", "events.jsonl", "report", "view.html", "scenario.toml",
 })
-#: What ``vcran manage --out`` writes: a fleet manager's job events and summary (docs/live.md).
-MANAGE_FILES = frozenset({"events.jsonl.zst", "summary.json"})
+#: What ``vcran manage --out`` writes: a fleet manager's job events and summary (docs/live.md), and the page
+#: `vcran view` may write into it.
+MANAGE_FILES = frozenset({"events.jsonl.zst", "summary.json", "view.html"})
 #: What ``vcran sweep --out`` writes (docs/sweeps.md): its tables, a figure per swept parameter in either
 #: format, and with ``--keep-runs`` a folder ``runs/NNNN`` per run (``NNNN.incomplete`` for one that failed
 #: part way). Spelled here, not imported from vcran.sweep: a run imports no sweep machinery.

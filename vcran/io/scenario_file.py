@@ -46,6 +46,8 @@ from vcran.core.scenario import (
     task_entries,
 )
 from vcran.core.schema import MessageError
+from vcran.core.traffic import roadmap as traffic
+from vcran.core.traffic.roadmap import Edge, Node, Roadmap
 from vcran.io.toml_table import ScenarioError, Table, read_toml
 
 __all__ = ["ScenarioError", "bundled", "load", "parse", "read", "resolve"]
@@ -60,16 +62,18 @@ def bundled() -> dict[str, Path]:
 SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
 
 
-def resolve(path: str | Path) -> Path:
-    """``path``, or the bundled scenario of that name when no such file exists."""
+def resolve(path: str | Path, folder: Path | None = None) -> Path:
+    """``path`` (relative to ``folder`` when given: a sweep file's ``scenario`` is relative to the sweep
+    file), or the bundled scenario of that name when no such file exists."""
     path = Path(path)
-    if not path.exists() and path.name == str(path):
+    where = folder / path if folder is not None else path
+    if not where.exists() and path.name == str(path):
         names = bundled()
         if path.suffix or path.name not in names:
-            raise ScenarioError(f"{path}: no such file (and no bundled scenario of that name; "
+            raise ScenarioError(f"{where}: no such file (and no bundled scenario of that name; "
                                 f"bundled: {', '.join(names)})")
         return names[path.name]
-    return path
+    return where
 
 
 def load(path: str | Path) -> Scenario:
@@ -95,7 +99,10 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     robots = tuple(_robot(t) for t in top.tables("robots"))
     if not robots:
         top.reject("at least one [[robots]] entry is needed")
-    stations = tuple(_station(t) for t in top.tables("stations"))
+    roadmap_table = top.optional_table("roadmap")
+    roadmap, located = (None, []) if roadmap_table is None else _roadmap(roadmap_table)
+    station_tables = top.tables("stations")
+    stations = tuple(_station(t, roadmap) for t in station_tables)
     script_tables = top.tables("script")
     job_tables, stream_table = top.tables("jobs"), top.optional_table("job_stream")
     link = _link(top.table("link"))
@@ -107,6 +114,7 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     top.done()
     _unique(source, "robots", [r.id for r in robots])
     _unique(source, "stations", [s.id for s in stations])
+    _report(top, [*located, *station_tables], traffic.validate(roadmap, stations))
     names = [s.id for s in stations]
     listed = [_job(t, names, settings.duration) for t in job_tables]
     _unique(source, "jobs", [j.id for j in listed])
@@ -134,7 +142,25 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
         top.reject("[[script]] and a closed loop ([[jobs]], [job_stream], [manager]) exclude each other: a script "
                    "plays the fleet manager's part, jobs go to a fleet manager")
     return Scenario(settings, robots, stations, tuple(script), source, tuple(cycles), faults=faults,
-                    random_faults=random_faults, jobs=tuple(jobs), job_stream=stream, link=link, manager=manager)
+                    random_faults=random_faults, jobs=tuple(jobs), job_stream=stream, link=link, manager=manager,
+                    roadmap=roadmap)
+
+
+def _report(top: Table, tables: list[Table], problems: list[traffic.Problem]) -> None:
+    """Fail with the first of the model's ``problems`` (issue 30: the rules live with the model), told the
+    way every other field is: ``file: entry: field 'key': problem``. ``tables`` are the entries read, by
+    the path the model names them with; a whole entry (a path ending in ``]``) is rejected as such."""
+    if not problems:
+        return
+    path, message = problems[0]
+    by_path = {t.where: t for t in tables}
+    where, _, key = path.rpartition(".")
+    if path in by_path:
+        by_path[path].reject(message)
+    elif where in by_path:
+        by_path[where].fail(key, message)
+    else:
+        top.reject(f"{path}: {message}")  # an entry not read as a table (a schema's recording)
 
 
 def _check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | None) -> None:
@@ -245,11 +271,16 @@ def _robot(t: Table) -> RobotConfig:
     return r
 
 
-def _station(t: Table) -> StationConfig:
+def _station(t: Table, roadmap: Roadmap | None) -> StationConfig:
     area = t.points("area", [])
     problem = polygon_problem(area) if area else None
     if problem:
         t.fail("area", f"{problem} (a station's area is a simple polygon)")
+    dock = t.place("dock", None)
+    dock_node = None
+    if isinstance(dock, str):  # a roadmap node: its position (traffic.validate says if there is none)
+        dock_node, node = dock, roadmap.index().get(dock) if roadmap is not None else None
+        dock = None if node is None else (node.x, node.y, None)
     s = StationConfig(
         id=t.string("id"),
         position=t.pair("position"),
@@ -261,7 +292,8 @@ def _station(t: Table) -> StationConfig:
         produce_start=t.number("produce_start", None, minimum=0.0),
         produce_limit=t.integer("produce_limit", 0, minimum=0),
         charger=t.boolean("charger", False),
-        dock=t.pose("dock", None),
+        dock=dock,
+        dock_node=dock_node,
     )
     if s.parts > s.capacity:
         t.fail("parts", f"{s.parts} exceeds capacity {s.capacity}")
@@ -284,6 +316,21 @@ def _check_dock(t: Table, s: StationConfig) -> None:
     elif (d := math.hypot(s.position[0] - x, s.position[1] - y)) > s.reach:
         t.fail("dock", f"{where} is {d:g} m from the station's position [{s.position[0]:g}, {s.position[1]:g}], "
                        f"beyond its reach {s.reach:g}: a robot standing there cannot load or unload")
+
+
+def _roadmap(t: Table) -> tuple[Roadmap, list[Table]]:
+    """The ``[roadmap]`` table as read, with its tables (to locate the model's problems: :func:`_report`)."""
+    node_tables, edge_tables = t.tables("nodes"), t.tables("edges")
+    nodes = []
+    for n in node_tables:
+        nodes.append(Node(n.string("id"), n.number("x"), n.number("y"), n.boolean("waiting", False)))
+        n.done()
+    edges = []
+    for e in edge_tables:
+        edges.append(Edge(e.string("from"), e.string("to"), e.boolean("one_way", False), e.number("speed", None)))
+        e.done()
+    t.done()
+    return Roadmap(tuple(nodes), tuple(edges)), [t, *node_tables, *edge_tables]
 
 
 def _battery(t: Table) -> BatteryConfig:
@@ -492,7 +539,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
     rate, interval = t.number("rate", None, positive=True), t.number("mean_interval", None, positive=True)
     if (rate is None) == (interval is None):
         t.fail("rate", "give exactly one of rate (jobs per hour) and mean_interval (seconds)")
-    mean = 3600.0 / rate if rate is not None else interval
+    per_hour = rate if rate is not None else 3600.0 / interval  # JobStream.rate, as the file's key says
     start = t.number("start", 0.0, minimum=0.0)
     _check_start(t, start, settings.duration, "job stream")
     until = t.number("until", settings.duration, minimum=0.0)
@@ -509,7 +556,7 @@ def _job_stream(t: Table, stations: list[str], settings: Settings, listed: list[
     if clash is not None:
         t.fail("prefix", f"the stream names its jobs {prefix}_1, {prefix}_2, ...; [[jobs]] id {clash!r} would clash")
     stream = JobStream(
-        mean_interval=mean, pickups=pickups, dropoffs=dropoffs, until=until,
+        rate=per_hour, pickups=pickups, dropoffs=dropoffs, until=until,
         seed=t.integer("seed", settings.seed), start=start, prefix=prefix,
         priority=t.integer("priority", 0), deadline_after=t.number("deadline_after", None, positive=True),
     )

@@ -191,6 +191,11 @@ class RecordingTable(Table):
         v = 1.0 + self.run.variant
         return v, v, None
 
+    def place(self, key: str, default: Any = _MISSING) -> Any:
+        self._note(key, {"oneOf": [{"type": "string", "minLength": 1}, _POSE]}, default)
+        v = 1.0 + self.run.variant
+        return v, v, None
+
     def weights(self, key: str) -> list[tuple[str, float]]:
         names = {"type": "array", "items": {"type": "string"}, "minItems": 1}
         table = {"type": "object", "additionalProperties": {"type": "number", "exclusiveMinimum": 0}, "minProperties": 1}

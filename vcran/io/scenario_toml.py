@@ -38,7 +38,7 @@ def loop_dict(scenario: Scenario) -> dict[str, Any]:
     s = scenario.job_stream
     if s is not None:
         data["job_stream"] = {
-            "mean_interval": s.mean_interval, "until": s.until, "start": s.start, "seed": s.seed, "prefix": s.prefix,
+            "rate": s.rate, "until": s.until, "start": s.start, "seed": s.seed, "prefix": s.prefix,
             "priority": s.priority, "pickup": dict(s.pickups), "dropoff": dict(s.dropoffs),
             **({"deadline_after": s.deadline_after} if s.deadline_after is not None else {}),
         }

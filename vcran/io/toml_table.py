@@ -232,6 +232,19 @@ class Table:
             self.fail(key, f"expected [x, y] or [x, y, theta], got {v!r}")
         return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
 
+    def place(self, key: str, default: Any = _MISSING) -> Any:
+        """A place: a point as :meth:`pose` reads it, or the id of a roadmap node (a string, returned as is)."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if isinstance(v, str):
+            if not v:
+                self.fail(key, "expected [x, y] or [x, y, theta], or a roadmap node's id, got ''")
+            return v
+        if not (isinstance(v, (list, tuple)) and len(v) in (2, 3) and all(is_number(c) for c in v)):
+            self.fail(key, f"expected [x, y] or [x, y, theta], or a roadmap node's id, got {v!r}")
+        return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
+
     def weights(self, key: str) -> list[tuple[str, float]]:
         """Names with positive weights: a list of names (equal weights) or a table ``{name = weight}``."""
         v = self.raw(key)

@@ -13,8 +13,9 @@
   further try (10, 20, 40 s by default): a pickup at an empty station fails within seconds, and
   retrying at once would burn every try before the station produces a part. A failed pickup frees the
   robot at once (it may take other jobs meanwhile) and puts the job back in the queue at its old place
-  when the wait is over; a failed drop-off is sent again to the same robot, which still carries the
-  part. After ``max_tries`` cancelled tasks the job is reported failed.
+  when the wait is over. A cancelled task moved no part (SPEC §4: a failed load or unload moves nothing):
+  a failed drop-off leaves the part on board, so it is sent again to the same robot. After ``max_tries``
+  cancelled tasks the job is reported failed.
 * Batteries (SPEC §4): a robot without a job whose published charge is below ``charge_below`` (a
   fraction) drives to the nearest ``charger`` station and charges to full instead of taking jobs. A
   robot on a job finishes it first. A robot that ran empty is out of service until its battery is
@@ -22,6 +23,9 @@
   and its drop-off waits for the swap (the part is on board), or fails ``battery_empty`` at once when
   the robot's battery is never swapped. A task refused because the robot was already out of service
   (a ``ran_error`` ``battery_empty`` naming it) counts as cancelled ``battery_empty``.
+* Only robots configured to ``load`` and ``unload`` get jobs. A job that no robot can ever take (none is
+  so configured, or each ran empty and is never swapped) is reported failed ``unassignable`` when it
+  would be dispatched: on arrival, or when its back-off ends.
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from vcran.core.messages import BatteryState, Message, RanError, RanStatus
 from vcran.core.scenario import Job
 
 PICKUP, DROPOFF = "pick", "drop"
-COMPLETED, BATTERY_EMPTY = "completed", "battery_empty"
+COMPLETED, BATTERY_EMPTY, UNASSIGNABLE = "completed", "battery_empty", "unassignable"
 Point = tuple[float, float, float | None]  # x, y, theta (a pose, or a dock)
 
 
@@ -73,7 +77,8 @@ class Dispatcher(FleetManager):
 
     def on_start(self) -> None:
         self.queue: list[Trip] = []                      # jobs waiting for a robot, head first
-        self.idle: list[str] = list(self.fleet.robot_ids)  # robots without a job, in fleet order
+        self.movers = [r for r in self.fleet.robot_ids if self.fleet.robot(r).moves_parts]  # may get jobs
+        self.idle: list[str] = list(self.movers)         # robots without a job, in fleet order
         self.trips: dict[str, Trip] = {}                 # robot -> the job it works on
         self._rank = {robot: i for i, robot in enumerate(self.fleet.robot_ids)}
         self._arrivals = 0
@@ -107,7 +112,12 @@ class Dispatcher(FleetManager):
     # --- decisions ----------------------------------------------------------------------------------------
 
     def dispatch(self) -> None:
-        """Give waiting jobs to idle robots, head of the queue first."""
+        """Give waiting jobs to idle robots, head of the queue first; when no robot is left that could ever
+        take them, report them failed (``unassignable``)."""
+        if self.queue and all(self.lost(robot) for robot in self.movers):
+            for trip in self.queue:
+                self.handle.job_failed(trip.job, UNASSIGNABLE)
+            self.queue.clear()
         while self.queue and self.idle:
             trip = self.queue.pop(0)
             robot = self.nearest_idle(trip.job.pickup)
@@ -130,11 +140,9 @@ class Dispatcher(FleetManager):
     def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
         trip.tries += 1
         trip.task = None
-        stranded = False
         if reason == BATTERY_EMPTY:
             self.out.add(robot)
-            battery = self.fleet.robot(robot).battery
-            stranded = trip.phase == DROPOFF and (battery is None or battery.swap_after is None)
+        stranded = trip.phase == DROPOFF and self.lost(robot)
         if trip.tries >= self.max_tries or stranded:
             self.handle.job_failed(trip.job, reason)  # the last task's reason; the event counts the tasks
             self.release(robot)
@@ -174,6 +182,11 @@ class Dispatcher(FleetManager):
 
     def low(self, robot: str) -> bool:
         return self.level.get(robot, 1.0) < self.charge_below
+
+    def lost(self, robot: str) -> bool:
+        """Out of service for good: its battery ran empty and is never swapped."""
+        battery = self.fleet.robot(robot).battery
+        return robot in self.out and (battery is None or battery.swap_after is None)
 
     def requeue(self, trip: Trip) -> None:
         """``trip``'s wait after a failed pickup is over: back in the queue at its old place."""

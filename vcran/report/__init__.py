@@ -38,6 +38,8 @@ class Report:
     jobs: JobFigures | None
     #: Robots the timeline left out (beyond its page limit); they are in the KPI tables all the same.
     robots_not_drawn: int
+    #: What the folder could not give, said to the user (a ``vcran manage`` folder's); None for a run's.
+    note: str | None = None
 
 
 def require_matplotlib() -> None:
@@ -53,10 +55,18 @@ def require_matplotlib() -> None:
 def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int | None = None) -> Report:
     """Write ``layout``, ``timeline`` (paged above 20 robots, at most ``timeline_pages`` pages, default
     :data:`TIMELINE_PAGES`), ``battery`` (a run with batteries), for a closed-loop run ``fleet`` (jobs
-    waiting, done, robots busy over time), ``kpi.md`` and ``kpi.csv`` into ``out``."""
+    waiting, done, robots busy over time), ``kpi.md`` and ``kpi.csv`` into ``out``. A ``vcran manage``
+    folder gets ``fleet`` and ``kpi.md`` (its jobs) only, and the report's ``note`` says why
+    (:mod:`vcran.report.managed`)."""
     if fmt not in FORMATS:
         raise ValueError(f"format {fmt!r}: choose one of {', '.join(FORMATS)}")
     require_matplotlib()
+    from vcran.report.managed import is_managed, read_managed, write_managed
+
+    if is_managed(run_dir):
+        managed = read_managed(run_dir)
+        files, note = write_managed(managed, out, fmt)
+        return Report(files, [], managed.jobs, 0, note)
     from vcran.report.layout import draw_layout
     from vcran.report.timeline import ROBOTS_PER_PAGE, draw_timeline, pages
 

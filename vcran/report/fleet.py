@@ -14,11 +14,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 from vcran.core.jobs import waiting_spans
-from vcran.report.folder import Run
-from vcran.report.spans import WAITING, History
+from vcran.report.spans import WAITING, Happenings, History
 from vcran.report.style import DPI, save
+
+
+class FleetRun(Happenings, Protocol):
+    """A run folder's :class:`~vcran.report.folder.Run`, or a ``vcran manage`` folder's
+    :class:`~vcran.report.managed.ManagedRun` (robots busy as the manager heard them)."""
+
+    @property
+    def scenario(self) -> str: ...
+    @property
+    def seed(self) -> int: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,7 +46,7 @@ class FleetSeries:
         return sum(b * (t1 - t0) for t0, t1, b in zip(self.t, self.t[1:], self.busy, strict=False))
 
 
-def fleet_series(run: Run, histories: dict[str, History]) -> FleetSeries:
+def fleet_series(run: Happenings, histories: dict[str, History]) -> FleetSeries:
     """The three curves of ``run`` (``histories``: :func:`vcran.report.spans.histories` of it)."""
     end = run.sim_time
     # t -> changes of (waiting, done, failed, busy); every curve starts at t = 0 and reaches the end
@@ -70,16 +80,16 @@ def fleet_series(run: Run, histories: dict[str, History]) -> FleetSeries:
     return FleetSeries(tuple(times), waiting, done, failed, busy)
 
 
-def draw_fleet(run: Run, series: FleetSeries, path: Path) -> None:
+def draw_fleet(run: FleetRun, series: FleetSeries, path: Path) -> None:
     """Two panels sharing the time axis: jobs waiting and robots busy; jobs done and failed."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(12.0, 6.0), dpi=DPI, layout="constrained")
     top, bottom = fig.subplots(2, 1, sharex=True)
-    top.step(series.t, series.busy, where="post", color="#1f77b4", label=f"robots busy (of {len(run.robots)})")
+    top.step(series.t, series.busy, where="post", color="#1f77b4", label=f"robots busy (of {len(run.robot_ids)})")
     top.step(series.t, series.waiting, where="post", color="#d62728", label="jobs waiting for a robot")
     top.set_ylabel("count")
-    top.set_ylim(0, 1.3 * max(len(run.robots), *series.waiting, 1))  # head room for the legend
+    top.set_ylim(0, 1.3 * max(len(run.robot_ids), *series.waiting, 1))  # head room for the legend
     top.legend(loc="upper left", frameon=False, ncol=2)
     bottom.step(series.t, series.done, where="post", color="#2ca02c", label="jobs done")
     if series.failed[-1]:
@@ -91,5 +101,5 @@ def draw_fleet(run: Run, series: FleetSeries, path: Path) -> None:
     bottom.legend(loc="upper left", frameon=False)
     for ax in (top, bottom):
         ax.grid(True, axis="y", alpha=0.3)
-    fig.suptitle(f"{run.scenario}: the fleet over time ({len(run.robots)} robots, seed {run.seed})")
+    fig.suptitle(f"{run.scenario}: the fleet over time ({len(run.robot_ids)} robots, seed {run.seed})")
     save(fig, path)

@@ -132,22 +132,22 @@ def read_run(path: Path) -> Run:
     missing = [p.name for p in beside if not p.is_file()]
     if missing:
         raise ReportError(f"{path}: not a complete run folder, missing {', '.join(missing)}")
-    with _reading(trace):
+    with reading(trace):
         check_whole(trace)  # a finished run's trace (it has a summary), cut short
         header = read_header(trace)
         ids = robots_of(header)
         configs = {r["id"]: r for r in header["fleet"]["robots"]}
         robots = tuple(_robot(configs[rid]) for rid in ids)
         stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
-    with _reading(path / "summary.json"):
+    with reading(path / "summary.json"):
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
         results = {rid: _result(summary["robots"][rid]) for rid in ids}
         sim_time = float(summary["sim_time"])
         errors = int(summary["errors"])
-        jobs = _jobs(summary) if "jobs" in summary else None
-    with _reading(trace):
+        jobs = job_figures(summary) if "jobs" in summary else None
+    with reading(trace):
         ticks = samples(trace)
-    events = list(_events(events_beside(trace)))
+    events = list(checked_events(events_beside(trace)))
     areas, targets, batteries = _assignments(trace)
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
                sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs)
@@ -171,7 +171,7 @@ class JobFigures:
     utilisation: float
 
 
-def _jobs(summary: dict[str, Any]) -> JobFigures:
+def job_figures(summary: dict[str, Any]) -> JobFigures:
     j, lead = summary["jobs"], summary["jobs"]["lead_time"]
 
     def seconds(key: str) -> float | None:
@@ -183,7 +183,7 @@ def _jobs(summary: dict[str, Any]) -> JobFigures:
 
 
 @contextmanager
-def _reading(path: Path) -> Iterator[None]:
+def reading(path: Path) -> Iterator[None]:
     """Whatever goes wrong reading ``path`` becomes one :class:`ReportError` that names it."""
     try:
         yield
@@ -210,7 +210,7 @@ def _station(config: dict[str, Any]) -> StationSpec:
     return StationSpec(config["id"], (x, y), float(config.get("reach", 0.0)), area)
 
 
-def _events(path: Path) -> Iterator[dict[str, Any]]:
+def checked_events(path: Path) -> Iterator[dict[str, Any]]:
     try:
         for n, event in enumerate(event_records(path), start=1):
             if not (isinstance(event, dict) and isinstance(event.get("t"), int | float)
@@ -235,7 +235,7 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
     areas: dict[tuple[str, tuple[Point, ...]], MotionArea] = {}
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
     batteries: dict[str, list[tuple[float, float]]] = {}
-    with _reading(path):
+    with reading(path):
         for n, record in records(path, attrs=("motion_assignment", "battery_state")):
             if record.get("attr") == "battery_state":
                 try:

@@ -10,10 +10,9 @@ tasks still pending; the layout colours the path driven between then and its end
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from vcran.core.effects import Reason, State
-from vcran.report.folder import Run
 
 WAITING = State.WAITING.value
 STATES = tuple(s.value for s in State)
@@ -63,7 +62,19 @@ class History:
         return sum(b.end - b.start for b in self.bands if b.state != WAITING)
 
 
-def histories(run: Run) -> dict[str, History]:
+class Happenings(Protocol):
+    """What histories are built from: a run folder's (:class:`vcran.report.folder.Run`), or a
+    ``vcran manage`` folder's, whose robots' events are what the manager heard (:mod:`vcran.report.managed`)."""
+
+    @property
+    def robot_ids(self) -> tuple[str, ...]: ...
+    @property
+    def events(self) -> list[dict[str, Any]]: ...
+    @property
+    def sim_time(self) -> float: ...
+
+
+def histories(run: Happenings) -> dict[str, History]:
     """Every robot's history, robots in fleet order; events of entities outside the fleet are ignored."""
     builders = {rid: _Builder(rid) for rid in run.robot_ids}
     for event in run.events:

@@ -11,7 +11,9 @@ Both directions go through it, as they would through Orion:
   the next read is lost, exactly as in live mode (SPEC §7).
 * **RAN -> manager.** Everything the RAN publishes at one instant travels as one batch (one batch
   update, as live mode sends one per tick) and reaches the manager ``latency`` (+ jitter) later, batches
-  in order; :class:`vcran.sim.loop.ClosedLoop` turns a batch into the manager's updates.
+  in order; :class:`vcran.sim.loop.ClosedLoop` turns a batch into the manager's updates: the actual
+  changes, and every write of ``robot_description``, which live mode forces through Orion
+  (``options=forcedUpdate``) so that a planner subscribing late gets it (SPEC §2).
 
 ``outage`` is the hook for the ``link_down`` fault (SPEC §4): while a robot's link is down nothing
 reaches it and nothing it publishes leaves; afterwards it reads what Orion holds (the latest value per

@@ -26,7 +26,7 @@ import simpy
 from vcran.core.build import motion_message
 from vcran.core.jobs import JobBook, Log
 from vcran.core.manager import Fleet, FleetManager, Handle, Timer
-from vcran.core.messages import OUTBOUND, Message, Time
+from vcran.core.messages import FORCED_UPDATES, OUTBOUND, Message, Time
 from vcran.core.scenario import Job, Scenario
 from vcran.core.wire import Deliver, Frame, Outbound, Transport
 from vcran.sim.link import Link
@@ -120,9 +120,13 @@ class ClosedLoop(Transport):
         self._call("on_job", job)
         self._next_job(env)
 
-    def notified(self, batch: list[Outbound]) -> None:
+    def notified(self, batch: list[Outbound], forced: frozenset[str] = FORCED_UPDATES) -> None:
         """One batch of the RAN's publications reaches the manager: Orion's view changes, and the
-        manager is notified of each actual change of an attribute it subscribed to."""
+        manager is notified of each actual change of an attribute it subscribed to, and of every write
+        of an attribute in ``forced``, changed or not: the periodic ``robot_description``, which live
+        mode writes with Orion's forcedUpdate so that it reaches every subscriber (SPEC §2). The link of
+        ``vcran manage`` passes an empty ``forced`` for what a notification of the whole entity carries
+        (there an unchanged value is no write of it)."""
         assert self.handle is not None
         now = self.handle.now
         wants = self._subscribed
@@ -136,8 +140,8 @@ class ClosedLoop(Transport):
                         self._call("on_update", robot, "current_motion", message, now)
                 continue
             key = (out.robot, out.attribute)
-            if self._latest.get(key) == out.message:
-                continue  # no actual change: Orion notifies nobody (robot_description every minute)
+            if self._latest.get(key) == out.message and out.attribute not in forced:
+                continue  # no actual change: Orion notifies nobody
             self._latest[key] = out.message
             if wants is None or out.attribute in wants:
                 self._call("on_update", out.robot, out.attribute, out.message, now)

@@ -4,8 +4,9 @@ One RAN serves the whole fleet. Inbound, it decodes raw NGSI payloads (R12) and 
 the mailbox of the RanLogic that owns the entity, or reports and drops it (R11); routing is a lookup at
 the instant of delivery, so it needs no process of its own. Outbound, one telemetry process
 samples every robot's pose in a single numpy sweep per tick (``current_motion`` as a :class:`Frame`) and
-publishes ``assignment_state`` and ``ran_status`` of the robots whose state changed since the last tick,
-so a tick costs O(changes), not O(robots) Python work. ``robot_description`` goes out at start and then
+publishes ``assignment_state`` and ``ran_status`` of the robots whose state changed since the last tick
+(RanLogic's, or the load a robot carries: both are in ``ran_status``), so a tick costs O(changes), not
+O(robots) Python work. ``robot_description`` goes out at start and then
 every ``description_period``.
 """
 
@@ -165,7 +166,7 @@ class Ran:
             for i in dirty:
                 robot = self.robots[i]
                 self._publish_if_new(t, robot, "assignment_state", self.assignment_state(robot))
-                self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status())
+                self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status(robot.carrying))
             if self.after_statuses is not None:
                 self.after_statuses(t)
             if stop_when_idle():

@@ -46,7 +46,7 @@ from vcran.core.messages import ActionAssignment, ActionKind, CancelTask, Messag
 from vcran.core.motion import FleetKinematics, Leg, Limits
 from vcran.core.ranlogic import RanLogic
 from vcran.core.scenario import RobotConfig
-from vcran.core.stations import Outcome, StationMap, perform
+from vcran.core.stations import Outcome, StationMap, attempt, transfer
 from vcran.sim.mailbox import Mailbox
 from vcran.sim.timing import COMPLETION, DEADLINE, FAULT, after, at
 
@@ -151,7 +151,7 @@ class RobotNode:
         self.action_orders = Mailbox(env)
         self.pose = config.pose
         self.footprint = PolygonStamped.from_xy(config.footprint)
-        self.carrying = config.carrying
+        self._carrying = config.carrying
         self.parts_moved = 0
         self._capable = frozenset(ActionKind(a) for a in config.actions)
         self._timers: dict[Id, simpy.events.Event] = {}
@@ -177,6 +177,18 @@ class RobotNode:
         env.process(self._ranlogic())
         env.process(self._agv())
         env.process(self._agv_action())
+
+    @property
+    def carrying(self) -> int:
+        """The parts on board. ``ran_status`` shows them (SPEC §2), so a change is a change of the robot's
+        status: published at the next tick even when RanLogic's state did not change with it."""
+        return self._carrying
+
+    @carrying.setter
+    def carrying(self, parts: int) -> None:
+        if parts != self._carrying:
+            self._carrying = parts
+            self._changed(self)
 
     # --- RanLogic ---------------------------------------------------------------------------------------
 
@@ -366,17 +378,25 @@ class RobotNode:
                 if halt is not None:
                     self._stopped(halt)
                     continue
-                x, y, _ = self.pose
-                outcome, carrying = perform(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)
-                if outcome.ok and kind is ActionKind.UNLOAD:
-                    self.parts_moved += 1
-                self.carrying = carrying
-                if outcome.ok and kind is ActionKind.CHARGE:
-                    self._charged()
-                if outcome.ok and self.fail_next_action:
-                    self.fail_next_action = False
-                    outcome = Outcome(False, "action_fault", f"{kind.value}: injected action failure (§4)")
+                outcome = self._finish(kind)
             self.inbox.put(ActionDone(action.action_id, outcome.ok, outcome.code, outcome.message))
+
+    def _finish(self, kind: ActionKind) -> Outcome:
+        """An action's duration has passed: its outcome, and its effect on parts and battery. An armed
+        action failure fails an action that would have succeeded, and then moves nothing (SPEC §4): the
+        part stays where it was, the robot carries what it carried before."""
+        x, y, _ = self.pose
+        outcome, station = attempt(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)
+        if outcome.ok and kind is ActionKind.CHARGE:
+            self._charged()  # the energy went in during the action (its battery segment), whatever it reports
+        if outcome.ok and self.fail_next_action:
+            self.fail_next_action = False
+            return Outcome(False, "action_fault", f"{kind.value}: injected action failure (§4)")
+        if station is not None:
+            self.carrying = transfer(kind, station, self.carrying)
+            if kind is ActionKind.UNLOAD:
+                self.parts_moved += 1
+        return outcome
 
     def _precheck(self, kind: ActionKind) -> Outcome | None:
         """An action that cannot start fails at once, not after its duration (R14): one this robot is not

@@ -2,7 +2,7 @@
 
 One figure per parameter (``kpi-by-simulation.task_timeout.png``), one panel per KPI. The parameter's
 values are the x positions, in the order the sweep lists them (values may be numbers, names or poses, so
-they are categories, not a scale). A point is the mean over the runs with that value, its bar the range
+they are categories, not a scale), labelled as the runs table writes them (:mod:`vcran.sweep.labels`). A point is the mean over the runs with that value, its bar the range
 (min to max) over them, and the faint dots the single runs: with one parameter, the spread over seeds.
 With several, each combination of the other parameters is its own line while there are few enough to tell
 apart (:data:`vcran.report.style.TASK_PALETTE`), and all are pooled otherwise. Failed runs have no KPIs
@@ -11,11 +11,12 @@ and are left out.
 
 from __future__ import annotations
 
-import json
+import textwrap
 from pathlib import Path
 from typing import Any
 
 from vcran.report.style import TASK_PALETTE, save
+from vcran.sweep.labels import Labels
 from vcran.sweep.spec import Sweep
 from vcran.sweep.worker import Row
 
@@ -50,10 +51,12 @@ def figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpi
     """The matplotlib ``Figure`` of ``kpis`` against ``parameter``, one line per combination of ``others``."""
     from matplotlib.figure import Figure
 
-    xs = list(dict.fromkeys(_key(r[parameter]) for r in rows))
+    labels = {p: Labels(p, [r[p] for r in rows]) for p in [parameter, *others]}
+    xs = list(dict.fromkeys(labels[parameter](r[parameter]) for r in rows))
+    ticks = [_short(x) for x in xs]
     groups: dict[str, list[Row]] = {}
     for r in rows:
-        groups.setdefault(", ".join(f"{q} = {_key(r[q])}" for q in others), []).append(r)
+        groups.setdefault(", ".join(f"{q} = {labels[q](r[q])}" for q in others), []).append(r)
     if len(groups) > len(TASK_PALETTE):
         groups = {f"all {len(groups)} combinations of the other parameters": rows}
     columns = min(len(kpis), 3)
@@ -72,7 +75,7 @@ def figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpi
             low: list[float] = []
             high: list[float] = []
             for i, x in enumerate(xs):
-                values = [r[kpi] for r in members if _key(r[parameter]) == x and r.get(kpi) is not None]
+                values = [r[kpi] for r in members if labels[parameter](r[parameter]) == x and r.get(kpi) is not None]
                 if values:
                     mean = sum(values) / len(values)
                     dots_x += [i + shift] * len(values)
@@ -85,27 +88,26 @@ def figure(sweep: Sweep, rows: list[Row], parameter: str, others: list[str], kpi
             ax.errorbar(at, means, yerr=[low, high], fmt="o-", color=colour, capsize=3, markersize=4,
                         linewidth=1, label=name if n == 0 else None)
         ax.set_title(kpi, fontsize=9)
-        ax.set_xticks(range(len(xs)), [_short(x) for x in xs], fontsize=8)
+        ax.set_xticks(range(len(xs)), ticks, fontsize=8)
         ax.set_xlabel(parameter, fontsize=8)
         ax.tick_params(axis="y", labelsize=8)
         ax.grid(True, axis="y", color="#e0e0e0", linewidth=0.6)
         ax.set_axisbelow(True)
     legend = 0.3 + 0.16 * len(groups) if others else 0.0  # inches below the panels
     height = fig.get_figheight()
-    fig.subplots_adjust(left=0.07, right=0.98, top=1 - 0.55 / height, bottom=(legend + 0.5) / height,
+    tall = 0.15 if any("\n" in t for t in ticks) else 0.0  # a tick label on two lines
+    fig.subplots_adjust(left=0.07, right=0.98, top=1 - 0.55 / height, bottom=(legend + 0.5 + tall) / height,
                         hspace=0.55, wspace=0.25)
     if others:
         fig.legend(loc="lower center", fontsize=7, frameon=False, ncols=1)
     return fig
 
 
-def _key(value: Any) -> str:
-    """A parameter value as a label: the same text for equal values, whatever their type."""
-    return value if isinstance(value, str) else json.dumps(value)
-
-
 def _short(label: str, width: int = 18) -> str:
-    return label if len(label) <= width else label[: width - 1] + "…"
+    """A tick label on at most two lines of ``width`` characters, broken at spaces, cut with ``…``."""
+    if len(label) <= width:
+        return label
+    return "\n".join(textwrap.wrap(label, width, max_lines=2, placeholder="…", break_on_hyphens=False))
 
 
 def _slug(name: str) -> str:

@@ -8,14 +8,18 @@ sense is decided by loading the overridden scenario with the scenario loader's o
 A path is keys joined by dots. Where it meets an array of tables (``robots``, ``stations``), the next
 segment picks elements: ``*`` every one, an integer the one at that index (from 0), anything else the one
 whose ``id`` it is. A missing table on the way is created (``job_stream.rate`` on a scenario without a
-``[job_stream]``); the loader then says whether that table is complete.
+``[job_stream]``); the loader then says whether that table is complete. One path is no place in the
+table: ``robots.count``, the number of robots (:mod:`vcran.sweep.fleet`).
 """
 
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Iterable
 from typing import Any, NoReturn
+
+from vcran.sweep import fleet
 
 #: Short names a sweep may use for a longer path: the fleet-manager versions of SPEC §10 (``manager =
 #: ["vcran.managers:Dispatcher", "mypkg:Mine"]``) are the ``class`` of a scenario's ``[manager]``.
@@ -32,9 +36,16 @@ def canonical(path: str) -> str:
 
 
 def apply(data: dict[str, Any], overrides: Iterable[tuple[str, Any]]) -> dict[str, Any]:
-    """A deep copy of the scenario table ``data`` with every (path, value) set, in order."""
+    """A deep copy of the scenario table ``data`` with every (path, value) set, in order, but the fleet's
+    size (``robots.count``, :mod:`vcran.sweep.fleet`) first, so that the other paths reach its robots."""
     out = copy.deepcopy(data)
+    overrides = list(overrides)
     for path, value in overrides:
+        if canonical(path) == fleet.PATH:
+            fleet.set_count(out, value, functools.partial(_fail, path))
+    for path, value in overrides:
+        if canonical(path) == fleet.PATH:
+            continue
         segments = canonical(path).split(".")
         if not all(segments):
             raise OverrideError(f"{path!r}: an empty key (two dots, or a dot at an end)")

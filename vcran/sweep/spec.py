@@ -2,7 +2,7 @@
 
 ::
 
-    scenario = "../scenarios/demo.toml"   # relative to this file
+    scenario = "../scenarios/demo.toml"   # relative to this file, or a bundled scenario's name ("demo")
     seeds = {from = 1, count = 5}         # or seeds = [1, 2, 3]
 
     [grid]                                # every combination
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vcran.io.scenario_file import parse
+from vcran.io.scenario_file import parse, resolve
 from vcran.io.toml_table import INT64, ScenarioError, Table, read_toml
 from vcran.sweep.overrides import OverrideError, apply, canonical
 
@@ -96,7 +96,7 @@ def parse_sweep(data: dict[str, Any], path: Path) -> Sweep:
     source = str(path)
     try:
         top = Table(data, source, "")
-        scenario_path = path.parent / top.string("scenario")
+        scenario = top.string("scenario")
         name = top.string("name", path.stem)
         seeds = _seeds(top)
         grid = _flat_table(top.table("grid"), lists=True)
@@ -106,7 +106,8 @@ def parse_sweep(data: dict[str, Any], path: Path) -> Sweep:
         raise
     except ScenarioError as exc:
         raise SweepError(str(exc)) from None
-    try:
+    try:  # a file beside the sweep file, or a bundled scenario by name, as every command takes SCENARIO
+        scenario_path = resolve(scenario, path.parent)
         text, base = read_toml(scenario_path)
         parse(base, str(scenario_path), default_name=scenario_path.stem)
     except ScenarioError as exc:  # the scenario's own message, which names its file

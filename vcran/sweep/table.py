@@ -4,8 +4,10 @@ Columns are the rows' keys in a fixed order: run identity and parameters, seed, 
 run has (:data:`vcran.sweep.worker.KPIS`), any others (a closed loop's ``jobs_*``) in order of first
 appearance, and ``wall_seconds`` last. A row without a column (a failed run has no KPIs) leaves it empty.
 Numbers are written as Python's shortest round-trip repr, so the CSV is byte-identical for the same
-sweep whatever ran it, ``wall_seconds`` aside. A parameter whose values are lists or tables is a JSON
-string in both files; a column that mixes integers and floats is float in Parquet.
+sweep whatever ran it, ``wall_seconds`` aside. A parameter whose values are lists or tables is written
+as its label in both files (:mod:`vcran.sweep.labels`: ``3 robots: robot_1, robot_2, robot_3``,
+``[1.0, 0.0, 0.0]``), the text the figures' axes show; a column that mixes integers and floats is float
+in Parquet.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from vcran.sweep.labels import Labels
 from vcran.sweep.worker import KPIS, Row
 
 WALL = "wall_seconds"
@@ -31,7 +34,21 @@ def columns(rows: list[Row], head: list[str]) -> list[str]:
     return [*seen, WALL]
 
 
+def readable(rows: list[Row], names: list[str]) -> list[Row]:
+    """``rows`` with each list or table value replaced by its label, one :class:`Labels` per column."""
+    out = [dict(r) for r in rows]
+    for name in names:
+        values = [r[name] for r in rows if isinstance(r.get(name), (list, dict))]
+        if values:
+            labels = Labels(name, values)
+            for r in out:
+                if isinstance(r.get(name), (list, dict)):
+                    r[name] = labels(r[name])
+    return out
+
+
 def csv_text(rows: list[Row], names: list[str]) -> str:
+    rows = readable(rows, names)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(names)
@@ -67,6 +84,7 @@ def write_parquet(path: Path, rows: list[Row], names: list[str]) -> None:
     import pyarrow.parquet as pq
 
     arrays = {}
+    rows = readable(rows, names)
     for name in names:
         values = [r.get(name) for r in rows]
         kind, values = _typed(values)

@@ -15,12 +15,13 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from vcran.api import simulate
+from vcran.api import manager_options, simulate
 from vcran.core.effects import Reason
+from vcran.core.scenario import ManagerSpec
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps
 from vcran.sim.loop import manager_note
-from vcran.sweep.overrides import apply
+from vcran.sweep.overrides import apply, canonical
 
 Row = dict[str, Any]
 
@@ -36,7 +37,7 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
     start = time.perf_counter()
     kept: str | None = None
     try:
-        data = apply(tomllib.loads(scenario_text), overrides)
+        data = apply(options_for_class(tomllib.loads(scenario_text), overrides), overrides)
         scenario = parse(data, source, default_name=Path(source).stem)
         data.setdefault("simulation", {})["name"] = scenario.settings.name
         kept = dumps(data)
@@ -49,6 +50,20 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
         (folder / "scenario.toml").write_text(kept, encoding="utf-8")
     row["wall_seconds"] = time.perf_counter() - start
     return row
+
+
+def options_for_class(base: dict[str, Any], overrides: list[tuple[str, Any]]) -> dict[str, Any]:
+    """The scenario table ``base`` without its ``[manager] options`` when the overrides name another
+    class, as ``--manager`` does (:func:`vcran.api.manager_options`, the one rule); options the sweep
+    sets (``manager.options`` or ``manager.options.KEY``) are applied after, to whichever class runs. In
+    the worker, which imports the class to run it anyway: the sweep's own process need not import it."""
+    named = [value for path, value in overrides if canonical(path) == "manager.class"]
+    own = base.get("manager")
+    if not named or not isinstance(named[-1], str) or not isinstance(own, dict) or not own.get("options"):
+        return base  # a class that is no string is the loader's to refuse
+    if manager_options(ManagerSpec(own["class"], tuple(own["options"].items())), named[-1]):
+        return base
+    return {**base, "manager": {k: v for k, v in own.items() if k != "options"}}
 
 
 def error_text(exc: BaseException) -> str:

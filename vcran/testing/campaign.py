@@ -121,9 +121,14 @@ def search_loop(text: str, source: str, seed: int, examples: int, options: LoopO
 
 
 def loop_base(text: str, source: str, manager: str | None) -> Scenario:
-    """The closed-loop scenario a manager's search varies, with ``manager`` in place of its own."""
+    """The closed-loop scenario a manager's search varies, with ``manager`` in place of its own, and the
+    options :func:`vcran.api.manager_options` gives it (the saved failing scenario names both)."""
+    from vcran.api import manager_options
+
     base = base_scenario(text, source)
-    return replace(base, manager=ManagerSpec(manager)) if manager is not None else base
+    if manager is None:
+        return base
+    return replace(base, manager=ManagerSpec(manager, tuple(manager_options(base.manager, manager).items())))
 
 
 def check(base: Scenario, ops: list[Perturbation], options: Options) -> list[str]:

@@ -16,6 +16,10 @@ The properties read a :class:`vcran.Result` and return human-readable violations
 the manager behaved); :func:`assert_loop_properties` raises one AssertionError listing them all:
 
 * :func:`check_jobs_ended` — every job ended: completed, or reported failed (none left open);
+* :func:`~vcran.testing.outcomes.check_failures_have_evidence` — a job is reported failed only with
+  evidence: a task sent for it ended without success, or no robot could serve it;
+* :func:`~vcran.testing.outcomes.check_feasible_jobs_completed` — without faults, a feasible workload
+  completes every job by the run's end (``margin``);
 * :func:`check_protocol` — the manager caused no ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`:
   the R2/R8-R10/R12 rejections; action failures and cancel races are not the manager's protocol bugs);
 * :func:`check_no_idle_while_waiting` — no robot sat idle (WAITING) for more than ``bound`` seconds
@@ -44,6 +48,7 @@ from hypothesis import strategies as st
 from vcran.core.faults import KINDS, RANDOM_KINDS, FaultSpec
 from vcran.core.jobs import waiting_spans
 from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
+from vcran.testing.outcomes import COMPLETION_MARGIN, check_failures_have_evidence, check_feasible_jobs_completed
 
 #: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
 PROTOCOL_ERRORS = frozenset({
@@ -147,7 +152,8 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
                   max_faults: int = 4) -> Scenario:
     """``base`` with a drawn workload (listed jobs; its stream dropped), station stock, link and up to
     ``max_faults`` faults (added to ``base``'s own; 0: none drawn). The run lasts ``horizon + settle``
-    simulated seconds at most and ends early once idle."""
+    simulated seconds at most and ends early once idle; ``base``'s faults after that end, and its random
+    fault sources that would start after it, are dropped (they would never happen)."""
     if not isinstance(base, Scenario):  # vcran.simulate takes a path; this needs the scenario to vary
         raise TypeError(f"loop_variants: base must be a vcran.Scenario (vcran.load_scenario(path)), got "
                         f"{type(base).__name__} {base!r}")
@@ -164,16 +170,18 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
         stock = draw(stocks(sorted({j.pickup for j in jobs})))
         stations = tuple(replace(s, parts=stock[s.id]) if s.id in stock else s for s in stations)
     link = draw(links()) if vary_link else base.link
-    faults = base.faults
-    if max_faults > 0:
-        drawn = draw(fault_lists([r.id for r in base.robots], max_faults=max_faults, horizon=horizon))
-        faults = tuple(sorted(base.faults + tuple(drawn), key=lambda f: f.t))  # stable: base's first at ties
     duration = horizon + settle
     if base.settings.duration is not None:
         duration = min(duration, base.settings.duration)
+    # base's faults after the variant's end never happen: dropped, as the loader refuses them
+    faults = tuple(f for f in base.faults if f.t <= duration)
+    random_faults = tuple(source for source in base.random_faults if source.start < duration)
+    if max_faults > 0:
+        drawn = draw(fault_lists([r.id for r in base.robots], max_faults=max_faults, horizon=horizon))
+        faults = tuple(sorted(faults + tuple(drawn), key=lambda f: f.t))  # stable: base's first at ties
     settings = replace(base.settings, duration=duration, until_idle=True)
     return replace(base, settings=settings, stations=stations, jobs=tuple(jobs), job_stream=None, link=link,
-                   faults=faults)
+                   faults=faults, random_faults=random_faults)
 
 
 # --- properties -------------------------------------------------------------------------------------------
@@ -202,19 +210,25 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited.
 
     Judged by what the manager could know (SPEC §4): a robot out of its reach (link down) or broken down is
-    not idle, and a job whose task was cancelled on a robot whose link was down waits, for the manager,
-    only from when that link is back. Such spans cut the stretches rather than lengthen them.
+    not idle, nor is one out of service (its battery empty, until swapped), and a job whose task was
+    cancelled on a robot whose link was down waits, for the manager, only from when that link is back.
+    Such spans cut the stretches rather than lengthen them. A robot that cannot move parts (not configured
+    to load and unload; known from ``result.scenario`` when the result has one) is never idle for a job.
     """
     if not bound >= 0:  # a negative bound reported every robot, over stretches that end before they begin
         raise ValueError(f"check_no_idle_while_waiting: bound must be a number of seconds >= 0, got {bound}")
     end = float(result.summary["sim_time"])
     away = _fault_spans(result.events, end, UNAVAILABLE_FAULTS)
+    for robot, spans in _empty_spans(result.events, end).items():
+        away.setdefault(robot, []).extend(spans)
     unseen = _fault_spans(result.events, end, frozenset({"link_down"}))
     assignees = _assignees(result.events)
     waiting = [(job, c, d) for job, a, b in waiting_spans(result.events, end)
                for c, d in _minus([(a, b)], unseen.get(_robot_at(assignees.get(job, []), a), []))]
     problems = []
-    for robot, idle in _idle_spans(result.events, result.robots, end).items():
+    scenario = getattr(result, "scenario", None)
+    robots = [r.id for r in scenario.robots if r.moves_parts] if isinstance(scenario, Scenario) else result.robots
+    for robot, idle in _idle_spans(result.events, robots, end).items():
         for a, b in _minus(idle, away.get(robot, [])):
             for job, c, d in waiting:
                 lo, hi = max(a, c), min(b, d)
@@ -225,14 +239,16 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     return problems
 
 
-def loop_problems(result: Any, bound: float = IDLE_BOUND) -> list[str]:
-    """Every violation of the three properties."""
-    return check_jobs_ended(result) + check_protocol(result) + check_no_idle_while_waiting(result, bound)
+def loop_problems(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN) -> list[str]:
+    """Every violation of the five properties."""
+    return (check_jobs_ended(result) + check_failures_have_evidence(result)
+            + check_feasible_jobs_completed(result, margin) + check_protocol(result)
+            + check_no_idle_while_waiting(result, bound))
 
 
-def assert_loop_properties(result: Any, bound: float = IDLE_BOUND) -> None:
-    """Raise AssertionError listing every violation of the three properties."""
-    problems = loop_problems(result, bound)
+def assert_loop_properties(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN) -> None:
+    """Raise AssertionError listing every violation of the five properties."""
+    problems = loop_problems(result, bound, margin)
     if problems:
         raise AssertionError("the fleet manager broke the loop properties:\n  " + "\n  ".join(problems))
 
@@ -254,6 +270,20 @@ def _fault_spans(events: list[dict[str, Any]], end: float, kinds: frozenset[str]
         elif e["event"] == "fault_end" and key in since:
             spans.setdefault(key[0], []).append((since.pop(key), e["t"]))
     for (robot, _kind), start in since.items():
+        spans.setdefault(robot, []).append((start, end))
+    return spans
+
+
+def _empty_spans(events: list[dict[str, Any]], end: float) -> dict[str, list[tuple[float, float]]]:
+    """Per robot, the spans its battery was empty: from ``battery_empty`` to ``battery_swapped`` (or ``end``)."""
+    since: dict[str, float] = {}
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for e in events:
+        if e["event"] == "battery_empty":
+            since.setdefault(e["robot"], e["t"])
+        elif e["event"] == "battery_swapped" and e["robot"] in since:
+            spans.setdefault(e["robot"], []).append((since.pop(e["robot"]), e["t"]))
+    for robot, start in since.items():
         spans.setdefault(robot, []).append((start, end))
     return spans
 
@@ -346,7 +376,7 @@ def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int 
     """Search for a workload, stock, link and faults (up to ``max_faults``; 0: none) under which ``manager``
     breaks a loop property; None when ``examples`` variants ran clean. One ``seed``, one sequence of
     examples and one shrunk result."""
-    from hypothesis import HealthCheck, find, settings
+    from hypothesis import HealthCheck, Phase, find, settings
     from hypothesis.errors import NoSuchExample
 
     counts = {"examples": 0, "shrinks": 0}
@@ -362,7 +392,8 @@ def fuzz_manager(base: Scenario, manager: Any, *, examples: int = 50, seed: int 
         return bad
 
     strategy = loop_variants(base, max_jobs=max_jobs, horizon=horizon, settle=settle, max_faults=max_faults)
-    options = settings(max_examples=examples, database=None, deadline=None, suppress_health_check=list(HealthCheck))
+    options = settings(max_examples=examples, database=None, deadline=None, suppress_health_check=list(HealthCheck),
+                       phases=[Phase.generate, Phase.shrink])
     try:
         minimal = find(strategy, violated, settings=options, random=random.Random(seed))
     except NoSuchExample:

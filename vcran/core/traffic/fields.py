@@ -1,0 +1,173 @@
+"""A robot's protective field (SPEC §12): a rectangle ahead of its footprint whose length grows with speed.
+
+Geometry. In the robot frame (x forward) the field spans ``x`` from the footprint's front (its largest
+``x``) to that front plus the field's length, and ``y`` across the footprint's width (its smallest to its
+largest ``y``) widened by ``side`` on each side. It turns and moves with the robot, so it always points
+the way the robot drives (a leg turns first, then drives straight ahead; it never reverses).
+
+Length, one formula for the three usual kinds of field::
+
+    length(v) = margin + reaction * v + v^2 / (2 * decel)     (the last term only with braking = true)
+
+``margin`` alone is a fixed field; ``reaction`` adds the distance driven during a reaction time; the last
+term is the braking distance at the robot's deceleration, so a robot whose field has ``margin > 0`` stops
+at least ``margin`` short of an obstacle standing still (a robot coming the other way brakes too, and
+both close the gap: docs/robots.md, "Traffic", says how long fields must be then). A turn in place has
+speed 0: the field keeps its length at rest and turns with the robot.
+
+The field never reaches past where the robot will stop: it is cut at the distance from the robot to the
+end of its motion (every leg ends at rest). A robot arriving at a goal with a robot parked just beyond it
+is not blocked (else it would wait at its goal, its motion never done, for a robot it will never reach).
+
+A *waiting* field is the field of a robot that was blocked: its length is fixed at the length for the
+speed the robot will drive on at (:attr:`vcran.core.traffic.braking.Braking.resume_speed`), or the speed
+it braked from if that was higher, whatever its speed while braking and waiting. The robot drives on only when that field is clear, so a robot that starts
+again does not find the obstacle in its field a moment later at the speed it gains (no stop-and-go within
+an instant: the hysteresis of a real scanner's field switching).
+
+:class:`FieldTrack` is a field along a robot's track (a leg, or a pose at rest): what
+:mod:`vcran.core.traffic.intrusion` samples. Like :class:`vcran.core.collisions.Track` it knows how fast
+any of its points can move (the sampling step follows from it) and the box it covers (the grid files it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from vcran.core.collisions import BOX_PAD, Box
+from vcran.core.motion import Leg
+
+
+@dataclass(frozen=True, slots=True)
+class FieldSpec:
+    """A field as a scenario describes it (module docstring: the length formula). Metres and seconds."""
+
+    margin: float
+    reaction: float = 0.0
+    braking: bool = True
+    side: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("margin", "reaction", "side"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"a field's {name} must be a finite number >= 0, got {v!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class Field:
+    """One robot's field: its rectangle in the robot frame and its length formula, ready to evaluate.
+
+    ``front``: where it starts (x, robot frame); ``right``/``left``: its extent in y (right <= left);
+    ``length(v) = margin + reaction * v + brake * v * v`` with ``brake`` = 1 / (2 decel), or 0.
+    """
+
+    front: float
+    right: float
+    left: float
+    margin: float
+    reaction: float
+    brake: float
+
+    @classmethod
+    def of(cls, spec: FieldSpec, footprint: Iterable[tuple[float, float]], decel: float) -> Field:
+        """The field ``spec`` gives a robot with ``footprint`` (robot frame) braking at ``decel`` m/s^2
+        (0: it stops at once, so no braking distance). A robot without a footprint has its field start at
+        its origin, ``2 * side`` wide."""
+        points = list(footprint)
+        front = max((x for x, _ in points), default=0.0)
+        right = min((y for _, y in points), default=0.0) - spec.side
+        left = max((y for _, y in points), default=0.0) + spec.side
+        brake = 0.5 / decel if spec.braking and decel > 0 else 0.0
+        return cls(float(front), float(right), float(left), spec.margin, spec.reaction, brake)
+
+    def length(self, speed: float) -> float:
+        return self.margin + self.reaction * speed + self.brake * speed * speed
+
+    def reach(self, length: float) -> float:
+        """The farthest any point of the field of ``length`` lies from the robot's origin."""
+        return max(math.hypot(x, y) for x in (self.front, self.front + length) for y in (self.right, self.left))
+
+    def corners(self, length: float) -> tuple[tuple[float, float], ...]:
+        """The rectangle of ``length`` in the robot frame, counter-clockwise from its back right corner."""
+        far = self.front + length
+        return (self.front, self.right), (far, self.right), (far, self.left), (self.front, self.left)
+
+
+@dataclass(slots=True)
+class FieldTrack:
+    """Robot ``index``'s field along ``leg`` (or at rest at ``pose``) until ``until``.
+
+    ``fixed``: the length of a waiting field (module docstring); None: the length follows the speed.
+    ``goal``: where the robot's motion ends: the field is cut at the robot's distance to it (None: not cut).
+    Treat as immutable (a plain dataclass for the same reason as :class:`vcran.core.collisions.Track`).
+    """
+
+    index: int
+    field: Field
+    leg: Leg | None
+    pose: tuple[float, float, float]
+    until: float
+    fixed: float | None = None
+    goal: tuple[float, float] | None = None
+
+    @property
+    def longest(self) -> float:
+        """The field's greatest length on this track."""
+        if self.fixed is not None:
+            return self.fixed
+        return self.field.length(self.leg.peak if self.leg is not None else 0.0)
+
+    @property
+    def radius(self) -> float:
+        """The farthest any point of the field gets from the robot's origin on this track."""
+        return self.field.reach(self.longest)
+
+    @property
+    def drive(self) -> float:
+        """Fastest the robot's origin moves on this track (m/s)."""
+        return self.leg.peak if self.leg is not None else 0.0
+
+    @property
+    def speed(self) -> float:
+        """Fastest any point of the field moves on this track (m/s): the robot's speed, the turns swinging
+        the field's far corners, and the field's far edge growing while the robot speeds up or slows down
+        (a ramp without a limit is a jump, which sampling sees on either side of it)."""
+        leg = self.leg
+        if leg is None:
+            return 0.0
+        f = self.field
+        growth = 0.0
+        if self.fixed is None:
+            ramp = max(leg.limits.accel, leg.limits.decel, 0.0)
+            growth = (f.reaction + 2.0 * f.brake * leg.peak) * ramp
+        return leg.peak + growth + self.radius * max(abs(leg.rate1), abs(leg.rate2))
+
+    def box(self, t0: float = -math.inf, t1: float = math.inf) -> Box:
+        """A bounding box of the field between ``t0`` and ``t1`` (see :meth:`vcran.core.collisions.Track.box`)."""
+        r = self.radius + BOX_PAD
+        leg = self.leg
+        if leg is None:
+            x, y, _ = self.pose
+            return x - r, y - r, x + r, y + r
+        if t0 == -math.inf and t1 == math.inf:
+            xa, ya, xb, yb = leg.x0, leg.y0, leg.x1, leg.y1
+        else:
+            (xa, ya, *_), (xb, yb, *_) = leg.pose_at(t0), leg.pose_at(t1)
+        return min(xa, xb) - r, min(ya, yb) - r, max(xa, xb) + r, max(ya, yb) + r
+
+
+def driving(index: int, field: Field, leg: Leg) -> FieldTrack:
+    """The field of robot ``index`` driving ``leg``: its length follows the speed, cut at the leg's end."""
+    return FieldTrack(index, field, leg, (leg.x0, leg.y0, leg.theta0), leg.t_end, goal=(leg.x1, leg.y1))
+
+
+def waiting(index: int, field: Field, speed: float, leg: Leg | None, pose: tuple[float, float, float],
+            goal: tuple[float, float] | None = None) -> FieldTrack:
+    """The waiting field of robot ``index``, blocked: the length for ``speed`` (the speed it will drive on
+    at), along its braking ``leg`` or at rest at ``pose`` (``leg`` None), cut at ``goal`` (the end of the
+    motion it will drive on; None: not cut)."""
+    until = leg.t_end if leg is not None else math.inf
+    return FieldTrack(index, field, leg, pose, until, fixed=field.length(speed), goal=goal)

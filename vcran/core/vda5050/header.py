@@ -1,0 +1,58 @@
+"""The protocol header (§6.4) that starts every VDA 5050 message, and the stamping of sent messages.
+
+On the wire the header is five top-level fields, not an object; in vcran's models it is one ``header``
+field, flattened by the codec. A vehicle stamps what it sends with a :class:`Stamper`: ``headerId`` counts
+per topic ("incremented by 1 with each sent message", §6.4) and the timestamp is simulated time read on a
+fixed calendar (``epoch``), so a run's messages are the same bytes on every machine (SPEC §5).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import UTC, datetime, timedelta
+
+from vcran.core.vda5050.enums import Version
+
+#: Where simulated time 0 falls on the calendar unless a vehicle is told otherwise (a live run passes the
+#: wall-clock start): the Unix epoch, a date no master mistakes for a real one.
+DEFAULT_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+
+
+@dataclass(frozen=True, slots=True)
+class Header:
+    """§6.4. ``version`` is a string: a received message may carry any; vcran stamps its vehicle's."""
+
+    header_id: int
+    timestamp: str
+    version: str
+    manufacturer: str
+    serial_number: str
+
+
+def timestamp(now: float, epoch: datetime = DEFAULT_EPOCH) -> str:
+    """``now`` (simulated seconds) as §6.4 writes a timestamp: ``YYYY-MM-DDTHH:mm:ss.ffZ``, UTC.
+
+    The instant is rounded to the microsecond first (R14's resolution) and then cut to hundredths, so a
+    stamp never names an instant later than ``now``: ``timestamp(1.239) == '1970-01-01T00:00:01.23Z'``.
+    """
+    micros = round(now * 1_000_000)
+    at = epoch + timedelta(microseconds=micros)
+    at = at.astimezone(UTC)
+    return f"{at:%Y-%m-%dT%H:%M:%S}.{at.microsecond // 10_000:02d}Z"
+
+
+@dataclass(slots=True)
+class Stamper:
+    """Headers for one vehicle's sent messages: a ``headerId`` counter per topic, from 0."""
+
+    version: Version
+    manufacturer: str
+    serial_number: str
+    epoch: datetime = DEFAULT_EPOCH
+    _next: dict[str, int] = field(default_factory=dict)
+
+    def stamp(self, topic: str, now: float) -> Header:
+        """The header of the next message on ``topic``; call once per message sent."""
+        n = self._next.get(topic, 0)
+        self._next[topic] = n + 1
+        return Header(n, timestamp(now, self.epoch), self.version.value, self.manufacturer, self.serial_number)
