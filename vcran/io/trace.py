@@ -322,6 +322,8 @@ class TraceWriter:
         key = ("out", out.robot, out.attribute)
         last = self._last.get(key)
         if last is not None and type(last[0]) is type(message):
+            if last[0] is message:
+                return  # the very message of the last record (a robot description sent again): no field differs
             value = last[2](message, last[0], last[1])
             last[0] = message
             if not value:
