@@ -35,11 +35,11 @@ sys.path.insert(0, str(ROOT))
 import vcran  # noqa: E402
 from transports.replay import ReplayTransport, inbound_records  # noqa: E402
 from transports.scripted import ScriptedTransport  # noqa: E402
-from vcran.api import EventList, Frames  # noqa: E402
 from vcran.core.scenario import ScriptEntry  # noqa: E402
+from vcran.io.sinks import MemorySinks  # noqa: E402
 from vcran.io.trace import trace_in  # noqa: E402
 from vcran.io.verify import scenario_from_trace, verify  # noqa: E402
-from vcran.runner import run_model, run_to  # noqa: E402
+from vcran.runner import execute, run_to  # noqa: E402
 
 
 def best(repeat: int, fn) -> tuple[float, float]:  # type: ignore[no-untyped-def]
@@ -71,8 +71,8 @@ def main() -> None:
         entries = [ScriptEntry(t, i.entity, i.attribute, i.message, i.raw) for t, i in inbound_records(trace)]
 
         def scripted() -> None:
-            model, _ = run_model(replayed, ScriptedTransport(iter(entries)), Frames(), EventList())
-            ends.append(model.env.now)
+            ran = execute(replayed, ScriptedTransport(iter(entries)), MemorySinks())
+            ends.append(ran.model.env.now)
 
         ends: list[float] = []
         script = best(args.repeat, scripted)

@@ -30,3 +30,15 @@ def test_readme_layout_lists_exactly_the_package_files():
     assert package, "git ls-files vcran found nothing"
     assert sorted(package - readme) == [], "files missing from README's Layout table"
     assert sorted(readme - package) == [], "README's Layout table names files that do not exist"
+
+
+def test_one_way_to_wire_a_run():
+    """Issue 30 item 1: one function builds and runs the model (vcran.runner.execute), and one module stages,
+    writes and publishes a run's folder (vcran.io.sinks); every entry point (the commands, vcran.simulate,
+    sweeps, fuzzing, replay) goes through them. A second place doing either is how the three copies began."""
+    out = subprocess.run(["git", "grep", "-n", "-E", r"\bModel\(|\bstaging\(|write_summary\(|publish\(work",
+                          "--", "vcran", "transports"], cwd=ROOT, capture_output=True, text=True, check=True)
+    where = sorted({line.split(":", 1)[0] for line in out.stdout.splitlines()
+                    if not line.split(":", 2)[2].lstrip().startswith(("def ", "#"))})
+    # the sweep's folder is a sweep's, staged with what="sweep" by the same vcran.io.runfolder
+    assert where == ["vcran/io/sinks.py", "vcran/runner.py", "vcran/sweep/folder.py"]

@@ -57,8 +57,8 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "telemetry_table": ("vcran.io.trace", "telemetry_table"),
     "trace_records": ("vcran.io.trace", "trace_records"),
     # a fleet manager in the loop (SPEC §9)
-    "FleetManager": ("vcran.core.manager", "FleetManager"),
-    "Handle": ("vcran.core.manager", "Handle"),
+    "FleetManager": ("vcran.core.opil.manager", "FleetManager"),
+    "Handle": ("vcran.core.opil.manager", "OpilHandle"),
     "Fleet": ("vcran.core.manager", "Fleet"),
     "Timer": ("vcran.core.manager", "Timer"),
     "Job": ("vcran.core.scenario", "Job"),
@@ -105,8 +105,10 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
     from vcran.api import ManagerError, Result, simulate
     from vcran.core.ids import Id, id_for
     from vcran.core.jobs import JobRecord
-    from vcran.core.manager import Fleet, FleetManager, Handle, Timer
+    from vcran.core.manager import Fleet, Timer
     from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
+    from vcran.core.opil.manager import FleetManager
+    from vcran.core.opil.manager import OpilHandle as Handle
     from vcran.core.scenario import (
         Job,
         JobStream,

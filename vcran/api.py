@@ -2,7 +2,7 @@
 
 One path for every in-process run: a scenario with a message script plays it (as ``vcran run`` always
 did); a scenario with a fleet manager, named in the scenario or passed in, runs a closed loop
-(:class:`vcran.sim.loop.ClosedLoop`). With ``out`` the usual run folder is written and the result reads
+(:class:`vcran.sim.opil.loop.ClosedLoop`). With ``out`` the usual run folder is written and the result reads
 its events and telemetry back on demand; without, nothing touches the disk and everything stays in
 memory. ``vcran run`` is a thin shell on :func:`run`.
 """
@@ -14,27 +14,26 @@ import os
 import sys
 from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from transports.scripted import ScriptedTransport
-from vcran.core.motion import Leg
 from vcran.core.scenario import ManagerSpec, Scenario
 from vcran.core.validity import validate
-from vcran.core.wire import Frame, Inbound, Publish, Transport
-from vcran.io.runfolder import publish, staging
+from vcran.core.wire import Frame, Transport
 from vcran.io.scenario_file import ScenarioError, load
-from vcran.io.trace import EVENTS_FILE, event_records, events_beside, long_table, telemetry_table, trace_in
-from vcran.runner import EventLog, run_model, trace_writer, write_summary
+from vcran.io.sinks import FolderSinks, MemorySinks
+from vcran.io.trace import event_records, events_beside, long_table, telemetry_table, trace_in
+from vcran.runner import execute
 from vcran.sim.model import Model
 
 if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager (a scripted run never does)
     import numpy as np
 
     from vcran.core.jobs import JobRecord
-    from vcran.core.manager import FleetManager
-    from vcran.sim.loop import ClosedLoop
+    from vcran.core.opil.manager import FleetManager
+    from vcran.sim.opil.loop import ClosedLoop
 
 #: What names a fleet manager: an instance, a FleetManager subclass, or ``"module:Class"``.
 ManagerLike: TypeAlias = "FleetManager | type[FleetManager] | str"
@@ -84,7 +83,7 @@ class Result:
             return telemetry_table(self.out)
         rows = np.array([[t, *columns.ravel()] for t, columns in self._frames], dtype="<f8").reshape(
             -1, 1 + n * len(Frame.FIELDS))
-        return _long(rows, self.robots)
+        return long_table(rows, self.robots)
 
     def job(self, job_id: str) -> JobRecord:
         """The record of job ``job_id``."""
@@ -149,34 +148,35 @@ def run(
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
     fleet_manager, name = build_manager(manager, sc)
     _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
+    options: dict[str, Any] = ({"transport": "scripted"} if fleet_manager is None else
+                               {"transport": "loop", "manager": name, "link": sc.link.as_dict()})
     folder = Path(out) if out is not None else None
-    work = staging(folder) if folder is not None else None  # renamed to folder when the run has ended
-    events = EventLog(work / EVENTS_FILE) if work is not None else EventList()
+    sinks = FolderSinks(folder, sc, options) if folder is not None else MemorySinks()
     transport: Transport
     loop: ClosedLoop | None = None
     if fleet_manager is None:
         transport = ScriptedTransport(sc.messages(), frames=False)
-        options: dict[str, Any] = {"transport": "scripted"}
     else:
-        from vcran.sim.loop import ClosedLoop
+        from vcran.sim.opil.loop import ClosedLoop
 
-        transport = loop = ClosedLoop(sc, fleet_manager, events.write)
-        options = {"transport": "loop", "manager": name, "link": sc.link.as_dict()}
-    trace = trace_writer(sc, work, options) if work is not None else Frames()
-    model, wall = run_model(sc, transport, trace, events, progress=progress, on_start=on_start)
+        transport = loop = ClosedLoop(sc, fleet_manager, sinks.events.write)
+    ran = execute(sc, transport, sinks, progress=progress, on_start=on_start,
+                  summarize=Model.summary if loop is None else partial(loop_summary, loop=loop))
+    memory = sinks if isinstance(sinks, MemorySinks) else None
+    return Result(ran.summary, loop.jobs.records() if loop is not None else (), folder, ran.wall_seconds,
+                  tuple(r.id for r in sc.robots), ran.events,
+                  memory.events.events if memory is not None else None,
+                  memory.trace.frames if memory is not None else None, scenario=sc)
+
+
+def loop_summary(model: Model, loop: ClosedLoop) -> dict[str, Any]:
+    """summary.json of a closed loop: the model's, with the jobs and each robot's share of time busy (SPEC §9)."""
     summary = model.summary()
-    if loop is not None:
-        t = model.env.now
-        summary["jobs"] = loop.jobs.summary(t)
-        shares = {r.id: model.busy(r.index) / t if t > 0 else 0.0 for r in model.robots}
-        summary["utilisation"] = {"fleet": sum(shares.values()) / len(shares), "robots": shares}
-    if work is not None and folder is not None:
-        write_summary(work, summary)
-        publish(work, folder)
-    return Result(summary, loop.jobs.records() if loop is not None else (), folder, wall,
-                  tuple(r.id for r in sc.robots), events.count,
-                  events.events if isinstance(events, EventList) else None,
-                  trace.frames if isinstance(trace, Frames) else None, scenario=sc)
+    t = model.env.now
+    summary["jobs"] = loop.jobs.summary(t)
+    shares = {r.id: model.busy(r.index) / t if t > 0 else 0.0 for r in model.robots}
+    summary["utilisation"] = {"fleet": sum(shares.values()) / len(shares), "robots": shares}
+    return summary
 
 
 def _check_mode(sc: Scenario, managed: bool) -> None:
@@ -199,7 +199,7 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
     class or ``module:Class`` gets the options :func:`manager_options` gives it, an instance none."""
     if manager is None and scenario.manager is None:
         return None, ""
-    from vcran.core.manager import FleetManager
+    from vcran.core.opil.manager import FleetManager
 
     if manager is None:
         assert scenario.manager is not None
@@ -298,59 +298,3 @@ def _described(exc: BaseException) -> str:
 
 def _name(cls: type) -> str:
     return f"{cls.__module__}:{cls.__qualname__}"
-
-
-class EventList:
-    """The events of an in-memory run: the dicts :func:`vcran.io.trace.event_records` reads back from a
-    run folder's events file, one per event (fields without a value left out, as there)."""
-
-    def __init__(self) -> None:
-        self.events: list[dict[str, Any]] = []
-
-    @property
-    def count(self) -> int:
-        return len(self.events)
-
-    def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        self.events.append({"t": t, "robot": robot, "event": name, **{k: v for k, v in fields.items() if v is not None}})
-
-    def close(self) -> None:
-        pass
-
-
-class Frames:
-    """The trace of an in-memory run: only the telemetry frames are kept (a trace without a file cannot
-    be replayed, and the summary and events hold the rest)."""
-
-    wants_frames = True
-
-    def __init__(self) -> None:
-        self.frames: list[tuple[float, np.ndarray]] = []
-
-    def inbound(self, t: float, inbound: Inbound) -> None:
-        pass
-
-    def publish(self, out: Publish) -> None:
-        pass
-
-    def frame(self, frame: Frame) -> None:
-        self.frames.append((frame.t, frame.columns))
-
-    def leg(self, robot: int, leg: Leg, t: float) -> None:
-        pass
-
-    def halt(self, robot: int, t: float) -> None:
-        pass
-
-    def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None:
-        pass
-
-    def end(self, t: float) -> None:
-        pass
-
-    def close(self) -> None:
-        pass
-
-
-def _long(rows: np.ndarray, robots: tuple[str, ...]) -> np.ndarray:
-    return long_table(rows, robots)

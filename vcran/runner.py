@@ -1,34 +1,30 @@
-"""Run a scenario to its output folder: ``trace.jsonl.zst``, ``legs.npy``, ``events.jsonl.zst``, ``summary.json``.
+"""One way to wire a run: :func:`execute` builds the model for a scenario and a transport, runs it with
+every record going to the run's sinks, and publishes the summary (SPEC §5, §8).
 
-The one function every command uses (run, replay, live, fuzz), so the files are always produced the
-same way. Only simulated quantities go into them (SPEC §5); wall-clock figures are returned for printing.
-:func:`run_model` is the part that does not care where the records go: :func:`vcran.simulate` uses it
-with in-memory sinks when no folder is given.
+Every entry point calls it with its transport and sinks (:mod:`vcran.io.sinks`: a run folder, or memory):
+``vcran run`` and :func:`vcran.simulate` (through :func:`vcran.api.run`: the script, or a fleet manager in
+a closed loop), ``vcran replay``, ``vcran live``, sweeps and fuzzing; :func:`run_to` is the short form for a
+folder. ``vcran manage`` runs no model (a fleet manager against Orion): it shares the sinks and the summary's
+publication. Only simulated quantities go into the files; wall-clock figures are returned for printing.
 """
 
 from __future__ import annotations
 
 import gc
-import json
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from itertools import islice
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import simpy
 
-from transports.record import RecordingTransport, TraceSink
+from transports.record import RecordingTransport
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Transport
-from vcran.io.runfolder import publish, staging
-from vcran.io.trace import EVENTS_FILE, SUMMARY_FILE, EventWriter, TraceWriter
-from vcran.sim.model import EventSink, Model
-
-#: ``events.jsonl.zst`` of a run folder (the name main's callers use).
-EventLog = EventWriter
+from vcran.io.sinks import FolderSinks, Sinks
+from vcran.sim.model import Model
 
 #: Allocations between young-generation collections while a run is under way (CPython's default: 700).
 GC_THRESHOLD = 50_000
@@ -69,17 +65,18 @@ def _quiet_collector() -> Iterator[None]:
     try:
         yield
     finally:
+        # What the run left alive joins the old generation with the rest (frozen, then all unfrozen there)
+        # rather than staying young: left young, the first allocations after the run (the summary's) made
+        # the collector walk it, about 0.12 s after a 1000-robot hour (issue 30); in the oldest generation
+        # it waits for a full collection, which the growth rule above still makes before a later run.
+        gc.freeze()
         gc.set_threshold(*threshold)
         gc.unfreeze()
 
 
-class ClosingEventSink(EventSink, Protocol):
-    def close(self) -> None: ...
-
-
 @dataclass(frozen=True, slots=True)
 class RunResult:
-    """What :func:`run_to` returns: the summary (as written to summary.json), how many events were
+    """What :func:`execute` returns: the summary (as published: summary.json), how many events were
     written, the wall-clock seconds the run took, and the model as it ended."""
 
     summary: dict[str, Any]
@@ -93,82 +90,28 @@ class RunResult:
         return self.summary["sim_time"] / self.wall_seconds if self.wall_seconds > 0 else float("inf")
 
 
-def run_to(
+def execute(
     scenario: Scenario,
-    out: Path,
     transport: Transport,
+    sinks: Sinks,
     *,
-    options: dict[str, Any] | None = None,
     env: simpy.Environment | None = None,
     on_start: Callable[[Model], None] | None = None,
     progress: Callable[[float, int], None] | None = None,
-    flush_every_tick: bool = False,
+    summarize: Callable[[Model], dict[str, Any]] = Model.summary,
 ) -> RunResult:
-    """Simulate ``scenario`` with ``transport``, recording everything into the folder ``out``.
+    """Simulate ``scenario`` with ``transport``, every message recorded into ``sinks.trace`` (legs too) and
+    every event into ``sinks.events``; then publish ``summarize(model)`` (summary.json) through ``sinks``.
 
-    The files are written into ``<out>.incomplete`` and renamed to ``out`` when the run has ended
-    (:mod:`vcran.io.runfolder`); an existing ``out`` that is not a run folder raises RunFolderError.
-    ``progress`` is called with (simulated time, tasks completed) every telemetry period while it runs
-    (:class:`vcran.io.progress.ProgressBar` is one); it observes and cannot change the outputs.
-    ``flush_every_tick`` (live mode) hands the trace, legs and events to the operating system at
-    every telemetry tick, so that a run killed outright keeps its recording up to its last tick.
+    ``env`` is the environment to run in (live mode: a :class:`vcran.sim.live.LiveEnvironment`; else a
+    fresh one); ``on_start`` is called with the model before it runs (the commands keep it to stop it on a
+    signal); ``progress`` with (simulated time, tasks completed) every telemetry period, an observer that
+    cannot change the outputs (:class:`vcran.io.progress.ProgressBar` is one). A run that raises closes
+    the files and publishes nothing: a folder stays ``<out>.incomplete``.
     """
-    work = staging(out)
-    events = EventWriter(work / EVENTS_FILE)
-    writer = trace_writer(scenario, work, options)
-
-    def flush() -> None:
-        writer.flush()
-        events.flush()
-
-    model, wall = run_model(scenario, transport, writer, events, env=env, on_start=on_start, progress=progress,
-                            after_frame=flush if flush_every_tick else None)
-    summary = model.summary()
-    write_summary(work, summary)
-    publish(work, out)
-    return RunResult(summary, events.count, wall, model)
-
-
-def trace_writer(scenario: Scenario, out: Path, options: dict[str, Any] | None) -> TraceWriter:
-    """The trace of a run of ``scenario`` in ``out``; its header carries the fleet, so a replay needs nothing else."""
-    header = {
-        "scenario": scenario.settings.name,
-        "seed": scenario.settings.seed,
-        "options": options or {},
-        "fleet": scenario.fleet_dict(),
-    }
-    return TraceWriter(out, header, tuple(r.id for r in scenario.robots))
-
-
-def write_summary(out: Path, summary: dict[str, Any]) -> None:
-    """summary.json: ``json.dumps(summary, indent=2, ensure_ascii=False)`` and a newline, encoded as it is written.
-
-    At fleet scale the summary lists every task id a run ended (320,000 in a 1000-robot, 4-hour run). Built
-    as one text, the encoder's pieces and the joined text cost about 150 bytes per task at once, and that
-    was the run's peak memory (issue 14); written a few thousand pieces at a time, it costs a constant.
-    """
-    pieces = json.JSONEncoder(indent=2, ensure_ascii=False).iterencode(summary)
-    with (out / SUMMARY_FILE).open("w", encoding="utf-8") as f:
-        while batch := list(islice(pieces, 4096)):
-            f.write("".join(batch))
-        f.write("\n")
-
-
-def run_model(
-    scenario: Scenario,
-    transport: Transport,
-    trace: TraceSink,
-    events: ClosingEventSink,
-    *,
-    env: simpy.Environment | None = None,
-    on_start: Callable[[Model], None] | None = None,
-    progress: Callable[[float, int], None] | None = None,
-    after_frame: Callable[[], None] | None = None,
-) -> tuple[Model, float]:
-    """Build the model, run it to its end with every message recorded into ``trace`` (legs too) and every
-    event into ``events``, close both; return the model and the wall-clock seconds it took.
-    ``after_frame`` runs after each telemetry frame is recorded."""
-    recording = RecordingTransport(transport, trace, after_frame=after_frame)
+    trace, events = sinks.trace, sinks.events
+    assert trace is not None, "a run's sinks have a trace (only vcran manage's folder has none)"
+    recording = RecordingTransport(transport, trace, after_frame=sinks.after_frame)
     start = time.perf_counter()
     try:
         model = Model(scenario, recording, events, env=env, progress=progress)
@@ -181,4 +124,28 @@ def run_model(
     finally:
         recording.close()
         events.close()
-    return model, time.perf_counter() - start
+    wall = time.perf_counter() - start
+    summary = summarize(model)
+    sinks.finish(summary)
+    return RunResult(summary, events.count, wall, model)
+
+
+def run_to(
+    scenario: Scenario,
+    out: Path,
+    transport: Transport,
+    *,
+    options: dict[str, Any] | None = None,
+    env: simpy.Environment | None = None,
+    on_start: Callable[[Model], None] | None = None,
+    progress: Callable[[float, int], None] | None = None,
+    flush_every_tick: bool = False,
+) -> RunResult:
+    """:func:`execute` into the run folder ``out`` (``trace.jsonl.zst``, ``legs.npy``, ``events.jsonl.zst``,
+    ``summary.json``), ``options`` in the trace's header: what ``vcran replay`` and ``vcran live`` run, and
+    a transport of one's own (docs/outputs.md). The files are written into ``<out>.incomplete`` and
+    renamed to ``out`` when the run has ended (:mod:`vcran.io.runfolder`); an existing ``out`` that is not
+    a run folder raises RunFolderError. ``flush_every_tick``: see :class:`vcran.io.sinks.FolderSinks`.
+    """
+    sinks = FolderSinks(out, scenario, options, flush_every_tick=flush_every_tick)
+    return execute(scenario, transport, sinks, env=env, on_start=on_start, progress=progress)

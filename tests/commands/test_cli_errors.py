@@ -235,7 +235,7 @@ def test_a_bug_is_one_line_exit_70_and_debug_shows_it(capsys: pytest.CaptureFixt
     def broken(*_args: object, **_kw: object) -> None:
         raise KeyError("oops")
 
-    monkeypatch.setattr("vcran.api.run_model", broken)
+    monkeypatch.setattr("vcran.api.execute", broken)
     code, out, err = vcran(capsys, "run", DEMO, "--out", str(tmp_path / "o"))
     assert (code, out) == (70, "")
     assert err == "vcran run: internal error (a bug in vcran; VCRAN_DEBUG=1 shows where): KeyError: 'oops'\n"
@@ -274,7 +274,7 @@ def test_interrupt_is_130(capsys: pytest.CaptureFixture[str], monkeypatch: pytes
     def interrupted(*_args: object, **_kw: object) -> None:
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("vcran.api.run_model", interrupted)
+    monkeypatch.setattr("vcran.api.execute", interrupted)
     assert vcran(capsys, "run", DEMO, "--out", str(tmp_path / "o")) == (130, "", "vcran run: interrupted\n")
 
 

@@ -23,7 +23,7 @@ def test_warehouse_runs_with_its_own_manager_and_prints_the_kpis(tmp_path, capsy
 
 
 def test_manager_option_overrides_the_scenarios(tmp_path, capsys):
-    code = main(["run", WAREHOUSE, "--out", str(tmp_path), "--quiet", "--manager", "vcran.core.manager:FleetManager"])
+    code = main(["run", WAREHOUSE, "--out", str(tmp_path), "--quiet", "--manager", "vcran.core.opil.manager:FleetManager"])
     assert code == 0  # the do-nothing base class: jobs arrive and stay open
     jobs = json.loads((tmp_path / "summary.json").read_text())["jobs"]
     assert jobs["completed"] == 0 and jobs["open"] == jobs["arrived"] > 0

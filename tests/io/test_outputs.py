@@ -197,6 +197,27 @@ def test_events_carry_the_same_keys_in_the_same_order(tmp_path):
     assert {tuple(json.loads(line)) for line in lines} == {EVENT_KEYS}
 
 
+def test_an_event_line_is_its_dict_over_the_event_keys_whatever_its_fields(tmp_path):  # §8
+    """docs/outputs.md: a line is ``t``, ``robot``, ``event`` and the event's fields over EVENT_KEYS (null where it
+    has none), fields EVENT_KEYS lacks after them in their order. The writer assembles lines from pieces made
+    once per name and set of keys (issue 30); the expected line here is that dict, rendered as one value: fields
+    out of EVENT_KEYS' order, unlisted ones, one named like a fixed key, text that JSON escapes, -0.0."""
+    from vcran.io.trace import EventWriter, json_line
+
+    cases = [("state", {"to": "TASK", "from": "WAITING"}), ("bare", {}), ("extra", {"zzz": 1, "task": "a"}),
+             ("renamed", {"event": "other", "x": -0.0}), ("timed", {"t": 5, "task": "b"}), ("moved", {"robot": "r2"}),
+             ("escaped", {"y": 1.5, "extra": [1, {"a": None}], "code": 'c\n"', "message": "é\u2028\x01"}),
+             ("rejected", {"code": "c", "severity": "error", "task": "T", "message": "m"}),
+             ("rejected", {"code": "c", "severity": "error", "action": "A", "message": "m"})]
+    writer = EventWriter(tmp_path / "events.jsonl")
+    for name, fields in cases:
+        writer.write(1.25, "robot_1", name, fields)
+    writer.close()
+    expected = b"".join(json_line({**dict.fromkeys(EVENT_KEYS), "t": 1.25, "robot": "robot_1", "event": name, **fields})
+                        for name, fields in cases)
+    assert (tmp_path / "events.jsonl").read_bytes() == expected
+
+
 def _placeholder(hint):
     if hint is Id:
         return NIL
@@ -246,7 +267,7 @@ def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
     task), yet byte for byte ``json.dumps(indent=2, ensure_ascii=False)`` and a newline, across batches."""
     import json
 
-    from vcran.runner import write_summary
+    from vcran.io.sinks import write_summary
 
     summary = {"scenario": "Förderband", "sim_time": 3600.0, "errors": 0, "robots": {
         f"robot_{i}": {"completed": [f"r{i}_{k}_1" for k in range(300)], "cancelled": [{"task": "T", "reason": "timeout"}],
@@ -310,7 +331,7 @@ def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # §6, 
     f.write(long)
     f.write(b'{"n":1}\n')
     f.flush()
-    assert len(f._batch.getvalue()) < BATCH  # what the batch holds now: the short line's buffer only
+    assert len(f.batch.getvalue()) < BATCH  # what the batch holds now: the short line's buffer only
     f.close()
     with open_input(path) as g:
         assert g.read() == long + b'{"n":1}\n'

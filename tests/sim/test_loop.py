@@ -8,13 +8,13 @@ import tomllib
 import pytest
 
 import vcran
-from vcran.api import EventList, Frames
 from vcran.core.build import motion as build_motion
 from vcran.core.messages import AssignmentStatus, RanStatus
 from vcran.io.scenario_file import parse
+from vcran.io.sinks import MemorySinks
 from vcran.io.trace import records, trace_in
-from vcran.runner import run_model
-from vcran.sim.loop import ClosedLoop
+from vcran.runner import execute
+from vcran.sim.opil.loop import ClosedLoop
 
 FLEET = """
 [simulation]
@@ -209,14 +209,14 @@ def test_link_down_holds_writes_and_publications_until_it_is_restored():
     sc = scenario()
     manager = Watch()
     loop = ClosedLoop(sc, manager, lambda *a: None)
-    events = EventList()
+    sinks = MemorySinks()
 
     def down(model) -> None:
         assert loop.link is not None
         loop.link.outage("robot_1", 5.0)
 
-    run_model(sc, loop, Frames(), events, on_start=down)
-    queued = [e for e in events.events if e["event"] == "task_queued"]
+    execute(sc, loop, sinks, on_start=down)
+    queued = [e for e in sinks.events.events if e["event"] == "task_queued"]
     assert [e["t"] for e in queued] == [5.0]  # written at 1.0, landed at 1.05, read when the link is back
     # robot_1 published nothing while down (from t = 0); its held status goes out at 5.0, arrives 5.05
     assert manager.heard[0] == 5.05 and len(manager.heard) >= 2

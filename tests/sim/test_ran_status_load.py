@@ -7,11 +7,11 @@ from __future__ import annotations
 import tomllib
 
 import vcran
-from vcran.api import EventList, Frames
 from vcran.core.messages import RanStatus
 from vcran.io.scenario_file import parse
-from vcran.runner import run_model
-from vcran.sim.loop import ClosedLoop
+from vcran.io.sinks import MemorySinks
+from vcran.runner import execute
+from vcran.sim.opil.loop import ClosedLoop
 from vcran.sim.timing import FAULT, at
 
 # One robot, a station with parts within reach of (2, 0) and an empty one within reach of (6, 0).
@@ -106,7 +106,7 @@ def test_a_change_of_the_load_alone_publishes_ran_status():
         robot = model.robots[0]
         at(model.env, 2.5, FAULT).callbacks.append(lambda _: setattr(robot, "carrying", 1))
 
-    run_model(sc, loop, Frames(), EventList(), on_start=load_by_hand)
+    execute(sc, loop, MemorySinks(), on_start=load_by_hand)
     # by hand: the status of t = 0 (nothing on board) arrives at 0.05 (the default latency); the next
     # tick after 2.5 s, t = 3, publishes the load, which arrives at 3.05; nothing else ever changes
     assert [(t, s.carrying, s.state) for t, s in manager.got] == [(0.05, 0, "WAITING"), (3.05, 1, "WAITING")]

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from vcran.core import build
 from vcran.core.codec import encode_attribute
-from vcran.core.manager import FleetManager
 from vcran.core.messages import ActionAssignment
+from vcran.core.opil.manager import FleetManager
 from vcran.core.scenario import Job
 from vcran.managers import Dispatcher
 from vcran.managers.dispatcher import Trip

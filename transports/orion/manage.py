@@ -1,8 +1,8 @@
 """A fleet manager against a real Orion, in real time (SPEC §9, "The same fleet manager, live").
 
-``vcran manage`` runs the very :class:`~vcran.core.manager.FleetManager` object that
+``vcran manage`` runs the very :class:`~vcran.core.opil.manager.FleetManager` object that
 :func:`vcran.simulate` runs, with the same handle API: :class:`OrionLoop` is
-:class:`vcran.sim.loop.ClosedLoop` on a :class:`~vcran.sim.live.LiveEnvironment` (so ``now``, jobs and
+:class:`vcran.sim.opil.loop.ClosedLoop` on a :class:`~vcran.sim.live.LiveEnvironment` (so ``now``, jobs and
 ``call_at`` timers follow the wall clock, scaled by the speed factor), with :class:`OrionLink` in place of
 the simulated link:
 
@@ -13,7 +13,7 @@ the simulated link:
   cancel), so a write that could not keep its order inside the current round starts the next one;
 * **updates** come from one Orion subscription to the robots' published attributes (with a notification
   URL), or from polling them. The subscription's condition is the manager's
-  :attr:`~vcran.core.manager.FleetManager.attributes`; every notification carries all of them, so
+  :attr:`~vcran.core.opil.manager.FleetManager.attributes`; every notification carries all of them, so
   ``handle.latest`` and ``handle.pose`` are as fresh as the robot's last notified change. The entities
   are read once after subscribing (what Orion already holds reaches the manager first). Notifications
   arrive on the :class:`~transports.orion.listener.Listener`. ``robot_description`` (the attributes of
@@ -53,12 +53,13 @@ from transports.orion.listener import Listener
 from transports.orion.workers import poll, resilient
 from vcran.core.codec import CodecError, decode_attribute, encode_attribute, split_batch
 from vcran.core.jobs import Log
-from vcran.core.manager import FleetManager
 from vcran.core.messages import FORCED_UPDATES, INBOUND, OUTBOUND, Message, RanStatus
+from vcran.core.opil.manager import FleetManager
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Deliver, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
-from vcran.sim.loop import ClosedLoop, ManagerLink
+from vcran.sim.loop import ManagerLink
+from vcran.sim.opil.loop import ClosedLoop
 
 log = logging.getLogger("vcran.orion")
 

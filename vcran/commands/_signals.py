@@ -1,4 +1,4 @@
-"""SIGINT and SIGTERM as a request to stop, for the long-running commands (run, live, send, broker).
+"""SIGINT and SIGTERM as a request to stop, for the long-running commands (run, live, manage, send, broker).
 
 Python's default turns SIGINT into a KeyboardInterrupt raised wherever the main thread happens to be:
 inside orjson's ``default`` callback it surfaces as a TypeError (orjson wraps the callback's exception),
@@ -12,7 +12,7 @@ and a wrapper forwarding Ctrl-C to a child in the terminal's group does the same
 live ...`` sometimes (when the handler ran between the two) stopped at once, its outputs left incomplete.
 Outside such a block, the CLI makes SIGTERM end any command as Ctrl-C does.
 
-Exit codes (docs/live.md, docs/outputs.md): ``live`` and ``broker`` end this way normally and exit 0;
+Exit codes (docs/live.md, docs/outputs.md): ``live``, ``manage`` and ``broker`` end this way normally and exit 0;
 ``run`` and ``send`` stopped early exit 128 + the signal number (130 for SIGINT, 143 for SIGTERM), as a
 shell reports a process killed by it, so a script sees that the run did not finish.
 """

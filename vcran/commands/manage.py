@@ -13,14 +13,13 @@ describes the wiring; :mod:`transports.orion.manage` the link.
 from __future__ import annotations
 
 import argparse
-import shutil
-import signal
 import sys
 from pathlib import Path
 from typing import Any
 
 from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, check_notify_url, client_from_args, setup_logging
+from vcran.commands._signals import StopSignals
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
 HELP = "run the scenario's fleet manager against Orion in real time (next to vcran live or a real fleet)"
@@ -55,10 +54,9 @@ def run(args: argparse.Namespace) -> int:
 
     from transports.orion.client import OrionError
     from transports.orion.manage import ManageOptions, OrionLink, OrionLoop
-    from vcran.api import EventList, ManagerError, build_manager
-    from vcran.io.runfolder import RunFolderError, publish, staging
-    from vcran.io.trace import EVENTS_FILE
-    from vcran.runner import EventLog, write_summary
+    from vcran.api import ManagerError, build_manager
+    from vcran.io.runfolder import RunFolderError
+    from vcran.io.sinks import FolderSinks, MemorySinks, Sinks
     from vcran.sim.live import LiveEnvironment
 
     setup_logging(args.quiet)
@@ -93,29 +91,27 @@ def run(args: argparse.Namespace) -> int:
     except CommandError:
         client.close()
         raise
-    # Written like a run folder: into <out>.incomplete, renamed when the run has ended; a manager that
-    # raises leaves it incomplete, never new events beside an older summary (vcran.io.runfolder).
+    # The run's sinks, as every run's (vcran.io.sinks): a folder written into <out>.incomplete and renamed
+    # when the run has ended (a manager that raises leaves it incomplete, never new events beside an older
+    # summary), its job events and summary but no trace (no model runs here); or memory without --out.
     try:
-        work = staging(args.out) if args.out is not None else None
+        sinks: Sinks = FolderSinks(args.out) if args.out is not None else MemorySinks()
     except RunFolderError:
         client.close()
         if view is not None:
             view.close()
         raise
-    events: EventLog | EventList = EventLog(work / EVENTS_FILE) if work is not None else EventList()
     env = LiveEnvironment(speed=args.factor)
     options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=listen,
                             poll_interval=poll_interval)
-    loop = OrionLoop(scenario, manager, events.write, client, options)
+    loop = OrionLoop(scenario, manager, sinks.events.write, client, options)
     try:
         loop.attach(env, lambda _inbound: None)
     except (OSError, OrionError) as exc:
         client.close()
-        events.close()
+        sinks.discard()  # nothing ran: no folder left behind
         if view is not None:
             view.close()
-        if work is not None:  # nothing ran: no folder left behind
-            shutil.rmtree(work, ignore_errors=True)
         if isinstance(exc, OrionError) and polling:
             raise CommandError(f"cannot read the fleet from {args.orion}: {exc}") from None
         if isinstance(exc, OrionError):
@@ -138,28 +134,26 @@ def run(args: argparse.Namespace) -> int:
     env.process(watch())
     if scenario.settings.duration is not None:
         env.timeout(scenario.settings.duration).callbacks.append(finish)
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: env.call_from_signal(finish))
     mode = f"polling every {poll_interval:g} s" if polling else f"subscription to {args.notify_url}"
-    if not args.quiet:
-        print(f"manage: {name} on {len(scenario.robots)} robot(s) at {args.orion}, x{args.factor:g}, {mode}; "
-              "Ctrl-C stops", flush=True)
     link = loop.link
     assert isinstance(link, OrionLink)
+    # SIGINT or SIGTERM: the normal end of the run (exit 0), as its duration's; a second one stops it at once
     try:
-        env.run(until=done)  # an exception the manager raises ends the run: the CLI says which hook and when
+        with StopSignals(lambda: env.call_from_signal(finish)):
+            if not args.quiet:
+                print(f"manage: {name} on {len(scenario.robots)} robot(s) at {args.orion}, x{args.factor:g}, "
+                      f"{mode}; Ctrl-C stops", flush=True)
+            env.run(until=done)  # an exception the manager raises ends the run: the CLI says which hook and when
     finally:
         link.close()
         client.close()
-        events.close()
+        sinks.events.close()
         if view is not None and sys.exc_info()[0] is not None:
             view.close()
     t = env.now
     jobs = loop.jobs.summary(t)
-    if work is not None:
-        write_summary(work, {"scenario": scenario.settings.name, "manager": name, "seed": scenario.settings.seed,
-                             "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
-        publish(work, args.out)
+    sinks.finish({"scenario": scenario.settings.name, "manager": name, "seed": scenario.settings.seed,
+                  "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
     end_live(view)
     if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling
         inbound = f"{link.reads} read(s)" if polling else f"{link.notifications} notification(s)"

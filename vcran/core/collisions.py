@@ -176,16 +176,16 @@ class Grid:
         """
         c = self.cell
         x0, y0, x1, y1 = box
-        span = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
+        span = gx0, gy0, gx1, gy1 = math.floor(x0 / c), math.floor(y0 / c), math.floor(x1 / c), math.floor(y1 / c)
         old = self.filed.get(index)
-        if old is None or not _within(span, old[0]):
-            members = self._refile(index, old[0] if old is not None else None, span)
+        if old is None:
+            members = self._refile(index, None, span)
         else:
-            members = old[1]
-        shared = [m for m in members if len(m) > 1]
-        if not shared:
+            o = old[0]  # still within the cells it is filed under? (this runs at every leg start and end)
+            members = old[1] if o[0] <= gx0 and o[1] <= gy0 and gx1 <= o[2] and gy1 <= o[3] else self._refile(index, o, span)
+        if max(map(len, members)) == 1:  # alone in every cell (no Python-level loop for the common case)
             return []
-        near = set().union(*shared)
+        near = set().union(*(m for m in members if len(m) > 1))
         near.discard(index)
         return sorted(near)
 
@@ -223,10 +223,6 @@ class Grid:
 def _keys(span: Span) -> list[int]:
     gx0, gy0, gx1, gy1 = span
     return [gx * STRIDE + gy for gx in range(gx0, gx1 + 1) for gy in range(gy0, gy1 + 1)]
-
-
-def _within(span: Span, outer: Span) -> bool:
-    return outer[0] <= span[0] and outer[1] <= span[1] and span[2] <= outer[2] and span[3] <= outer[3]
 
 
 def apart(a: Box, b: Box) -> bool:

@@ -162,7 +162,12 @@ def fresh_id(name: str) -> Id:
     evicting the names a run does look up again (id_for on these names, uuid5 included, was a third of
     expanding a 1000-robot script; this removes the checks and the memo around the uuid5). A name with ``_`` is never a canonical uuid; any other goes through
     :func:`id_for`, so the result is always the same."""
-    return _named(uuid5_bytes(name), name) if "_" in name else id_for(name)
+    if "_" not in name:
+        return id_for(name)
+    ident = _new(NamedId)  # _named(uuid5_bytes(name), name), without its call (four names a task)
+    _set_uuid(ident, uuid5_bytes(name))
+    _set_description(ident, name)
+    return ident
 
 
 _NAMESPACE_SHA1 = hashlib.sha1(VCRAN_NAMESPACE.bytes, usedforsecurity=False)

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     import numpy as np
 
 TAU = 2.0 * math.pi
+_PI = math.pi
 
 
 def wrap(angle: float) -> float:
@@ -94,23 +95,35 @@ class Leg:
     def __init__(self, t0: float, x0: float, y0: float, theta0: float, x1: float, y1: float,
                  theta_goal: float | None, limits: Limits) -> None:
         # Written out (``dataclass`` keeps a class's own __init__): the derived fields need computing anyway.
+        # Angles already in (-pi, pi] skip wrap() and turns of zero _turn_time(), as those functions would
+        # return them: two legs a task, and each call cost more than its arithmetic (issue 30).
         self.t0, self.x0, self.y0, self.theta0, self.x1, self.y1 = t0, x0, y0, theta0, x1, y1
         self.theta_goal, self.limits = theta_goal, limits
         dx, dy = x1 - x0, y1 - y0
         self.distance = distance = math.hypot(dx, dy)
-        self.heading = heading = wrap(math.atan2(dy, dx) if distance > 0 else theta0)  # atan2 may return -pi
+        heading = math.atan2(dy, dx) if distance > 0 else theta0
+        if not -_PI < heading <= _PI:  # atan2 may return -pi
+            heading = wrap(heading)
+        self.heading = heading
         self.ux, self.uy = math.cos(heading), math.sin(heading)
         rate = limits.turn_rate
-        self.turn1 = turn1 = wrap(heading - theta0) if distance > 0 else 0.0
+        turn1 = heading - theta0 if distance > 0 else 0.0
+        if not -_PI < turn1 <= _PI:
+            turn1 = wrap(turn1)
+        self.turn1 = turn1
         self.rate1 = math.copysign(rate, turn1)
-        self.t_turn1 = t_turn1 = _turn_time(turn1, rate)
+        self.t_turn1 = t_turn1 = _turn_time(turn1, rate) if turn1 != 0.0 else 0.0
         self.peak, self.t_acc, self.t_dec, self.t_drive = _profile(distance, limits.speed, limits.accel, limits.decel)
-        self.turn2 = turn2 = wrap(theta_goal - heading) if theta_goal is not None else 0.0
-        self.rate2 = math.copysign(rate, turn2)
-        self.t_turn2 = t_turn2 = _turn_time(turn2, rate)
-        # Exactly the goal's theta when it has one, so a goal pose is reached bit for bit.
-        self.end_theta = wrap(theta_goal) if theta_goal is not None else heading
-        self.t_end = t0 + (t_turn1 + self.t_drive + t_turn2)
+        if theta_goal is None:
+            self.turn2, self.rate2, self.t_turn2 = 0.0, math.copysign(rate, 0.0), 0.0
+            self.end_theta = heading
+        else:
+            self.turn2 = turn2 = wrap(theta_goal - heading)
+            self.rate2 = math.copysign(rate, turn2)
+            self.t_turn2 = _turn_time(turn2, rate)
+            # Exactly the goal's theta, so a goal pose is reached bit for bit.
+            self.end_theta = wrap(theta_goal)
+        self.t_end = t0 + (t_turn1 + self.t_drive + self.t_turn2)
 
     @property
     def duration(self) -> float:

@@ -104,10 +104,13 @@ class RanLogic:
         #: Returns why a motion's target is outside its motion area (R12), or None.
         self._area_check = area_check
         self.state = _WAITING
-        self.queue: OrderedDict[Id, Task] = OrderedDict()
-        #: The queue's first task, the current one (R6), kept as the queue changes: statuses and every
-        #: input ask for it (about 26 times per task), and an OrderedDict's first value costs an Id hash.
+        #: The tasks in arrival order. A plain dict keeps that order; an OrderedDict hashed each Id again
+        #: when it was iterated (``ran_status``), a Python-level call per key (issue 30).
+        self.queue: dict[Id, Task] = {}
+        #: The queue's first task, the current one (R6), kept as the queue changes (statuses and every input
+        #: ask for it, about 26 times per task), and its id: the attribute :attr:`current_task`.
         self._head: Task | None = None
+        self.current_task: Id = NIL
         #: Tasks that left the queue so far; with ``_arrivals``, the state and the load the robot gives,
         #: what ``ran_status`` shows is a function of these four (the last one built is kept in ``_status``).
         self._ended = 0
@@ -126,6 +129,7 @@ class RanLogic:
         self.out_of_service = ""
         self._now = float("-inf")
         self._arrivals = 0
+        #: The effects of the input being handled, in order (returned by :meth:`_end`).
         self._out: list[Effect] = []
 
     # --- inputs -----------------------------------------------------------------------------------------
@@ -166,11 +170,11 @@ class RanLogic:
     def on_motion_finished(self, now: float, motion_id: Id) -> list[Effect]:
         """The AGV reached the point of ``motion_id`` (the next leg of the current path)."""
         self._begin(now)
-        task = self._current()
-        if task is None or not self._driving(task):
+        task = self._head
+        if task is None or self.state is not _MOTION or not task.route:  # not driving (see _driving)
             raise LocalProtocolError(f"{self.robot}: motion {motion_id.label} finished but no leg was running")
-        expected = assignment_id(task.slots[task.route[0]])
-        if expected != motion_id:
+        expected = task.slots[task.route[0]].motion_id  # type: ignore[union-attr]  # the route holds motions
+        if expected.uuid != motion_id.uuid:  # Id equality, without its Python-level __eq__
             raise LocalProtocolError(
                 f"{self.robot}: motion {motion_id.label} finished, expected {expected.label}"
             )
@@ -178,7 +182,7 @@ class RanLogic:
         task.since = now  # the next leg, if any, begins now
         self.last_finished_motion = motion_id
         self.version += 1
-        self._emit(MotionFinished(task.id, motion_id))
+        self._out.append(MotionFinished(task.id, motion_id))
         if task.ending is not None:
             self._finish_cancel(now, task)
         else:
@@ -190,11 +194,11 @@ class RanLogic:
     ) -> list[Effect]:
         """AgvAction finished ``action_id``; a failure carries the error ``code`` and ``message`` (§4)."""
         self._begin(now)
-        task = self._current()
+        task = self._head
         if task is None or not task.action_running:
             raise LocalProtocolError(f"{self.robot}: action {action_id.label} finished but none was running")
         running = task.action_at(task.next_action)
-        if running.action_id != action_id:
+        if running.action_id.uuid != action_id.uuid:
             raise LocalProtocolError(
                 f"{self.robot}: action {action_id.label} finished, expected {running.action_id.label}"
             )
@@ -202,7 +206,7 @@ class RanLogic:
         task.next_action += 1
         self.last_finished_action = action_id
         self.version += 1
-        self._emit(ActionFinished(task.id, action_id, ok))
+        self._out.append(ActionFinished(task.id, action_id, ok))
         if not ok:  # reported, but a cancel or timeout already pending keeps its reason (R14)
             self._error(Failed, code or "action_failed", message, task.id, NIL, action_id)
             self._finish_cancel(now, task, task.ending or Reason.ACTION_FAILED)
@@ -222,7 +226,7 @@ class RanLogic:
         new tasks are rejected (code ``reason``) until :meth:`on_service`.
         """
         self._begin(now)
-        task = self._current()
+        task = self._head
         self._error(Failed, code, message, task.id if task else NIL, self.current_motion, self.current_action)
         if out_of_service:
             self.out_of_service = reason.value
@@ -246,20 +250,15 @@ class RanLogic:
     # --- status -----------------------------------------------------------------------------------------
 
     @property
-    def current_task(self) -> Id:
-        task = self._current()
-        return task.id if task is not None else NIL
-
-    @property
     def current_motion(self) -> Id:
-        task = self._current()
-        if task is None or not self._driving(task):
+        task = self._head
+        if task is None or self.state is not _MOTION or not task.route:  # not driving (see _driving)
             return NIL
         return assignment_id(task.slots[task.route[0]])
 
     @property
     def current_action(self) -> Id:
-        task = self._current()
+        task = self._head
         if task is None or not task.action_running:
             return NIL
         return task.action_at(task.next_action).action_id
@@ -325,7 +324,7 @@ class RanLogic:
         self.version += 1
         self._settle(now, task, a)
         if task.assembled:  # R5 (the task may have ended meanwhile: R13 skips can finish it at once)
-            self._emit(ClearTimer(task.id))
+            self._out.append(ClearTimer(task.id))
 
     def _new_task(self, now: float, a: Assignment) -> None:
         """R1: the first assignment of an unseen task id creates it; first_seen = now."""
@@ -334,13 +333,13 @@ class RanLogic:
         task.put(a, None)
         self.queue[task.id] = task
         if self._head is None:
-            self._head = task
+            self._head, self.current_task = task, task.id
         self.version += 1
-        self._emit(TaskQueued(task.id))
+        self._out.append(TaskQueued(task.id))
         if not task.assembled:
             # R14: the timer waits out the tolerance, so an input at the deadline is on time; rounded
             # to the nanosecond so that the instant reads as the scenario would write it.
-            self._emit(StartTimer(task.id, round(task.deadline + TOLERANCE, 9)))
+            self._out.append(StartTimer(task.id, round(task.deadline + TOLERANCE, 9)))
         if len(self.queue) == 1:
             self._set_state(_TASK)
         self._settle(now, task, a)
@@ -348,14 +347,13 @@ class RanLogic:
     def _settle(self, now: float, task: Task, a: Assignment) -> None:
         """After ``a`` was accepted: skip it if a cancel named it before it arrived (R13), then let the
         task go as far as it can."""
-        key = (task.id, kind_of(a), assignment_id(a))
-        cancel = self.doomed.pop(key, None) if self.doomed else None
+        cancel = self.doomed.pop((task.id, kind_of(a), assignment_id(a)), None) if self.doomed else None
         if cancel is not None:
             self._skip(task, a.sequence.sequence_number)
             if len(task.skipped) == task.length:
                 self._end_task(now, task, Reason.CANCELLED, cancel)
                 return
-        if task is self._current():
+        if task is self._head:
             self._advance(now)
 
     # --- cancel (R8) ------------------------------------------------------------------------------------
@@ -401,7 +399,7 @@ class RanLogic:
         positions: list[int] = []
         unknown: list[tuple[str, Id]] = []
         for kind, ident in named:
-            pos = task.where.get((kind, ident))
+            pos = task.where.get((kind, ident.uuid))
             if pos is None:
                 unknown.append((kind, ident))
             elif pos not in task.skipped:  # else cancelled already: a re-read
@@ -425,17 +423,17 @@ class RanLogic:
         self.version += 1
         if len(task.skipped) == task.length:  # every assignment cancelled: the task is (R13)
             self._end_task(now, task, Reason.CANCELLED, c)
-        elif task is self._current():
+        elif task is self._head:
             self._advance(now)
 
     def _skip(self, task: Task, pos: int) -> None:
         """R13: the assignment at ``pos`` counts as received and is never performed."""
         task.skipped.add(pos)
         a = task.slots[pos]
-        self._emit(AssignmentCancelled(task.id, kind_of(a), assignment_id(a)))
+        self._out.append(AssignmentCancelled(task.id, kind_of(a), assignment_id(a)))
         if pos in task.route:  # a point of the path being driven, not yet reached
             task.route.remove(pos)
-            self._emit(SkipMotion(task.id, assignment_id(a)))
+            self._out.append(SkipMotion(task.id, assignment_id(a)))
 
     def _doom(self, c: CancelTask, kind: str, ident: Id) -> None:
         """R13: remember a cancel for an assignment not received yet, bounded like the history (R9)."""
@@ -452,7 +450,7 @@ class RanLogic:
 
         ``at`` is the instant the request is about (the deadline for a timeout; ``now`` for a cancel): a
         leg or action that began within :data:`TOLERANCE` of it is abandoned instead (R14)."""
-        if task is not self._current():
+        if task is not self._head:
             self._cancel_now(now, task, reason, cancel)
             return
         driving = self._driving(task)
@@ -461,9 +459,9 @@ class RanLogic:
                 task.ending = reason
                 task.cancel = cancel
                 if driving:
-                    self._emit(StopAfterLeg(task.id))
+                    self._out.append(StopAfterLeg(task.id))
                 return
-            self._emit(Abandon(task.id))
+            self._out.append(Abandon(task.id))
         self._finish_cancel(now, task, reason, cancel)
 
     def _finish_cancel(
@@ -480,14 +478,14 @@ class RanLogic:
         self.recent_cancelled.append(_task_end(task.id, reason.value, Time.from_seconds(now)))
         self.version += 1
         if not task.assembled:
-            self._emit(ClearTimer(task.id))
-        self._emit(TaskCancelled(task.id, reason))
+            self._out.append(ClearTimer(task.id))
+        self._out.append(TaskCancelled(task.id, reason))
 
     # --- the state machine (R3-R6) ----------------------------------------------------------------------
 
     def _advance(self, now: float) -> None:
         """Move the current task as far as what has been received allows."""
-        task = self._current()
+        task = self._head
         assert task is not None
         if self.state is _TASK:
             m = task.motion_count()
@@ -495,22 +493,24 @@ class RanLogic:
                 return
             task.m = m
             task.next_action = m + 1
-            task.route.extend(p for p in range(1, m + 1) if p not in task.skipped)
+            path = range(1, m + 1)
+            task.route.extend([p for p in path if p not in task.skipped] if task.skipped else path)
             self._set_state(_MOTION)
             if task.route:
                 task.since = now
-                self._emit(DispatchPath(task.id, task.path()))
+                self._out.append(DispatchPath(task.id, task.path()))
         if self.state is _MOTION:
             if task.route or not task.actions_complete():
                 return
             self._set_state(_ACTION)
         if self.state is _ACTION and not task.action_running:
-            task.skip_cancelled_actions()
+            if task.skipped:
+                task.skip_cancelled_actions()
             if task.next_action <= task.length:
                 task.action_running = True
                 task.since = now
                 self.version += 1
-                self._emit(DispatchAction(task.id, task.action_at(task.next_action)))
+                self._out.append(DispatchAction(task.id, task.action_at(task.next_action)))
             else:
                 self._complete(now, task)
 
@@ -519,7 +519,7 @@ class RanLogic:
         self._remember(task.id, Ended.of(task, None, now))
         self.recent_completed.append(task.id)
         self.version += 1
-        self._emit(TaskCompleted(task.id))
+        self._out.append(TaskCompleted(task.id))
         self._start_next(now)
 
     def _start_next(self, now: float) -> None:
@@ -533,7 +533,7 @@ class RanLogic:
         change = _STATE_CHANGES.get((self.state._name_, to._name_))
         if change is None:
             raise AssertionError(f"{self.robot}: transition {self.state.value} -> {to.value} does not exist (R6)")
-        self._emit(change)
+        self._out.append(change)
         self.state = to
         self.version += 1
 
@@ -543,14 +543,12 @@ class RanLogic:
         """The AGV is on a leg of ``task``'s path (``task`` being the current task)."""
         return self.state is _MOTION and bool(task.route)
 
-    def _current(self) -> Task | None:
-        return self._head
-
     def _dequeue(self, task: Task) -> None:
         del self.queue[task.id]
         self._ended += 1
         if task is self._head:
-            self._head = next(iter(self.queue.values()), None)
+            self._head = head = next(iter(self.queue.values()), None)
+            self.current_task = head.id if head is not None else NIL
 
     def _remember(self, task_id: Id, ended: Ended) -> None:
         """R9: keep the latest ``history_limit`` ended task ids (and no more than ``history_bytes``)."""
@@ -572,10 +570,7 @@ class RanLogic:
         severity: str = "error",
     ) -> None:
         self.error_count += 1
-        self._emit(cls(code, message, severity, task, motion, action, self.error_count))
-
-    def _emit(self, effect: Effect) -> None:
-        self._out.append(effect)
+        self._out.append(cls(code, message, severity, task, motion, action, self.error_count))
 
     def _begin(self, now: float) -> None:
         if now < self._now:

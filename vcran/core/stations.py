@@ -163,5 +163,7 @@ def area_problem(points: list[tuple[float, float]], x: float, y: float) -> str |
 
 def motion_area_problem(motion: MotionAssignment) -> str | None:
     """R12: why a motion's target lies outside its own non-empty motion_area, or None."""
+    if not motion.motion_area.polygon.points:  # no area, as nearly every motion: nothing to build or check
+        return None
     points = motion.motion_area.xy()
     return area_problem(points, motion.point.x, motion.point.y) if points else None

@@ -62,15 +62,17 @@ def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
                 walk(spec.cls, here)  # type: ignore[arg-type]
             else:
                 name = f"_a{len(helpers)}"
+                # (an empty array, the usual motion area, makes no generator)
                 if spec.cls is None and spec.ros[:-2] in _FLOATS:
-                    helpers[name] = lambda items: (len(items), *(v + 0.0 for v in items))
+                    helpers[name] = lambda items: (len(items), *(v + 0.0 for v in items)) if items else (0,)
                 elif spec.cls is None:
                     helpers[name] = lambda items: (len(items), *items)
                 elif spec.cls is Id:
-                    helpers[name] = lambda items: (len(items), *(i.uuid for i in items))
+                    helpers[name] = lambda items: (len(items), *(i.uuid for i in items)) if items else (0,)
                 else:
                     inner = _flattener(spec.cls)
-                    helpers[name] = lambda items, inner=inner: (len(items), *(v for i in items for v in inner(i)))
+                    helpers[name] = (lambda items, inner=inner:
+                                     (len(items), *(v for i in items for v in inner(i))) if items else (0,))
                 parts.append(f"*{name}({here})")
 
     walk(cls, "m", skip)
@@ -98,8 +100,11 @@ def fingerprint(a: Assignment | CancelTask) -> bytes:
     cost of one is small: a re-read that should have been reported (R9 ``task_completed``/``task_cancelled``)
     goes silent; an ended task applies nothing either way.
     """
-    content = (type(a).__name__, *_flattener(type(a), "header")(a))  # only MotionAssignment has one
-    return blake2b(_pickled(content), digest_size=FINGERPRINT_SIZE).digest()
+    cls = type(a)
+    flat = _FLATTENERS.get((cls, "header"))  # only MotionAssignment has one
+    if flat is None:
+        flat = _flattener(cls, "header")
+    return blake2b(_pickled((cls.__name__, *flat(a))), digest_size=FINGERPRINT_SIZE).digest()
 
 
 _PICKLERS = threading.local()
@@ -132,6 +137,11 @@ def kind_of(a: Assignment) -> str:
     return "motion" if isinstance(a, MotionAssignment) else "action"
 
 
+def _where(a: Assignment) -> tuple[str, bytes]:
+    """``a``'s key in :attr:`Task.where`."""
+    return ("motion", a.motion_id.uuid) if isinstance(a, MotionAssignment) else ("action", a.action_id.uuid)
+
+
 @dataclass(slots=True, eq=False)
 class Task:
     """One task id's assignments and progress. Lives in the queue until it ends, then in the history."""
@@ -142,8 +152,10 @@ class Task:
     length: int
     deadline: float
     slots: dict[int, Assignment] = field(default_factory=dict)
-    #: (kind, assignment id) -> position, for duplicate and replacement lookups (R10).
-    where: dict[tuple[str, Id], int] = field(default_factory=dict)
+    #: (kind, assignment id's uuid) -> position, for duplicate and replacement lookups (R10). Keyed by the
+    #: uuid, which is what makes two ids equal, so that a lookup hashes bytes, not an Id through its
+    #: Python-level ``__hash__`` (issue 30).
+    where: dict[tuple[str, bytes], int] = field(default_factory=dict)
     #: Number of motions, fixed when the path is dispatched (R3); None before.
     m: int | None = None
     #: Positions of the dispatched path still to drive, the running leg first (R13 may drop later ones).
@@ -186,10 +198,10 @@ class Task:
             del self.slots[replacing]
         pos = a.sequence.sequence_number
         self.slots[pos] = a
-        self.where[(kind_of(a), assignment_id(a))] = pos
+        self.where[_where(a)] = pos
 
     def lookup(self, a: Assignment) -> int | None:
-        return self.where.get((kind_of(a), assignment_id(a)))
+        return self.where.get(_where(a))
 
     # --- R3, R4, R5 -------------------------------------------------------------------------------------
 
@@ -197,14 +209,19 @@ class Task:
         """``m`` when R3 holds (positions 1..m are motions and m == length or m+1 is an action)."""
         if self.m is not None:
             return self.m
-        first_action = min((p for p, a in self.slots.items() if isinstance(a, ActionAssignment)), default=None)
-        motions = sum(1 for a in self.slots.values() if isinstance(a, MotionAssignment))
+        first_action: int | None = None  # one loop, not two generators: this runs for every assignment received
+        motions = 0
+        for p, a in self.slots.items():
+            if isinstance(a, MotionAssignment):
+                motions += 1
+            elif isinstance(a, ActionAssignment) and (first_action is None or p < first_action):
+                first_action = p
         m = self.length if first_action is None else first_action - 1
         return m if motions == m else None
 
     def actions_complete(self) -> bool:
         """R4, given that R3 holds: every position m+1..length is a received action."""
-        m = self.motion_count()
+        m = self.m if self.m is not None else self.motion_count()
         return m is not None and len(self.slots) == self.length
 
     @property
@@ -215,7 +232,10 @@ class Task:
     def path(self) -> tuple[MotionAssignment, ...]:
         """The motions to drive: positions 1..m but those cancelled before dispatch (R13)."""
         assert self.m is not None
-        return tuple(self.slots[p] for p in range(1, self.m + 1) if p not in self.skipped)  # type: ignore[misc]
+        path = range(1, self.m + 1)
+        if not self.skipped:
+            return tuple(map(self.slots.__getitem__, path))  # type: ignore[arg-type]
+        return tuple(self.slots[p] for p in path if p not in self.skipped)  # type: ignore[misc]
 
     def skip_cancelled_actions(self) -> None:
         """Move ``next_action`` past actions cancelled before their turn (R13)."""
@@ -378,7 +398,8 @@ class History:
             self._head = offset
         self._count += 1
         self._bytes += len(record) + ENTRY_OVERHEAD
-        self._set_cancel(key, ended.cancel)
+        if ended.cancel or self._cancels:  # else _set_cancel changes nothing (an entry just made has none)
+            self._set_cancel(key, ended.cancel)
         self._insert(key, offset)
         while self._count > self.limit or (self._bytes > self.max_bytes and self._count > 1):
             self._evict_oldest()

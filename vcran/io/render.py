@@ -20,7 +20,7 @@ from typing import Any
 
 import orjson
 
-from vcran.core.ids import Id, NamedId, canonical_uuid, id_for
+from vcran.core.ids import NIL, Id, NamedId, canonical_uuid, id_for
 from vcran.core.schema import FieldSpec, specs
 
 Convert = Callable[[Any], Any]
@@ -75,34 +75,46 @@ ID_STYLES: dict[str, Callable[[Id], Any]] = {"plain": _memoised(_plain_id), "com
 _CONVERTERS: dict[tuple[type, str], Convert] = {}
 
 
+def _id_source(style: str, expr: str) -> str:
+    """Source text rendering the id held in ``expr`` (a name or attribute) in ``style``, for the generated
+    converters: a compact :class:`NamedId` inline, as :func:`_compact` does; any other through ``_id``.
+    A run renders a few dozen ids per task, and a call per id was a tenth of writing a record (issue 30)."""
+    if style == "compact":  # the nil id (NIL itself: no current motion, no action, ...) is null
+        return f"({expr}.description if type({expr}) is _NamedId else None if {expr} is _NIL else _id({expr}))"
+    return f"_id({expr})"
+
+
 def converter(cls: type, style: str = "plain") -> Convert:
     """The function turning a ``cls`` message into its plain JSON value, ids in ``style``."""
     key = (cls, style)
     found = _CONVERTERS.get(key)
     if found is not None:
         return found
-    helpers: dict[str, Any] = {"_id": ID_STYLES[style]}
+    helpers: dict[str, Any] = {"_id": ID_STYLES[style], "_NamedId": NamedId, "_NIL": NIL}
     parts = []
     for spec in specs(cls):
-        here = f"m.{spec.name}"
-        if spec.kind == "prim":
-            expr = here
-        elif spec.kind == "id":
-            expr = f"_id({here})"
-        elif spec.kind == "msg":
-            helpers[f"_c_{spec.name}"] = converter(spec.cls, style)  # type: ignore[arg-type]
-            expr = f"_c_{spec.name}({here})"
-        elif spec.cls is None:
-            expr = f"list({here})"
-        elif spec.cls is Id:
-            expr = f"[_id(i) for i in {here}]"
-        else:
-            helpers[f"_c_{spec.name}"] = converter(spec.cls, style)
-            expr = f"[_c_{spec.name}(i) for i in {here}]"
-        parts.append(f"{spec.name!r}: {expr}")
+        parts.append(f"{spec.name!r}: {_value_source(spec, style, f'm.{spec.name}', helpers)}")
     found = eval(f"lambda m: {{{', '.join(parts)}}}", helpers)  # noqa: S307 - source built from specs only
     _CONVERTERS[key] = found
     return found
+
+
+def _value_source(spec: FieldSpec, style: str, here: str, helpers: dict[str, Any]) -> str:
+    """Source text of the JSON value of field ``spec`` held in ``here`` (a name or attribute); adds the
+    converters of nested messages to ``helpers`` as ``_c_<field>``."""
+    if spec.kind == "prim":
+        return here
+    if spec.kind == "id":
+        return _id_source(style, here)
+    if spec.kind == "msg":
+        helpers[f"_c_{spec.name}"] = converter(spec.cls, style)  # type: ignore[arg-type]
+        return f"_c_{spec.name}({here})"
+    if spec.cls is None:
+        return f"list({here})"
+    if spec.cls is Id:
+        return f"[{_id_source(style, 'i')} for i in {here}]"
+    helpers[f"_c_{spec.name}"] = converter(spec.cls, style)
+    return f"[_c_{spec.name}(i) for i in {here}]"
 
 
 _DELTAS: dict[tuple[type, str], Callable[[Any, Any, dict[str, Any]], dict[str, Any]]] = {}
@@ -116,24 +128,29 @@ def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, di
     tick to tick) is skipped without being converted, so an unchanged status costs a few identity tests;
     so is an array holding the very items ``last``'s held (``ran_status`` is built afresh when the
     state changes: on a 1000-robot run half its ``queue`` and ``completed`` arrays were the last ones'
-    ids again, and converting them was about 1% of the CPU).
+    ids again, and converting them was about 1% of the CPU). The tests and conversions are written out
+    in the generated source, not called (a call per field cost more than the field: issue 30).
     """
     key = (cls, style)
     found = _DELTAS.get(key)
     if found is not None:
         return found
-    helpers: dict[str, Any] = {"_same_items": _same_items, "_same_text": _same_text}
+    helpers: dict[str, Any] = {"_is": is_, "_dumps": orjson.dumps, "_id": ID_STYLES[style], "_NamedId": NamedId,
+                               "_NIL": NIL}
     body = []
     for spec in specs(cls):
         name = spec.name
-        helpers[f"_c_{name}"] = _field_converter(spec, style)
-        same = f"v is last.{name}" if spec.kind != "array" else f"v is last.{name} or _same_items(v, last.{name})"
+        if spec.kind == "array":  # the very items of the last value's array
+            same = f" w = last.{name}\n if not (v is w or (len(v) == len(w) and all(map(_is, v, w)))):\n"
+        else:
+            same = f" if v is not last.{name}:\n"
         # == cannot tell -0.0 from 0.0; where a float can be, equal values are compared as JSON text too
-        differs = f"not _same_text(c, full[{name!r}])" if _holds_float(spec) else f"c != full[{name!r}]"
+        was = f"full[{name!r}]"
+        differs = f"not (c == {was} and _dumps(c) == _dumps({was}))" if _holds_float(spec) else f"c != {was}"
         body.append(
             f" v = m.{name}\n"
-            f" if not ({same}):\n"
-            f"  c = _c_{name}(v)\n"
+            + same
+            + f"  c = {_value_source(spec, style, 'v', helpers)}\n"
             f"  if {differs}:\n"
             f"   full[{name!r}] = out[{name!r}] = c\n"
         )
@@ -143,35 +160,11 @@ def delta_converter(cls: type, style: str = "compact") -> Callable[[Any, Any, di
     return found  # type: ignore[no-any-return]
 
 
-def _same_items(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
-    return len(a) == len(b) and all(map(is_, a, b))
-
-
-def _same_text(a: Any, b: Any) -> bool:
-    """Whether two JSON values are written alike. ``==`` alone says -0.0 is 0.0; a trace must keep the sign
-    a fleet manager wrote (SPEC §6: the decoded value; a leg to x = -0.0 is another leg, bit for bit)."""
-    return a == b and orjson.dumps(a) == orjson.dumps(b)
-
-
 def _holds_float(spec: FieldSpec) -> bool:
     """Whether a field's JSON value can hold a float: a float primitive, or a message with one."""
     if spec.kind in ("prim", "array") and spec.cls is None:
         return spec.ros.startswith("float")
     return spec.kind != "id" and spec.cls is not Id and any(_holds_float(s) for s in specs(spec.cls))  # type: ignore[arg-type]
-
-
-def _field_converter(spec: FieldSpec, style: str) -> Convert:
-    """The JSON value of one field, as :func:`converter` renders it."""
-    if spec.kind == "prim":
-        return lambda v: v
-    if spec.kind == "id":
-        return ID_STYLES[style]
-    if spec.kind == "msg":
-        return converter(spec.cls, style)  # type: ignore[arg-type]
-    if spec.cls is None:
-        return list
-    item = ID_STYLES[style] if spec.cls is Id else converter(spec.cls, style)
-    return lambda v: [item(i) for i in v]
 
 
 def to_json_value(message: Any, style: str = "plain") -> Any:

@@ -102,15 +102,22 @@ ZSTD_LEVEL = 3
 ZSTD_WINDOW_LOG = 23  # 8 MiB: what a run's repeats need (27 with long-distance matching: 1.5% smaller, 2x the CPU, 128 MiB)
 
 
+_dumps = orjson.dumps
+#: orjson's option for a line: its newline appended.
+_LINE = orjson.OPT_APPEND_NEWLINE
+
+
 def json_line(value: Any) -> bytes:
     """The one JSON rendering of every output line: compact, key order as built, ending in a newline.
 
     orjson instead of the standard library: trace writing is the hot path of a large run (millions of
     records), and its output is as deterministic (shortest round-trip floats). Messages reach it as
     plain values through :mod:`vcran.io.render`; they are validated finite, so no NaN reaches it. The
-    newline is orjson's (``OPT_APPEND_NEWLINE``), not a second bytes object per line.
+    newline is orjson's (``OPT_APPEND_NEWLINE``), not a second bytes object per line. The run's writers
+    (:class:`TraceWriter`, :class:`EventWriter`) call ``_dumps(value, option=_LINE)`` themselves: the
+    same line without a Python call per record.
     """
-    return orjson.dumps(value, option=orjson.OPT_APPEND_NEWLINE)
+    return _dumps(value, option=_LINE)
 
 
 def raw_json(value: Any) -> bytes:
@@ -135,16 +142,17 @@ def raw_json(value: Any) -> bytes:
 # --- compressed streams ---------------------------------------------------------------------------------
 
 
-def open_output(path: Path) -> IO[bytes]:
-    """A file that compresses what is written to it when its name ends in ``.zst``."""
+def open_output(path: Path) -> _Batched:
+    """A file that compresses what is written to it when its name ends in ``.zst``; lines written to it are
+    gathered in batches either way (:class:`_Batched`)."""
     raw = path.open("wb")
     if path.suffix != ".zst":
-        return raw
+        return _Batched(raw)
     import zstandard
 
     params = zstandard.ZstdCompressionParameters.from_level(
         ZSTD_LEVEL, window_log=ZSTD_WINDOW_LOG, write_checksum=True)
-    return _Batched(zstandard.ZstdCompressor(compression_params=params).stream_writer(raw, write_size=1 << 20))  # type: ignore[return-value]
+    return _Batched(zstandard.ZstdCompressor(compression_params=params).stream_writer(raw, write_size=1 << 20))
 
 
 #: Bytes gathered before they cross into the compressor.
@@ -162,42 +170,47 @@ class _Batched(io.RawIOBase):
     14 MiB (the allocator kept what thousands of line objects a batch had used), and lines joined 64 at a
     time by 3 MiB at 4 h; a ``bytearray`` filled by slice assignment cost 0.5 µs a line, an eighth of
     what writing a 10-robot run's outputs costs (issue 14). A line longer than a batch (a raw payload
-    near Orion's 1 MB limit) makes one batch that long; the buffer it grew is dropped after it."""
+    near Orion's 1 MB limit) makes one batch that long; the buffer it grew is released after it.
+
+    The batch stays the same object for the file's life, so that the run's writers, which write a line per
+    record, add to it themselves (``batch.write``, then :meth:`hand_on` once it holds :data:`BATCH`
+    bytes) rather than through :meth:`write`, a Python call per line (issue 30). zstd's output does not
+    depend on where its input was cut into calls, only on :meth:`flush`."""
 
     def __init__(self, inner: Any) -> None:
         super().__init__()
-        self._inner, self._batch = inner, io.BytesIO()
+        self._inner, self.batch = inner, io.BytesIO()
 
     def writable(self) -> bool:
         return True
 
     def write(self, data: Any) -> int:
-        batch = self._batch
+        batch = self.batch
         batch.write(data)
         if batch.tell() >= BATCH:
-            self._hand_on()
+            self.hand_on()
         return len(data)
 
-    def _hand_on(self) -> None:
-        batch = self._batch
+    def hand_on(self) -> None:
+        """Pass what the batch holds on to the compressor (or the file), and start the batch again."""
+        batch = self.batch
         size = batch.tell()
         if size:
             with batch.getbuffer() as view:
                 self._inner.write(view[:size])
-            if size > 2 * BATCH:  # grown by a long line: not kept for the batches after it
-                self._batch = io.BytesIO()
-            else:
-                batch.seek(0)
+            batch.seek(0)
+            if size > 2 * BATCH:  # grown by a long line: its buffer is not kept for the batches after it
+                batch.truncate(0)
 
     def flush(self) -> None:
         """Compress what is gathered and end the zstd block: a reader of the file gets every line so far."""
         if not self.closed and self._inner is not None:
-            self._hand_on()
+            self.hand_on()
             self._inner.flush()
 
     def close(self) -> None:
         if not self.closed:
-            self._hand_on()
+            self.hand_on()
             self._inner.close()
             self._inner = None
         super().close()
@@ -270,6 +283,8 @@ class TraceWriter:
     def __init__(self, directory: Path, header: dict[str, Any], robots: tuple[str, ...]) -> None:
         directory.mkdir(parents=True, exist_ok=True)
         self._jsonl = open_output(directory / TRACE_FILE)
+        #: The batch records are added to (:class:`_Batched`): written to here, handed on by ``_jsonl``.
+        self._lines = self._jsonl.batch
         self._legs = LegLog(directory / LEGS_FILE)
         legs = {"file": LEGS_FILE, "columns": [name for name, _ in LEG_COLUMNS], "robots": list(robots)}
         self._jsonl.write(json_line({"format": FORMAT, "version": VERSION, **header, "legs": legs}))
@@ -278,33 +293,55 @@ class TraceWriter:
         #: the next record is a difference to, and how
         self._last: dict[tuple[str, str, str], list[Any]] = {}
 
+    # A record is written once per message of a run (millions): :meth:`inbound` and :meth:`publish` spell out
+    # the difference to the last value and the line's hand-on, where helper calls cost a tenth of the
+    # record in a plain Python run (issue 30).
+
     def inbound(self, t: float, inbound: Inbound) -> None:
-        head = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
-        if inbound.message is None:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
+        message = inbound.message
+        if message is None:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
+            head = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
             self._jsonl.write(json_line(head)[:-2] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
             return
-        value = self._value(("in", inbound.entity, inbound.attribute), inbound.message)
-        # an inbound message is always written, even one equal to the last: the RAN reacted to it
-        head["value"] = {} if value is None else value
-        self._jsonl.write(json_line(head))
+        key = ("in", inbound.entity, inbound.attribute)
+        last = self._last.get(key)
+        if last is not None and type(last[0]) is type(message):
+            value = last[2](message, last[0], last[1])
+            last[0] = message
+        else:
+            value = self._first(key, message)
+        # an inbound message is always written, even one equal to the last (value {}): the RAN reacted to it
+        lines = self._lines
+        lines.write(_dumps({"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute, "value": value},
+                           option=_LINE))
+        if lines.tell() >= BATCH:
+            self._jsonl.hand_on()
 
     def publish(self, out: Publish) -> None:
-        value = self._value(("out", out.robot, out.attribute), out.message)
-        if value is not None:  # else nothing a reader cannot take from the last record
-            self._jsonl.write(json_line({"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute,
-                                         "value": value}))
-
-    def _value(self, key: tuple[str, str, str], message: Any) -> dict[str, Any] | None:
-        """The ``value`` of the record of ``message``: in full the first time ``key`` has a message of its
-        class, else the fields that differ from the last one; None if none does."""
+        message = out.message
+        key = ("out", out.robot, out.attribute)
         last = self._last.get(key)
-        if last is None or type(last[0]) is not type(message):
-            value: dict[str, Any] = converter(type(message), "compact")(message)
-            self._last[key] = [message, dict(value), delta_converter(type(message))]
-            return value
-        value = last[2](message, last[0], last[1])
-        last[0] = message
-        return value or None
+        if last is not None and type(last[0]) is type(message):
+            if last[0] is message:
+                return  # the very message of the last record (a robot description sent again): no field differs
+            value = last[2](message, last[0], last[1])
+            last[0] = message
+            if not value:
+                return  # nothing a reader cannot take from the last record
+        else:
+            value = self._first(key, message)
+        lines = self._lines
+        lines.write(_dumps({"t": out.t, "dir": "out", "robot": out.robot, "attr": out.attribute, "value": value},
+                           option=_LINE))
+        if lines.tell() >= BATCH:
+            self._jsonl.hand_on()
+
+    def _first(self, key: tuple[str, str, str], message: Any) -> dict[str, Any]:
+        """The ``value`` of the first record of ``key`` with a message of this class, in full; the records
+        after it hold the fields that differ from the last one."""
+        value: dict[str, Any] = converter(type(message), "compact")(message)
+        self._last[key] = [message, dict(value), delta_converter(type(message))]
+        return value
 
     #: Telemetry ticks are not written: the leg log determines them (module docstring).
     wants_frames = False
@@ -374,19 +411,75 @@ def _npy_header(rows: int) -> bytes:
 
 _BLANK_EVENT: dict[str, Any] = dict.fromkeys(EVENT_KEYS)
 
+#: How the event lines of one name and one set of field keys are written (:func:`_event_plan`): the text
+#: after the robot's id up to the first field's value, then each field's key with the text after its value;
+#: None: as a dict.
+_EventPlan = tuple[bytes, tuple[tuple[str, bytes], ...]] | None
+
+
+def _event_plan(name: str, keys: tuple[str, ...]) -> _EventPlan:
+    """The fixed text of the event lines named ``name`` with fields ``keys``: every key of :data:`EVENT_KEYS`
+    in order, ``null`` where the event has no such field, then the fields not listed there in their order,
+    as ``json_line`` writes the dict that :class:`EventWriter` describes. None when a field would take the
+    place of ``t`` or ``robot``: such a line is written as that dict."""
+    if "t" in keys or "robot" in keys:
+        return None
+    text, rest, field, head = b"", [], None, b""
+    for key in EVENT_KEYS[2:] + tuple(k for k in keys if k not in EVENT_KEYS):
+        text += b"," + _dumps(key) + b":"
+        if key in keys:
+            if field is None:
+                head = text
+            else:
+                rest.append((field, text))
+            field, text = key, b""
+        else:
+            text += _dumps(name) if key == "event" else b"null"
+    text += b"}\n"
+    if field is None:
+        return text, ()
+    rest.append((field, text))
+    return head, tuple(rest)
+
 
 class EventWriter:
-    """``events.jsonl.zst``: one object per line, the same keys in the same order (:data:`EVENT_KEYS`)."""
+    """``events.jsonl.zst``: one object per line, the same keys in the same order (:data:`EVENT_KEYS`).
+
+    A line is ``{"t", "robot", "event"}`` and the event's fields over :data:`EVENT_KEYS` (``null`` for the
+    keys it has not), as ``json_line`` writes that dict. An event sets two to five of the 28 keys, so
+    most of a line is the same text line after line: made once per event name and set of field keys
+    (:func:`_event_plan`), a line is those pieces with the event's values between them, each rendered by
+    orjson as it renders them in the dict. Copying, filling and rendering a dict of 28 keys per line cost
+    more than half of writing an event (issue 30).
+    """
 
     def __init__(self, path: Path) -> None:
         self._f = open_output(path)
+        self._lines = self._f.batch  # written to directly, as TraceWriter's records are
+        self._plans: dict[tuple[str, ...], _EventPlan] = {}
         self.count = 0
 
     def write(self, t: float, robot: str, name: str, fields: dict[str, Any]) -> None:
-        line = _BLANK_EVENT.copy()  # half of what dict.fromkeys(EVENT_KEYS) cost per line
-        line["t"], line["robot"], line["event"] = t, robot, name
-        line.update(fields)
-        self._f.write(json_line(line))
+        key = (name, *fields)
+        try:
+            plan = self._plans[key]
+        except KeyError:
+            plan = self._plans[key] = _event_plan(name, key[1:])
+        if plan is None:
+            line = _BLANK_EVENT.copy()
+            line["t"], line["robot"], line["event"] = t, robot, name
+            line.update(fields)
+            text = _dumps(line, option=_LINE)
+        else:
+            head, rest = plan
+            parts = [b'{"t":', _dumps(t), b',"robot":', _dumps(robot), head]
+            for field, after in rest:
+                parts += _dumps(fields[field]), after
+            text = b"".join(parts)
+        lines = self._lines
+        lines.write(text)
+        if lines.tell() >= BATCH:
+            self._f.hand_on()
         self.count += 1
 
     def flush(self) -> None:

@@ -36,8 +36,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from vcran.core.ids import Id
-from vcran.core.manager import FleetManager
 from vcran.core.messages import BatteryState, Message, RanError, RanStatus
+from vcran.core.opil.manager import FleetManager
 from vcran.core.scenario import Job
 
 PICKUP, DROPOFF = "pick", "drop"

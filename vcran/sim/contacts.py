@@ -55,8 +55,9 @@ class Contacts:
         i = robot.index
         self.version[i] += 1
         track = self.tracks[i] = self._track(robot)
-        self.boxes[i] = track.box()
-        self._check(i)
+        self.boxes[i] = box = track.box()
+        for j in self.grid.file(i, box):  # _check(i), written out: three moves a task (issue 30)
+            self._predict(min(i, j), max(i, j))
 
     def _check(self, i: int) -> None:
         for j in self.grid.file(i, self.boxes[i]):

@@ -11,14 +11,19 @@ Both directions go through it, as they would through Orion:
   the next read is lost, exactly as in live mode (SPEC §7).
 * **RAN -> manager.** Everything the RAN publishes at one instant travels as one batch (one batch
   update, as live mode sends one per tick) and reaches the manager ``latency`` (+ jitter) later, batches
-  in order; :class:`vcran.sim.loop.ClosedLoop` turns a batch into the manager's updates: the actual
-  changes, and every write of ``robot_description``, which live mode forces through Orion
-  (``options=forcedUpdate``) so that a planner subscribing late gets it (SPEC §2).
+  in order; the protocol's loop turns a batch into the manager's updates (OPIL's
+  :class:`vcran.sim.opil.loop.ClosedLoop`: the actual changes, and every write of ``robot_description``,
+  which live mode forces through Orion, ``options=forcedUpdate``, so that a planner subscribing late gets
+  it, SPEC §2).
+
+The link knows attributes by name only: which of them are ``periodic`` (published whatever happens, so
+they never keep a run from ending idle) and of which ``every`` value waits out a ``link_down`` (the others
+coalesce to the latest) are the protocol's to say (OPIL: ``robot_description``; ``ran_error``).
 
 ``outage`` is the hook for the ``link_down`` fault (SPEC §4): while a robot's link is down nothing
 reaches it and nothing it publishes leaves; afterwards it reads what Orion holds (the latest value per
 attribute) and its missed publications go out coalesced (the latest per attribute; every ``ran_error``
-in order), as after an Orion outage in live mode.
+in order, for OPIL), as after an Orion outage in live mode.
 
 Every latency is positive, so a write reaches the RAN at a later instant than the callback that made
 it, and a recorded trace replays in the same order (docs/determinism.md).
@@ -34,15 +39,12 @@ from typing import Any
 
 import simpy
 
-from vcran.core.messages import Message
 from vcran.core.scenario import POLLING, LinkSettings
 from vcran.core.wire import Deliver, Frame, Inbound, Outbound, Publish
 from vcran.sim.timing import INBOUND, UPDATE, at
 
 #: What a manager gets told: a batch of outbound messages, in the order the RAN published them.
 Notify = Callable[[list[Outbound]], None]
-#: Attributes whose updates are periodic whatever happens: they never keep a run from ending idle.
-PERIODIC = frozenset({"robot_description"})
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,11 +52,11 @@ class _Write:
     seq: int
     robot: str
     attribute: str
-    message: Message | None
+    message: Any
     raw: Any
 
     @property
-    def value(self) -> tuple[Message | None, Any]:
+    def value(self) -> tuple[Any, Any]:
         return self.message, self.raw
 
 
@@ -67,17 +69,21 @@ class Link:
         rng: random.Random,
         deliver: Deliver,
         notify: Notify,
+        *,
+        periodic: frozenset[str] = frozenset(),
+        every: frozenset[str] = frozenset(),
     ) -> None:
         self.env, self.robots, self.settings = env, robots, settings
         self._rng, self._deliver, self._notify = rng, deliver, notify
+        self._periodic, self._every = periodic, every
         self._polling = settings.inbound == POLLING
         # manager -> RAN
         self._seq = 0
         self._last_in: dict[str, float] = {}
         self._flying = 0                                      # writes not yet landed
         self._landing: list[tuple[float, int, _Write]] = []   # polling: writes by arrival time
-        self._held: dict[tuple[str, str], tuple[Message | None, Any]] = {}
-        self._read: dict[tuple[str, str], tuple[Message | None, Any]] = {}
+        self._held: dict[tuple[str, str], tuple[Any, Any]] = {}
+        self._read: dict[tuple[str, str], tuple[Any, Any]] = {}
         self._unread: dict[tuple[str, str], _Write] = {}      # changed since the RAN last read, in write order
         # RAN -> manager
         self._last_out = 0.0
@@ -91,7 +97,7 @@ class Link:
 
     # --- manager -> RAN ---------------------------------------------------------------------------------
 
-    def write(self, robot: str, attribute: str, message: Message | None, raw: Any = None) -> None:
+    def write(self, robot: str, attribute: str, message: Any, raw: Any = None) -> None:
         """The manager writes ``attribute`` of ``robot`` now; it lands after the latency."""
         self._seq += 1
         w = _Write(self._seq, robot, attribute, message, raw)
@@ -161,7 +167,7 @@ class Link:
             batch = self._batch = _Batch(self.env.now)
             self._last_out = max(self._delay(), self._last_out)
             at(self.env, self._last_out, UPDATE).callbacks.append(lambda _: self._arrive_batch(batch))
-        if not batch.update and not (isinstance(out, Frame) or out.attribute in PERIODIC):
+        if not batch.update and not (isinstance(out, Frame) or out.attribute in self._periodic):
             batch.update = True
             self._updates_flying += 1
         batch.items.append(out)
@@ -204,7 +210,7 @@ class Link:
         if out.robot not in self._down:
             return out
         missed = self._missed.setdefault(out.robot, [])
-        if out.attribute != "ran_error":
+        if out.attribute not in self._every:
             missed[:] = [m for m in missed if m.attribute != out.attribute]
         missed.append(out)
         return None

@@ -189,7 +189,11 @@ class Ran:
         last = self._published.get(key)
         if last is not message and last != message:  # a status kept unchanged is the very same object
             self._published[key] = message
-            self.send(Publish(t, robot.id, attribute, message))
+            out = Publish(t, robot.id, attribute, message)
+            if self._down:  # some link is down: send() holds what its robot cannot publish
+                self.send(out)
+            else:  # send()'s common case, without its call (two statuses per change of every robot)
+                self.transport.send(out)
 
     def publish(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
         self.send(Publish(t, robot.id, attribute, message))
