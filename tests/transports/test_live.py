@@ -27,7 +27,8 @@ from vcran.cli import main
 pytest.importorskip("vcran.core.codec")
 
 from transports.orion.client import OrionClient  # noqa: E402
-from transports.orion.transport import LiveOptions, OrionTransport  # noqa: E402
+from transports.orion.link import LinkOptions  # noqa: E402
+from transports.orion.transport import OrionTransport  # noqa: E402
 from vcran.broker import start_broker  # noqa: E402
 from vcran.core.codec import decode_attribute, encode_attribute  # noqa: E402
 from vcran.io.scenario_file import parse  # noqa: E402
@@ -166,7 +167,7 @@ class LiveRun:
         self.scenario = parse(tomllib.loads(FLEET.format(timeout=timeout) + extra), "<live test>")
         self.env = LiveEnvironment(speed)
         notify_url = f"http://127.0.0.1:{free_port()}/notify" if notify else None
-        self.transport = OrionTransport(client or OrionClient(url), LiveOptions(
+        self.transport = OrionTransport(client or OrionClient(url), LinkOptions(
             "ROBOT", ("robot_1",), notify_url=notify_url, poll_interval=poll, backoff_cap=0.5, keepalive=0.3))
         self.out = tmp_path / "live"
         self.model = None
@@ -278,8 +279,8 @@ def test_listener_refuses_bad_notifications_and_ignores_unknown_subscriptions(tm
     init(broker.url)
     run = LiveRun(tmp_path, broker.url)
     try:
-        listener = run.transport._listener
-        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        listener = run.transport.listener
+        assert wait_until(lambda: run.transport._sids[0] is not None, 10)
         base = f"http://127.0.0.1:{listener.port}{listener.path}"
         big = httpx.post(base, content=b"{" + b" " * (listener.max_body + 1) + b"}",
                          headers={"Content-Type": "application/json"})
@@ -307,7 +308,7 @@ def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inboun
     run = LiveRun(tmp_path, broker.url, speed=10, timeout=3.0, notify=inbound == "subscription", poll=30.0)
     try:
         if inbound == "subscription":
-            assert wait_until(lambda: run.transport._subscription is not None and run.transport.requests >= 1, 10)
+            assert wait_until(lambda: run.transport._sids[0] is not None and run.transport.requests >= 1, 10)
         else:
             assert wait_until(lambda: run.transport.requests >= 1, 10)  # the first poll is done; next in 3 s
         m1, m2, a = task("T", 3)
@@ -335,13 +336,13 @@ def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
     init(broker.url)
     run = LiveRun(tmp_path, broker.url)
     try:
-        assert wait_until(lambda: run.transport._subscription is not None, 10)
-        first = run.transport._subscription
+        assert wait_until(lambda: run.transport._sids[0] is not None, 10)
+        first = run.transport._sids[0]
         assert httpx.delete(f"{broker.url}/v2/subscriptions/{first}").status_code == 204
         for m in task("gap"):  # written while nobody is subscribed: no notification
             write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
         assert wait_until(lambda: run.model.completed["robot_1"] == ["gap"], 15)
-        assert run.transport._subscription not in (None, first)
+        assert run.transport._sids[0] not in (None, first)
     finally:
         run.stop()
         broker.stop()
@@ -356,12 +357,12 @@ def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tm
     init(broker.url)
     run = LiveRun(tmp_path, broker.url)
     try:
-        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        assert wait_until(lambda: run.transport._sids[0] is not None, 10)
         bad = encode_attribute("cancel_order", cancel("T"))
         bad["value"]["task_id"]["value"]["description"]["value"] = "\udc00"
-        body = json.dumps({"subscriptionId": run.transport._subscription,
+        body = json.dumps({"subscriptionId": run.transport._sids[0],
                            "data": [{"id": "robot_1", "type": "ROBOT", "cancel_order": bad}]})
-        listener = run.transport._listener
+        listener = run.transport.listener
         answer = httpx.post(f"http://127.0.0.1:{listener.port}{listener.path}", content=body,
                             headers={"Content-Type": "application/json"})
         assert answer.status_code == 204
@@ -384,8 +385,8 @@ def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
     init(broker.url)
     run = LiveRun(tmp_path, broker.url)
     try:
-        assert wait_until(lambda: run.transport._subscription is not None and run.transport.requests >= 1, 10)
-        sid = run.transport._subscription
+        assert wait_until(lambda: run.transport._sids[0] is not None and run.transport.requests >= 1, 10)
+        sid = run.transport._sids[0]
         dead = f"http://127.0.0.1:{free_port()}/notify"  # every notification from now on fails
         patch = {"notification": {"http": {"url": dead}, "attrs": ["motion_assignment", "action_assignment",
                                                                   "cancel_order"]}}
@@ -404,7 +405,7 @@ def test_a_failure_success_failure_within_one_second_still_reads_as_a_failure():
     """Orion shows delivery times in whole seconds and resets failsCounter at a success: between two looks
     of the keeper, fail, succeed and fail again within one second leave lastFailure and failsCounter as
     they were. The notifications counted meanwhile tell (SPEC §7: no loss window)."""
-    from transports.orion.transport import _failures
+    from transports.orion.link import _failures
 
     def shown(**notification):
         return {"id": "s", "notification": {"attrs": [], **notification}}
@@ -426,7 +427,7 @@ def test_s4_link_down_live_the_robot_neither_publishes_nor_receives_until_it_is_
     init(broker.url)
     run = LiveRun(tmp_path, broker.url, extra='[[faults]]\nt = 0.0\nrobot = "robot_1"\nkind = "link_down"\nduration = 50.0\n')
     try:
-        assert wait_until(lambda: run.transport._subscription is not None, 10)
+        assert wait_until(lambda: run.transport._sids[0] is not None, 10)
         for m in task("held"):
             write(broker.url, "motion_assignment" if hasattr(m, "point") else "action_assignment", m)
         assert run.env.now < 50.0 and ran_status(broker.url) is None  # down: nothing published yet

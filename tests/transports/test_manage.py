@@ -17,7 +17,8 @@ import pytest
 from tests.conftest import ROOT
 from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401, F811
 from transports.orion.client import OrionClient
-from transports.orion.manage import ManageOptions, OrionLink
+from transports.orion.link import LinkOptions
+from transports.orion.manage import OrionManagerLink
 from vcran.broker import start_broker
 from vcran.cli import main
 from vcran.core.build import motion_message
@@ -181,15 +182,15 @@ def motion_at(t: float):
     return motion_message(Time.from_seconds(t), t, 0.0, 0.0, 0.0, 0.0)
 
 
-def polling_link(url: str, batches: list[list[Outbound]], attributes: frozenset[str] | None) -> OrionLink:
+def polling_link(url: str, batches: list[list[Outbound]], attributes: frozenset[str] | None) -> OrionManagerLink:
     client = CountingClient(url)
-    options = ManageOptions("ROBOT", poll_interval=0.02, backoff_start=0.02, backoff_cap=0.1)
-    link = OrionLink(CallNow(), client, ROBOTS, options, attributes, batches.append)  # type: ignore[arg-type]
-    link.open()
+    options = LinkOptions("ROBOT", ROBOTS, poll_interval=0.02, backoff_start=0.02, backoff_cap=0.1)
+    link = OrionManagerLink(CallNow(), client, options, attributes, batches.append)  # type: ignore[arg-type]
+    link.start(CallNow.speed, strict=True)
     return link
 
 
-def read_again(link: OrionLink, reads: int = 2) -> None:
+def read_again(link: OrionManagerLink, reads: int = 2) -> None:
     """Return once ``reads`` more reads have begun (and the one before them ended): what Orion held when
     this was called has been read at least once, and handed on if it was to be."""
     client = link.client
@@ -322,10 +323,11 @@ def test_a_notification_entity_with_an_id_that_is_no_string_is_skipped_not_raise
     """SPEC §7: a notification is outside input. An entity whose id is a list (unhashable) raised TypeError
     in the membership test, the listener answered 500 and the batch's other robots were lost too."""
     batches: list[list[Outbound]] = []
-    options = ManageOptions("ROBOT", "http://127.0.0.1:9/notify")
-    link = OrionLink(CallNow(), OrionClient("http://127.0.0.1:9"), ROBOTS, options, None, batches.append)  # type: ignore[arg-type]
+    options = LinkOptions("ROBOT", ROBOTS, "http://127.0.0.1:9/notify")
+    link = OrionManagerLink(CallNow(), OrionClient("http://127.0.0.1:9"), options, None, batches.append)  # type: ignore[arg-type]
+    link._ours["s"] = link.subscriptions[0]  # as if subscribed
     status = encode_attribute("ran_status", RanStatus(state="WAITING"))
-    link._on_notification(None, [{"id": ["robot_1"], "type": "ROBOT", "ran_status": status},  # type: ignore[arg-type]
+    link._on_notification("s", [{"id": ["robot_1"], "type": "ROBOT", "ran_status": status},
                                  {"id": {"a": 1}, "type": "ROBOT", "ran_status": status},
                                  {"id": "robot_2", "type": "ROBOT", "ran_status": status}])
     assert [updates(b) for b in batches] == [{("robot_2", "ran_status", RanStatus(state="WAITING"))}]
@@ -347,9 +349,9 @@ def test_the_manager_is_told_of_each_forced_description_write_and_of_no_unchange
     url = broker.url
     put(url, "robot_1", robot_description=desc, ran_status=RanStatus(state="WAITING"))
     batches: list[list[Outbound]] = []
-    options = ManageOptions("ROBOT", f"http://127.0.0.1:{free_port()}/notify")
-    link = OrionLink(CallNow(), OrionClient(url), ROBOTS, options, None, batches.append)  # type: ignore[arg-type]
-    link.open()
+    options = LinkOptions("ROBOT", ROBOTS, f"http://127.0.0.1:{free_port()}/notify")
+    link = OrionManagerLink(CallNow(), OrionClient(url), options, None, batches.append)  # type: ignore[arg-type]
+    link.start(CallNow.speed, strict=True)
     forced = {"actionType": "append", "entities": [
         {"id": "robot_1", "type": "ROBOT", "robot_description": encode_attribute("robot_description", desc)}]}
 

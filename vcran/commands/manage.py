@@ -7,7 +7,7 @@ the scenario's duration has passed, on Ctrl-C, or, with the scenario's ``until_i
 come or open, no timer is pending and every write has reached Orion. The manager learns of the robots'
 updates from a subscription (``--notify-url``: Orion must be able to reach vcran there) or, by default,
 by polling Orion every ``--poll-interval`` simulated seconds. docs/live.md ("A fleet manager, live")
-describes the wiring; :mod:`transports.orion.manage` the link.
+describes the wiring; :mod:`transports.orion.manage` and :mod:`transports.orion.link` the link.
 """
 
 from __future__ import annotations
@@ -54,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
     from itertools import islice
 
     from transports.orion.client import OrionError
-    from transports.orion.manage import ManageOptions, OrionLink, OrionLoop
+    from transports.orion.link import LinkOptions
+    from transports.orion.manage import OrionLoop, OrionManagerLink
     from vcran.api import EventList, ManagerError, build_manager
     from vcran.io.runfolder import RunFolderError, publish, staging
     from vcran.io.trace import EVENTS_FILE
@@ -104,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     events: EventLog | EventList = EventLog(work / EVENTS_FILE) if work is not None else EventList()
     env = LiveEnvironment(speed=args.factor)
-    options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=listen,
+    options = LinkOptions(scenario.settings.entity_type, notify_url=args.notify_url, listen_host=listen,
                             poll_interval=poll_interval)
     loop = OrionLoop(scenario, manager, events.write, client, options)
     try:
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"manage: {name} on {len(scenario.robots)} robot(s) at {args.orion}, x{args.factor:g}, {mode}; "
               "Ctrl-C stops", flush=True)
     link = loop.link
-    assert isinstance(link, OrionLink)
+    assert isinstance(link, OrionManagerLink)
     try:
         env.run(until=done)  # an exception the manager raises ends the run: the CLI says which hook and when
     finally:
@@ -164,6 +165,6 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling
         inbound = f"{link.reads} read(s)" if polling else f"{link.notifications} notification(s)"
         print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "
-              f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.requests} "
+              f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.updates} "
               f"request(s), {inbound}")
     return 0
