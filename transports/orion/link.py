@@ -257,8 +257,8 @@ class OrionLink:
             since = dict(self._handed)
         entities = self.client.entities(self.options.entity_type, list(self.options.robots), self.attributes)
         self.reads += 1
-        if len(entities) < len(self.options.robots) and monotonic() - self._resent > 1.0:
-            self._resent = monotonic()  # some robot entity is gone (Orion restarted or someone deleted it)
+        if len(entities) < len(self.options.robots) and self.outbox.restorable and monotonic() - self._resent > 1.0:
+            self._resent = monotonic()  # some robot entity we published is gone (Orion restarted, or a delete)
             self.sender.wake()
         self._take(entities, monotonic(), since=since)
 

@@ -84,6 +84,12 @@ class Outbox:
                     pending.setdefault(attribute, value)
 
     @property
+    def restorable(self) -> bool:
+        """Whether :meth:`resend_all` has anything to restore: this side has published state."""
+        with self._lock:
+            return bool(self._latest)
+
+    @property
     def idle(self) -> bool:
         """Nothing waits, and nothing taken is still on its way (:meth:`settle` not called yet)."""
         with self._lock:
