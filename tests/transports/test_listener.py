@@ -123,6 +123,7 @@ def test_a_body_not_read_is_drained_so_the_client_reads_the_answer(listener, hea
     assert sent_all
 
 
+@pytest.mark.slow
 def test_a_client_that_goes_away_prints_no_traceback(capfd):
     slow = Recorder(delay=0.3)  # the answer is written after the client reset the connection
     listener = Listener("127.0.0.1", 0, "/notify", slow)
@@ -146,6 +147,7 @@ def test_a_client_that_goes_away_prints_no_traceback(capfd):
     assert "Traceback" not in capfd.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("server", ["listener", "broker"])
 def test_slow_clients_and_idle_connections_are_cut_off(server, listener):
     if server == "broker":
@@ -206,6 +208,7 @@ def test_peer_text_cannot_forge_log_lines(caplog):
 # --- a burst (item 7) -------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_burst_of_200_simultaneous_notifications_is_answered_in_orions_timeout():
     """socketserver's listen backlog of 5 left notifications of a burst waiting for TCP retransmits (1 s,
     3 s, ...) past Orion's 5 s notification timeout. Every one must be answered, each within 5 s."""

@@ -215,6 +215,7 @@ def init(url: str) -> None:
     assert r.status_code == 204
 
 
+@pytest.mark.slow
 def test_broker_restart_mid_run(tmp_path):
     broker = start_broker(port=0)
     port, url = broker.port, broker.url
@@ -242,6 +243,7 @@ def test_broker_restart_mid_run(tmp_path):
     assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
+@pytest.mark.slow
 def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
     """SPEC §7: Orion answering 503, then holding an answer back, never holds up the simulation. Shown by
     counting, not timing: simulated time goes on while every update is refused, and while one request waits
@@ -308,6 +310,7 @@ def test_listener_refuses_bad_notifications_and_ignores_unknown_subscriptions(tm
     assert run.events("task_queued") == []  # the stray notification entered nothing
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inbound,expected", [("polling", "timeout"), ("subscription", "completed")])
 def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inbound, expected):
     """Two motions written to the same attribute between two polls: polling sees only the second, so the
@@ -431,6 +434,7 @@ def test_a_failure_success_failure_within_one_second_still_reads_as_a_failure():
     assert _failures(shown(timesSent=9, lastSuccess="2026-11-23T10:00:09.000Z")) == _failures(fine) == (None,) * 3
 
 
+@pytest.mark.slow
 def test_s4_link_down_live_the_robot_neither_publishes_nor_receives_until_it_is_back(tmp_path):
     """SPEC §4 link_down in live mode: from t = 0 to 50 (5 wall seconds at 10x) robot_1 publishes nothing
     (Orion holds no ran_status of it) and a task written meanwhile waits in Orion; back up, the robot

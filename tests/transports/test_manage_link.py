@@ -86,6 +86,7 @@ def written(bodies: list[dict]) -> list[tuple[str, str]]:
             for body in bodies for e in body["entities"] if "motion_assignment" in e]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["401", "429", "404-drop"])
 def test_a_refusing_orion_gets_a_bounded_number_of_the_managers_requests_and_every_write_in_the_end(mode, caplog):
     """SPEC §7 (4xx is not an outage, vcran backs off and never floods Orion), on the manager's side: 40

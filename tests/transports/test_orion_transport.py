@@ -275,6 +275,7 @@ def most_requests(elapsed: float, start: float, cap: float, retry_after: float =
 RETRY_AFTER = {"401": 0.0, "429": 1.0, "404-drop": 0.0}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["401", "429", "404-drop"])
 def test_a_refusing_orion_gets_a_bounded_number_of_requests_and_every_error_in_the_end(mode, caplog):
     # issue 12 item 1: 40 ticks against an Orion refusing everything; then it accepts again
