@@ -8,7 +8,9 @@ from __future__ import annotations
 import json
 import signal
 import socket
+import subprocess
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -30,17 +32,27 @@ from vcran.io.trace import EVENTS_FILE, event_records
 WAREHOUSE = ROOT / "scenarios" / "warehouse.toml"
 
 
+def warehouse_live(url: str, out: Path) -> subprocess.Popen:
+    """``vcran orion init`` and ``vcran live`` (subscribed) of the warehouse's robots, ticking and listening."""
+    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
+    live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(out), "--factor", "20",
+                 "--notify-url", f"http://127.0.0.1:{free_port()}/notify")
+    try:
+        assert wait_until(lambda: live_time(url) >= 1.0, 60)  # the robots tick
+        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 60)  # and listen
+    except BaseException:
+        stop(live)
+        raise
+    return live
+
+
 @pytest.mark.parametrize("inbound", ["subscription", "polling"])
 def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(broker_process, tmp_path,  # noqa: F811
                                                                                inbound):
     """In both modes: the manager subscribed to Orion (``--notify-url``), or polling it (its default)."""
     url = broker_process
-    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
-    live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(tmp_path / "live"), "--factor", "20",
-                 "--notify-url", f"http://127.0.0.1:{free_port()}/notify")
+    live = warehouse_live(url, tmp_path / "live")
     try:
-        assert wait_until(lambda: live_time(url) >= 1.0, 15)  # the robots tick
-        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)  # and listen
         extra = ["--notify-url", f"http://127.0.0.1:{free_port()}/notify"] if inbound == "subscription" else []
         manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--jobs", "3", *extra,
                        "--out", str(tmp_path / "manage"))

@@ -18,14 +18,13 @@ from typing import Any
 import httpx
 import pytest
 
-from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401
-from tests.transports.test_manage import ROBOTS, WAREHOUSE, CallNow, put, updates
+from tests.transports.test_live import broker_process, free_port, stop, vcran, wait_until  # noqa: F401 - the fixture
+from tests.transports.test_manage import ROBOTS, WAREHOUSE, CallNow, put, updates, warehouse_live
 from tests.transports.test_orion_transport import RETRY_AFTER, FakeOrion, RefusingOrion, most_requests
 from transports.orion.client import OrionClient
 from transports.orion.link import LinkOptions
 from transports.orion.manage import OrionManagerLink
 from vcran.broker import start_broker
-from vcran.cli import main
 from vcran.core.build import cancel, motion
 from vcran.core.codec import decode_attribute
 from vcran.core.messages import RanStatus
@@ -43,12 +42,8 @@ def test_a_subscription_deleted_behind_manages_back_is_re_created_and_the_job_co
     re-creates it and reads what Orion holds, so the manager hears the robots again and the job completes
     (before, it never heard of them again: the job stayed open until the run's duration)."""
     url = broker_process
-    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
-    live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(tmp_path / "live"), "--factor", "20",
-                 "--notify-url", f"http://127.0.0.1:{free_port()}/notify")
+    live = warehouse_live(url, tmp_path / "live")
     try:
-        assert wait_until(lambda: live_time(url) >= 1.0, 60)  # the robots tick
-        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 60)  # and listen
         manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--jobs", "1",
                        "--notify-url", f"http://127.0.0.1:{free_port()}/notify", "--out", str(tmp_path / "manage"))
         try:
