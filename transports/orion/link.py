@@ -220,7 +220,7 @@ class OrionLink:
                 if shown is None:
                     # Orion lost it (restart, or someone deleted it), and maybe our entities with it.
                     log.warning("subscription %s is gone from Orion; re-creating it", one_line(sid, 60))
-                    del self._ours[sid]
+                    del self._ours[sid], self._failures[sid]
                     sid = self._sids[k] = None
                     self.sender.wake()
                 elif (seen := _failures(shown)) != self._failures[sid]:
