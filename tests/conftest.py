@@ -85,3 +85,19 @@ def run_toml(tmp_path: Path):
         return run_scenario(scenario, tmp_path / f"run{next(counter)}")
 
     return run
+
+
+# --- test lanes (README "Development") ----------------------------------------------------------------------
+
+#: Fixtures that make every test using them slow: a real headless browser (tests/view), and ``vcran broker``
+#: as a process of its own, with vcran's commands around it as a user starts them (live and manage end to end).
+SLOW_FIXTURES = frozenset({"browser", "broker_process"})
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` deselects by marker
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Mark ``slow`` every test that uses a :data:`SLOW_FIXTURES` fixture; other slow tests say so
+    themselves (``@pytest.mark.slow``). ``pytest -m "not slow"`` is the inner loop; CI runs everything."""
+    for item in items:
+        if SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)

@@ -188,6 +188,7 @@ def test_an_exception_in_the_manager_propagates_saying_where_and_when():
     assert "in fleet manager Broken: on_job at t=1.0" in err.value.__notes__
 
 
+@pytest.mark.slow
 def test_warehouse_every_job_completes_and_the_run_replays_byte_for_byte(tmp_path):
     from vcran.cli import main
 
@@ -247,6 +248,7 @@ def test_a_scenario_changed_in_code_is_checked_as_its_file_would_be(tmp_path):
     assert [p.name for p in (tmp_path / "notes").iterdir()] == ["todo.txt"]
 
 
+@pytest.mark.slow
 def test_runs_in_a_loop_do_not_keep_the_garbage_of_earlier_runs():
     # a sweep's worker, a fuzzing campaign and docs/library.md's hypothesis test run run after run in one
     # process; the collector freeze of each run (vcran.runner._quiet_collector) hid earlier runs' cycles from

@@ -155,6 +155,7 @@ settings.load_profile("docs")
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("doc", _python_docs(), ids=[str(d.relative_to(ROOT)) for d in _python_docs()])
 def test_python_blocks_run(doc: Path, root_view: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     source = _as_module(doc)
@@ -192,6 +193,7 @@ def _run_as_test_module(doc: Path, source: str, root_view: Path, tmp_path: Path)
 _SH = [b for b in ALL if b.lang == "sh" and not b.tested_by]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", _SH, ids=_ids(_SH))
 def test_sh_blocks_run(block: Block, root_view: Path) -> None:
     result = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", block.code], cwd=root_view, env=_env(),

@@ -112,6 +112,7 @@ def test_vcran_run_manager_that_needs_options_the_scenario_gives_another_class(
     assert code == 2 and "cannot build fleet manager tests.manager_kinds:Tuned with options {}" in err
 
 
+@pytest.mark.slow
 def test_vcran_sweep_gives_the_scenarios_class_its_options_and_another_none(
         capsys: pytest.CaptureFixture[str], scenario: Path, tmp_path: Path) -> None:
     """Three variants: Tuned by another path (its options), Plain (none), Plain with options the sweep

@@ -85,6 +85,7 @@ def test_filip_batch_update_query_and_subscriptions(cb: ContextBrokerClient) -> 
         listener.stop()
 
 
+@pytest.mark.slow
 def test_filip_reads_the_fleet_while_vcran_live_runs_through_the_broker(broker: BrokerHandle, tmp_path) -> None:
     """Issue 12: a live run against the broker, FiLiP reading the robot's entity meanwhile, as a fleet
     manager written with FiLiP would; what it reads decodes with vcran's codec and moves on."""

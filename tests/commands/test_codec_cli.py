@@ -138,6 +138,7 @@ json_values = st.recursive(
 )
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.function_scoped_fixture])  # the fixture only narrows COMMANDS
 @given(st.dictionaries(st.sampled_from([*ATTRIBUTES, "id", "other"]), json_values, max_size=4))
 def test_decode_never_crashes(tmp_path: Path, entity: dict[str, Any]) -> None:

@@ -17,6 +17,7 @@ from vcran.testing.scripts import load_text
 DEMO = str(ROOT / "scenarios" / "demo.toml")
 
 
+@pytest.mark.slow
 def test_demo_runs_clean_and_says_how_many_examples(capsys):
     assert main(["fuzz", DEMO, "--examples", "15", "--seed", "3"]) == 0
     out = capsys.readouterr().out
@@ -34,6 +35,7 @@ def r7_bug(monkeypatch):
     monkeypatch.setattr(RanLogic, "on_timer", on_timer)
 
 
+@pytest.mark.slow
 def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
     saved = tmp_path / "fail.toml"
     assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(saved)]) == 1
@@ -46,6 +48,7 @@ def test_violation_is_shrunk_saved_and_reproducible(r7_bug, tmp_path, capsys):
     assert again.read_text().replace("again.toml", "") == text.replace("fail.toml", "")  # same seed, same result
 
 
+@pytest.mark.slow
 def test_the_failure_s_header_names_every_option_of_its_search(r7_bug, tmp_path, capsys):
     # docs/fuzzing.md, docs/sweeps.md: the header names the one command that finds the failure again; it
     # left out --max-ops, --window and --fast, whose defaults search other examples
@@ -77,6 +80,7 @@ def test_a_window_below_1_is_refused(capsys, window):
     assert err == f"vcran fuzz: --window must be at least 1 (a swap moves a message by 1 to WINDOW positions), got {window}\n"
 
 
+@pytest.mark.slow
 def test_a_finding_that_cannot_be_saved_is_still_printed(r7_bug, tmp_path, capsys):
     unwritable = tmp_path / ("x" * 300 + ".toml")  # its folder exists; the name is too long to create
     assert main(["fuzz", DEMO, "--examples", "50", "--seed", "1", "--fast", "--save", str(unwritable)]) == 1

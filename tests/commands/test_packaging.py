@@ -75,6 +75,7 @@ def _run(argv: list[str], cwd: Path, check: bool = True,
     return result
 
 
+@pytest.mark.slow
 @pytest.mark.network
 def test_the_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> None:
     dist, home = tmp_path / "dist", tmp_path / "elsewhere"

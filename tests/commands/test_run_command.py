@@ -13,6 +13,7 @@ DEMO = str(ROOT / "scenarios" / "demo.toml")
 WAREHOUSE = str(ROOT / "scenarios" / "warehouse.toml")
 
 
+@pytest.mark.slow
 def test_warehouse_runs_with_its_own_manager_and_prints_the_kpis(tmp_path, capsys):
     assert main(["run", WAREHOUSE, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out

@@ -31,6 +31,7 @@ def finished_outputs(out) -> dict:
     return json.loads((out / "summary.json").read_text())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("signum, code, delay", [(signal.SIGINT, 130, 0.3), (signal.SIGINT, 130, 0.7),
                                                  (signal.SIGTERM, 143, 0.5)])
 def test_run_stops_at_a_signal_with_complete_outputs(tmp_path, signum, code, delay):

@@ -204,6 +204,7 @@ def resolves(doc: Any, path: str) -> bool:
     return isinstance(doc, dict) or (isinstance(doc, list) and isinstance(last, int) and last < len(doc))
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.too_slow], max_examples=300)
 @given(st.data())
 def test_random_mutations_raise_only_codec_errors_naming_a_real_place(data: st.DataObject) -> None:

@@ -78,6 +78,7 @@ def test_validator_agrees_with_a_real_orion(record: dict[str, Any]) -> None:
     assert bool(orion_objections(record["request"]["body"])) == rejected_as_bad_request
 
 
+@pytest.mark.slow
 @given(st.lists(attribute_messages(), max_size=5))
 def test_encoded_entities_are_accepted_by_orion(items: list[tuple[str, Message]]) -> None:
     entity = encode_entity("robot_1", "ROBOT", dict(items))
@@ -145,6 +146,7 @@ def fleet(n: int) -> list[dict[str, Any]]:
     return [encode_entity(f"robot_{i}", "ROBOT", {"current_motion": Motion()}) for i in range(n)]
 
 
+@pytest.mark.slow
 @given(st.integers(0, 40), st.integers(1_700, 20_000))
 def test_split_batch_keeps_every_entity_in_order_and_under_the_limit(n: int, limit: int) -> None:
     entities = fleet(n)

@@ -41,6 +41,7 @@ def assert_same(decoded: Message, original: Message) -> None:
     assert to_plain(decoded) == to_plain(original)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rendering", ["normalized", "keyValues"])
 @pytest.mark.parametrize("name", sorted(ATTRIBUTES))
 @given(data=st.data())
@@ -53,6 +54,7 @@ def test_roundtrip(name: str, rendering: str, data: st.DataObject) -> None:
     assert_same(decode_attribute(name, wire, key_values=key_values), message)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(ATTRIBUTES))
 @given(data=st.data())
 def test_json_text_encoder_writes_exactly_the_dicts(name: str, data: st.DataObject) -> None:
@@ -63,6 +65,7 @@ def test_json_text_encoder_writes_exactly_the_dicts(name: str, data: st.DataObje
     assert_same(decode_attribute(name, json.loads(text)), message)
 
 
+@pytest.mark.slow
 @given(st.lists(attribute_messages(), max_size=4))
 def test_entity_json_is_the_compact_entity(items: list[tuple[str, Message]]) -> None:
     messages = dict(items)
@@ -70,6 +73,7 @@ def test_entity_json_is_the_compact_entity(items: list[tuple[str, Message]]) -> 
     assert encode_entity_json("robot_1", "ROBOT", messages) == expected
 
 
+@pytest.mark.slow
 @given(st.lists(attribute_messages(), max_size=4), st.booleans())
 def test_roundtrip_entity(items: list[tuple[str, Message]], key_values: bool) -> None:
     messages = dict(items)
@@ -143,6 +147,7 @@ def test_a_time_beyond_a_stamp_is_a_message_error_naming_secs(t: float) -> None:
         Time.from_seconds(t)
 
 
+@pytest.mark.slow
 @given(motions())
 def test_encoded_numbers_keep_their_json_kind(message: Motion) -> None:
     """Float fields go out as JSON floats and int fields as ints, so the wire type never flips."""

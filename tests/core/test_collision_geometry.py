@@ -149,6 +149,7 @@ def _convex_polygon(radii, angles):
     return tuple((rx * math.cos(a), ry * math.sin(a)) for a in sorted(set(angles)))
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(
     st.tuples(st.floats(0.2, 2.0), st.floats(0.2, 2.0)),

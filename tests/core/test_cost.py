@@ -38,6 +38,7 @@ def test_fresh_id_of_a_composed_name_is_a_named_id_without_touching_the_memo():
     assert id_for.cache_info().currsize == 0
 
 
+@pytest.mark.slow
 @given(attribute_messages())
 def test_unchecked_constructor_builds_the_same_message(pair):
     _, message = pair

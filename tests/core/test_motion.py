@@ -75,6 +75,7 @@ def test_cost_of_a_pose_does_not_depend_on_leg_length():
     assert long.pose_at(long.t_end)[0] == 1e6 and short.pose_at(short.t_end)[0] == 1
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(st.lists(legs(), min_size=1, max_size=40), st.floats(0, 200))
 def test_scalar_and_vector_paths_are_bit_identical(leg_list, t):
@@ -155,6 +156,7 @@ def _phase_instants(leg: Leg) -> list[float]:
     return [x for m in marks for x in (math.nextafter(m, -math.inf), m, math.nextafter(m, math.inf))]
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(legs(), st.lists(st.floats(-10, 250), max_size=70), st.booleans())
 def test_one_leg_sampled_phase_by_phase_is_bit_identical(leg, extra, ordered):

@@ -29,6 +29,7 @@ def test_s4_polygon_problem(points, problem):
     assert found is None if problem is None else problem in found
 
 
+@pytest.mark.slow
 @settings(max_examples=2000, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 3)), min_size=1, max_size=7))
 def test_s4_a_simple_polygon_is_what_shapely_calls_a_valid_polygon_with_an_area(points):
@@ -43,6 +44,7 @@ def test_s4_a_simple_polygon_is_what_shapely_calls_a_valid_polygon_with_an_area(
     assert (polygon_problem(points) is None) == valid
 
 
+@pytest.mark.slow
 @settings(max_examples=2000, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 4), st.integers(0, 4)), min_size=3, max_size=7),
        st.integers(-2, 10), st.integers(-2, 10))

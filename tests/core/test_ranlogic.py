@@ -521,6 +521,7 @@ def test_r10_resend_with_new_header_stamp_is_a_duplicate():
     assert logic.queue[T("A")].slots[1].point.y == 0.5
 
 
+@pytest.mark.slow
 @settings(max_examples=150)
 @given(st.data())
 def test_r10_fingerprint_agrees_with_identity(data):

@@ -59,6 +59,7 @@ def test_a_folder_that_is_not_a_run_is_refused_and_left_alone(tmp_path, capsys):
         run_to(scenario, out, ScriptedTransport(scenario.messages()))
 
 
+@pytest.mark.slow
 def test_an_empty_folder_or_an_earlier_run_is_a_valid_out(tmp_path):
     out = tmp_path / "empty"
     out.mkdir()

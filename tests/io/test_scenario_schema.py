@@ -50,6 +50,7 @@ def test_a_generated_fleet_validates(validator: jsonschema.Draft7Validator) -> N
     assert errors(validator, tomllib.loads(generate(3, 0.1, 7))) == []
 
 
+@pytest.mark.slow
 @settings(max_examples=30)
 @given(fleets())
 def test_what_the_loader_accepts_validates(data: dict[str, Any]) -> None:

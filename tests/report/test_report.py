@@ -237,6 +237,7 @@ def test_report_of_the_demo_writes_figures_and_tables(demo: Outputs, tmp_path: P
     assert (tmp_path / "rep" / "kpi.md").read_text().startswith("# KPIs: demo")
 
 
+@pytest.mark.slow
 def test_svg_format_and_the_same_run_gives_the_same_files(demo: Outputs, tmp_path: Path) -> None:
     report = write_report(demo.dir, tmp_path / "a", "svg")
     assert [f.name for f in report.files[:2]] == ["layout.svg", "timeline.svg"]
@@ -254,6 +255,7 @@ def test_tables_show_a_missing_latency_as_a_dash_and_an_empty_cell(mixed: Output
     assert record["mean_latency_s"] == "" and record["cancelled_action_failed"] == "1"
 
 
+@pytest.mark.slow
 def test_ten_robot_generated_run_is_paged(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     scenario = parse(tomllib.loads(generate(10, 0.05, 3)), "<gen>")
     out = run_scenario(scenario, tmp_path / "run")

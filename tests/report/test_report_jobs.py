@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 import vcran
 from tests.conftest import ROOT
 from vcran.cli import main
 
 
+@pytest.mark.slow
 def test_report_of_the_warehouse_shows_the_job_kpis(tmp_path, capsys):
     vcran.simulate(ROOT / "scenarios" / "warehouse.toml", out=tmp_path / "run")
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())

@@ -13,7 +13,8 @@ import pytest
 
 from tests.conftest import ROOT
 from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401, F811
-from transports.orion.manage import ManageOptions, OrionLoop
+from transports.orion.link import LinkOptions
+from transports.orion.manage import OrionLoop
 from vcran.cli import main
 from vcran.core.ids import id_for
 from vcran.core.messages import RanStatus, TaskEnd
@@ -80,7 +81,7 @@ def test_the_first_status_heard_is_a_baseline(tmp_path):
     hears of them; a later status's new entries are, and a state change at any status."""
     logged = []
     loop = OrionLoop(load(WAREHOUSE), Dispatcher(), lambda t, robot, name, fields: logged.append((t, robot, name, fields)),
-                     client=None, options=ManageOptions("ROBOT"))  # type: ignore[arg-type]
+                     client=None, options=LinkOptions("ROBOT"))  # type: ignore[arg-type]
     old, new, gone = id_for("old"), id_for("new"), id_for("gone")
     loop._hear(1.0, "robot_1", RanStatus(state="MOTION", completed=(old,)))
     loop._hear(2.0, "robot_1", RanStatus(state="MOTION", completed=(old,)))

@@ -67,6 +67,7 @@ def test_s4_columns_appear_only_when_a_run_has_them(runs):
     assert "| energy per job (Ah) |" in markdown(list(rows.values())).splitlines()[0].replace("  ", " ")
 
 
+@pytest.mark.slow
 def test_s4_report_draws_the_battery_figure_only_for_runs_with_batteries(runs, tmp_path):
     with_battery = write_report(runs["battery"], tmp_path / "b")
     assert "battery.png" in [f.name for f in with_battery.files]

@@ -18,6 +18,7 @@ def run_cli(args: list[str], hashseed: str, cwd) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "vcran", *args], env=env, cwd=cwd, capture_output=True, text=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["demo", "generated", "warehouse"])
 def test_outputs_are_byte_identical_across_hash_seeds(tmp_path, scenario):
     if scenario in ("demo", "warehouse"):  # warehouse: a closed loop with the Dispatcher (§9)

@@ -279,6 +279,7 @@ def test_s4_a_drop_off_failed_by_a_fault_is_sent_again_to_the_robot_that_carries
     assert result.summary["robots"]["robot_1"]["parts_moved"] == 1
 
 
+@pytest.mark.slow
 def test_s4_the_warehouse_with_one_action_failure_completes_every_job():
     """Issue 29 item 5: with one action failure at t = 1 on robot_1 the Dispatcher completed 203 of 224 jobs;
     robot_1 kept the part of its failed load and failed a job every ~20 s (load_full) for the rest of the hour."""

@@ -17,6 +17,8 @@ from vcran.core.faults import KINDS
 from vcran.testing.loop import assert_loop_properties, loop_problems, loop_variants
 from vcran.testing.outcomes import check_failures_have_evidence
 
+pytestmark = pytest.mark.slow  # the scenario's hour of simulated time, and variants of it
+
 SCENARIO = vcran.load_scenario(ROOT / "scenarios" / "warehouse-faults.toml")
 
 

@@ -101,6 +101,7 @@ def test_labels_of_lists_and_tables():
                                               "3 robots: robot_1, robot_2, robot_3 #2")
 
 
+@pytest.mark.slow
 def test_a_fleet_size_sweep_runs_and_its_table_and_figure_read_well(tmp_path):
     """The warehouse's first 300 s of jobs with 2, 3 and 12 robots, and a variant that spells its two
     robots out: the runs table says ``2 robots: robot_1, robot_2`` for it, never the array's JSON."""

@@ -27,6 +27,7 @@ def test_chunks_are_consecutive_seeds_of_at_most_25_examples():
     assert sum(n for _, n in chunks(100_000, 16, 0)) == 100_000
 
 
+@pytest.mark.slow
 def test_a_clean_campaign_on_local_processes_counts_every_example(capsys):
     """On the bundled demo by name: the workers get its text, not a path they would have to find."""
     assert main(["fuzz", "demo", "--examples", "12", "--seed", "3", "--workers", "2", "--fast"]) == 0
@@ -47,6 +48,7 @@ def r7_bug(monkeypatch):
     monkeypatch.setattr(RanLogic, "on_timer", on_timer)
 
 
+@pytest.mark.slow
 def test_a_campaign_on_dask_stops_at_the_first_failure_which_its_seed_reproduces_alone(r7_bug, tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     saved = tmp_path / "fail.toml"
@@ -113,6 +115,7 @@ def test_bad_campaign_options(capsys, argv, message):
     assert capsys.readouterr().err.startswith(f"vcran fuzz: {message}")
 
 
+@pytest.mark.slow
 def test_a_campaign_that_loses_its_scheduler_is_exit_2_never_ran_clean(tmp_path, monkeypatch, capsys):
     # §10: the searches Dask cancelled when it lost its scheduler did not run clean; the command says it lost
     # the cluster (exit 2) instead of reporting the examples of the searches that finished as the campaign

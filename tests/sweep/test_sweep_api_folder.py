@@ -99,6 +99,7 @@ def test_write_refuses_the_folder_you_are_in(tmp_path, monkeypatch):
 # --- staged, replaced whole -------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_run_sweep_stages_its_folder_and_replaces_an_earlier_sweep_whole(tmp_path):
     out = tmp_path / "o"
     wide, narrow = sweep_file(tmp_path, "wide", WIDE), sweep_file(tmp_path, "narrow", NARROW)
@@ -122,6 +123,7 @@ def test_run_sweep_stages_its_folder_and_replaces_an_earlier_sweep_whole(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml", "o", "wide.toml"]
 
 
+@pytest.mark.slow
 def test_run_sweep_keep_runs_is_the_folder_of_vcran_sweep_keep_runs(tmp_path):
     narrow = sweep_file(tmp_path, "narrow", NARROW)
     assert main(["sweep", str(narrow), "--out", str(tmp_path / "cli"), "--keep-runs", "--workers", "1",
@@ -130,6 +132,7 @@ def test_run_sweep_keep_runs_is_the_folder_of_vcran_sweep_keep_runs(tmp_path):
     same_sweep_folder(tmp_path / "py", tmp_path / "cli")
 
 
+@pytest.mark.slow
 def test_write_over_its_own_kept_runs_keeps_them_as_vcran_sweep_keep_runs_does(tmp_path, monkeypatch):
     """The natural script: ``r = run_sweep(s, keep_runs="out"); r.write("out")``."""
     narrow = sweep_file(tmp_path, "narrow", NARROW)
@@ -145,6 +148,7 @@ def test_write_over_its_own_kept_runs_keeps_them_as_vcran_sweep_keep_runs_does(t
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cli", "narrow.toml", "out"]
 
 
+@pytest.mark.slow
 def test_write_elsewhere_is_the_folder_of_vcran_sweep_without_keep_runs(tmp_path):
     narrow = sweep_file(tmp_path, "narrow", NARROW)
     assert main(["sweep", str(narrow), "--out", str(tmp_path / "cli"), "--workers", "1", "--quiet"]) == 0
@@ -155,6 +159,7 @@ def test_write_elsewhere_is_the_folder_of_vcran_sweep_without_keep_runs(tmp_path
     assert snapshot(tmp_path / "kept") == kept
 
 
+@pytest.mark.slow
 def test_write_replaces_an_earlier_sweep_whole_and_a_later_sweep_s_runs_are_not_its_own(tmp_path):
     """A result writes its kept runs back only into the folder that still holds them: after another sweep
     into the same folder, writing the old result replaces that sweep whole, as ``vcran sweep --out`` would."""
@@ -170,6 +175,7 @@ def test_write_replaces_an_earlier_sweep_whole_and_a_later_sweep_s_runs_are_not_
 # --- interrupted or failed: DIR.incomplete, never a folder that looks finished ---------------------------
 
 
+@pytest.mark.slow
 def test_an_interrupted_run_sweep_leaves_dir_incomplete_and_the_earlier_sweep_intact(tmp_path, monkeypatch):
     out = tmp_path / "o"
     vcran.run_sweep(sweep_file(tmp_path, "wide", WIDE), workers=1, keep_runs=out)
@@ -200,6 +206,7 @@ def test_an_interrupted_result_is_written_as_dir_incomplete(tmp_path, monkeypatc
     assert not out.exists() and run_numbers(tmp_path / "o.incomplete") == ["0"]
 
 
+@pytest.mark.slow
 def test_a_run_sweep_that_fails_leaves_dir_incomplete_and_the_earlier_sweep_intact(tmp_path, monkeypatch):
     out = tmp_path / "o"
     narrow = sweep_file(tmp_path, "narrow", NARROW)
@@ -260,6 +267,7 @@ def test_a_figure_format_a_sweep_folder_cannot_hold_is_refused_before_anything_r
     assert calls == [] and sorted(p.name for p in tmp_path.iterdir()) == ["narrow.toml"]
 
 
+@pytest.mark.slow
 def test_svg_figures_as_vcran_sweep_format_svg(tmp_path):
     narrow = sweep_file(tmp_path, "narrow", NARROW)
     assert main(["sweep", str(narrow), "--out", str(tmp_path / "cli"), "--format", "svg", "--keep-runs",
@@ -268,6 +276,7 @@ def test_svg_figures_as_vcran_sweep_format_svg(tmp_path):
     same_sweep_folder(tmp_path / "py", tmp_path / "cli")
 
 
+@pytest.mark.slow
 def test_write_over_its_own_folder_without_kept_runs_there(tmp_path):
     """Dask workers without a file system shared with this machine keep their runs on theirs: the folder
     ``keep_runs`` wrote here holds the tables and figures but no ``runs/``. Writing the result over it again
@@ -281,6 +290,7 @@ def test_write_over_its_own_folder_without_kept_runs_there(tmp_path):
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [FIGURE, "runs.csv", "runs.parquet"]
 
 
+@pytest.mark.slow
 def test_a_scheduler_lost_mid_sweep_raises_pool_error_with_the_rows_done(tmp_path, monkeypatch):
     # §10, §6: run_sweep never returns a part of a sweep as if it were the whole when its cluster went away;
     # the PoolError carries the rows done (result.interrupted) and leaves them in DIR.incomplete

@@ -41,6 +41,7 @@ def rows(out: Path, drop_wall: bool = True) -> list[dict[str, str]]:
     return table
 
 
+@pytest.mark.slow
 def test_a_run_in_a_sweep_is_byte_identical_to_the_same_variant_and_seed_alone(sweep_file, tmp_path):
     out = tmp_path / "sweep"
     assert main(["sweep", str(sweep_file), "--out", str(out), "--workers", "2", "--keep-runs", "--quiet"]) == 0
@@ -64,6 +65,7 @@ def test_a_run_in_a_sweep_is_byte_identical_to_the_same_variant_and_seed_alone(s
         assert (kept / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
 
 
+@pytest.mark.slow
 def test_rows_follow_from_the_demo_by_hand(sweep_file, tmp_path):
     """The demo's three tasks arrive one message a second: a 1.5 s timeout (R7) cancels all three before
     any is assembled, 30 s completes all three (docs/demo.md); the slower AGV needs longer."""
@@ -85,6 +87,7 @@ def test_rows_follow_from_the_demo_by_hand(sweep_file, tmp_path):
         "kpi-by-robots.each.max_velocity.png", "kpi-by-simulation.task_timeout.png"]
 
 
+@pytest.mark.slow
 def test_embedded_process_pool_and_dask_localcluster_give_the_same_rows(sweep_file, tmp_path):
     distributed = pytest.importorskip("distributed")
     pq = pytest.importorskip("pyarrow.parquet")
@@ -107,6 +110,7 @@ def test_embedded_process_pool_and_dask_localcluster_give_the_same_rows(sweep_fi
     assert all(r["error"] is None and r["wall_seconds"] > 0 for r in parquet)
 
 
+@pytest.mark.slow
 def test_a_failing_run_is_a_row_with_its_error(sweep_file, tmp_path, monkeypatch, capsys):
     real = worker.simulate
 
@@ -142,6 +146,7 @@ def interrupt_run(monkeypatch, n: int, signal: type[KeyboardInterrupt] = Keyboar
     monkeypatch.setattr(worker, "simulate", simulate)
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, capsys):
     interrupt_run(monkeypatch, 4)
     out = tmp_path / "sweep"
@@ -266,6 +271,7 @@ def test_stopping_the_local_pool_ends_its_workers_without_waiting():
     pool.close()
 
 
+@pytest.mark.slow
 def test_json_params_in_csv(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(f'scenario = "{DEMO.as_posix()}"\nseeds = [1]\n[[variants]]\nname = "moved"\n'

@@ -47,6 +47,7 @@ def run_numbers(folder: Path) -> list[str]:
     return [r["run"] for r in csv.DictReader(io.StringIO((folder / "runs.csv").read_text()))]
 
 
+@pytest.mark.slow
 def test_a_second_sweep_replaces_the_first_as_a_whole(tmp_path):
     out = tmp_path / "o"
     wide, narrow = sweep_file(tmp_path, "wide", WIDE), sweep_file(tmp_path, "narrow", NARROW)
@@ -78,6 +79,7 @@ def test_a_folder_that_is_no_vcran_output_is_refused_before_anything_runs(tmp_pa
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mydir", "wide.toml"]
 
 
+@pytest.mark.slow
 def test_a_run_folder_or_an_empty_folder_may_receive_a_sweep(tmp_path):
     run = tmp_path / "run"
     assert main(["run", str(DEMO), "--out", str(run), "--quiet"]) == 0
@@ -90,6 +92,7 @@ def test_a_run_folder_or_an_empty_folder_may_receive_a_sweep(tmp_path):
                                                           "runs.parquet"]
 
 
+@pytest.mark.slow
 def test_an_interrupted_sweep_leaves_dir_incomplete_and_the_earlier_sweep_intact(tmp_path, monkeypatch, capsys):
     out = tmp_path / "o"
     wide = sweep_file(tmp_path, "wide", WIDE)
@@ -111,6 +114,7 @@ def test_an_interrupted_sweep_leaves_dir_incomplete_and_the_earlier_sweep_intact
     assert run_numbers(out) == ["0", "1", "2", "3"] and not (out / "runs").exists()
 
 
+@pytest.mark.slow
 def test_a_sweep_that_fails_leaves_dir_incomplete_and_the_earlier_sweep_intact(tmp_path, monkeypatch, capsys):
     out = tmp_path / "o"
     wide, narrow = sweep_file(tmp_path, "wide", WIDE), sweep_file(tmp_path, "narrow", NARROW)
@@ -127,6 +131,7 @@ def test_a_sweep_that_fails_leaves_dir_incomplete_and_the_earlier_sweep_intact(t
     assert run_numbers(tmp_path / "o.incomplete") == ["0", "1"]
 
 
+@pytest.mark.slow
 def test_workers_write_kept_runs_under_the_staging_folder(tmp_path, monkeypatch):
     """The jobs a pool ships (to local processes or Dask workers, the same tuples) name folders under
     ``DIR.incomplete``; nothing appears at ``DIR`` until the sweep has ended."""

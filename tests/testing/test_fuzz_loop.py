@@ -161,6 +161,7 @@ def test_a_job_cancelled_out_of_the_managers_sight_waits_from_when_the_link_is_b
     assert "r2 idle from t=25 to t=100" in check_no_idle_while_waiting(_Result(seen, 100.0, robots=both), bound=60.0)[-1]
 
 
+@pytest.mark.slow
 @settings(max_examples=8)
 @given(loop_variants(WAREHOUSE, max_jobs=4, horizon=120.0, settle=400.0))
 def test_the_dispatcher_keeps_the_loop_properties(scenario):
@@ -222,6 +223,7 @@ class = "vcran.managers:Dispatcher"
 """), "<lane>")
 
 
+@pytest.mark.slow
 @settings(max_examples=15)
 @given(loop_variants(LANE, max_jobs=3, horizon=60.0, settle=300.0, max_faults=4))
 def test_s4_drawn_faults_all_happen_and_the_dispatcher_keeps_the_loop_properties(scenario):
@@ -231,6 +233,7 @@ def test_s4_drawn_faults_all_happen_and_the_dispatcher_keeps_the_loop_properties
     assert len([e for e in result.events if e["event"] == "fault"]) == len(due)
 
 
+@pytest.mark.slow
 def test_s4_the_search_finds_a_manager_that_forgets_a_job_after_a_motion_failure():
     # a part is produced every second, so no load fails for long: only a drawn motion failure (while a
     # robot drives) can leave a job open with this manager
@@ -244,6 +247,7 @@ def test_s4_the_search_finds_a_manager_that_forgets_a_job_after_a_motion_failure
     assert fuzz_manager(LANE, Dispatcher, examples=150, seed=1, max_jobs=2, horizon=30.0, settle=120.0) is None
 
 
+@pytest.mark.slow
 def test_loop_variants_of_a_path_and_a_negative_bound_are_clear_errors():
     """vcran.simulate takes a path, so a user passes one here too: it was "AttributeError: 'str' object has
     no attribute 'job_stream'" from inside hypothesis. A negative bound listed every robot, over stretches

@@ -6,12 +6,14 @@ under the active hypothesis profile (``vcran`` by default, ``vcran-deep`` for ca
 
 from __future__ import annotations
 
+import pytest
+
 from vcran.core.effects import Reason
 from vcran.core.ids import id_for
 from vcran.testing.plans import TaskPlan
 from vcran.testing.stateful import RanLogicMachine
 
-TestRanLogicAgainstModel = RanLogicMachine.TestCase
+TestRanLogicAgainstModel = pytest.mark.slow(RanLogicMachine.TestCase)
 
 
 # Shrunk examples pasted verbatim from failures of the machine against deliberate mutations of RanLogic

@@ -13,6 +13,7 @@ import json
 import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import event, given, note
 from hypothesis import strategies as st
 
@@ -20,6 +21,8 @@ from vcran.io.scenario_file import parse
 from vcran.io.trace import EVENTS_FILE, event_records
 from vcran.testing.checks import run_variant
 from vcran.testing.scripts import fleets, load_text, perturbations, perturbed_toml
+
+pytestmark = pytest.mark.slow  # fuzz campaigns: whole runs of perturbed scenarios
 
 
 @st.composite

@@ -37,6 +37,7 @@ def test_a_run_that_opts_in_gets_the_profile(tmp_path: Path, profile: str, expec
     assert settings_of_a_user_run(tmp_path, f"--hypothesis-profile={profile}") == expected
 
 
+@pytest.mark.slow
 def test_a_run_that_does_not_opt_in_keeps_hypothesis_defaults(tmp_path: Path) -> None:
     # hypothesis' own choice, not vcran's: a run without the plugin at all. That choice depends on where the
     # run is (a CI server gets hypothesis' "ci" profile, no deadline), so it is measured, not written down.

@@ -10,6 +10,7 @@ from pathlib import Path
 from tempfile import TemporaryDirectory
 
 import numpy as np
+import pytest
 import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -18,6 +19,8 @@ from tests.conftest import run_scenario
 from vcran.io.scenario_file import parse
 from vcran.io.trace import read_header, samples
 from vcran.testing.checks import check_run
+
+pytestmark = pytest.mark.slow  # whole runs of drawn fleets, a hundred examples
 
 SQUARE = "[[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]]"
 coord = st.integers(-12, 12).map(float)

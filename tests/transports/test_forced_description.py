@@ -17,7 +17,8 @@ import numpy as np
 
 from tests.conftest import HandClock
 from transports.orion.client import OrionClient
-from transports.orion.transport import LiveOptions, OrionTransport
+from transports.orion.link import LinkOptions
+from transports.orion.transport import OrionTransport
 from vcran.broker import Broker, Request
 from vcran.core.codec import decode_attribute, encode_entity_json
 from vcran.core.messages import AssignmentStatus, PolygonStamped, RanStatus
@@ -72,7 +73,7 @@ def fleet(orion: InProcessOrion) -> tuple[OrionTransport, dict[str, object]]:
     for r in ROBOTS:  # what `vcran orion init` writes first (the seed's "Initialize FOCB")
         client.update(b'{"actionType":"append","entities":[' + encode_entity_json(r, "ROBOT", {
             "robot_description": descriptions[r], "ran_status": RanStatus()}) + b"]}")
-    return OrionTransport(client, LiveOptions("ROBOT", ROBOTS)), descriptions
+    return OrionTransport(client, LinkOptions("ROBOT", ROBOTS)), descriptions
 
 
 def tick(t: OrionTransport, now: float, *publications: tuple[str, str, object]) -> None:

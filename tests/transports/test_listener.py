@@ -16,8 +16,9 @@ import httpx
 import pytest
 
 from transports.orion.client import OrionClient
+from transports.orion.link import LinkOptions
 from transports.orion.listener import Listener
-from transports.orion.transport import LiveOptions, OrionTransport
+from transports.orion.transport import OrionTransport
 from vcran.broker import start_broker
 from vcran.core.build import cancel
 from vcran.core.codec import encode_attribute
@@ -122,6 +123,7 @@ def test_a_body_not_read_is_drained_so_the_client_reads_the_answer(listener, hea
     assert sent_all
 
 
+@pytest.mark.slow
 def test_a_client_that_goes_away_prints_no_traceback(capfd):
     slow = Recorder(delay=0.3)  # the answer is written after the client reset the connection
     listener = Listener("127.0.0.1", 0, "/notify", slow)
@@ -145,6 +147,7 @@ def test_a_client_that_goes_away_prints_no_traceback(capfd):
     assert "Traceback" not in capfd.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("server", ["listener", "broker"])
 def test_slow_clients_and_idle_connections_are_cut_off(server, listener):
     if server == "broker":
@@ -167,15 +170,15 @@ def test_slow_clients_and_idle_connections_are_cut_off(server, listener):
 
 def live_transport() -> OrionTransport:
     client = OrionClient("http://orion.test", transport=httpx.MockTransport(lambda r: httpx.Response(200, json=[])))
-    t = OrionTransport(client, LiveOptions("ROBOT", ("robot_1",), notify_url="http://127.0.0.1:0/notify"))
+    t = OrionTransport(client, LinkOptions("ROBOT", ("robot_1",), notify_url="http://127.0.0.1:0/notify"))
     t._env = LiveEnvironment(1)
-    t._subscriptions.add("s0")
+    t._ours["s0"] = t.subscriptions[0]
     t.open()
     return t
 
 
 def post(t: OrionTransport, body: dict) -> httpx.Response:
-    return httpx.post(f"http://127.0.0.1:{t._listener.port}/notify", json=body)
+    return httpx.post(f"http://127.0.0.1:{t.listener.port}/notify", json=body)
 
 
 def test_entity_ids_that_are_not_strings_are_ignored_without_an_error(caplog):
@@ -187,7 +190,7 @@ def test_entity_ids_that_are_not_strings_are_ignored_without_an_error(caplog):
                     {"id": 5, "cancel_order": value}, {"id": "robot_1", "cancel_order": value}]
             assert post(t, {"subscriptionId": "s0", "data": data}).status_code == 204
     finally:
-        t._listener.stop()
+        t.listener.stop()
     assert t._env._calls.qsize() == 1  # robot_1's cancel, nothing else
     assert not [r for r in caplog.records if r.levelno >= logging.ERROR]
 
@@ -198,13 +201,14 @@ def test_peer_text_cannot_forge_log_lines(caplog):
         with caplog.at_level(logging.INFO):
             assert post(t, {"subscriptionId": "x\nvcran: forged line", "data": []}).status_code == 204
     finally:
-        t._listener.stop()
+        t.listener.stop()
     assert caplog.records and all("\n" not in r.getMessage() for r in caplog.records)
 
 
 # --- a burst (item 7) -------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_burst_of_200_simultaneous_notifications_is_answered_in_orions_timeout():
     """socketserver's listen backlog of 5 left notifications of a burst waiting for TCP retransmits (1 s,
     3 s, ...) past Orion's 5 s notification timeout. Every one must be answered, each within 5 s."""

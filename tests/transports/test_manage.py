@@ -8,7 +8,9 @@ from __future__ import annotations
 import json
 import signal
 import socket
+import subprocess
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -17,7 +19,8 @@ import pytest
 from tests.conftest import ROOT
 from tests.transports.test_live import broker_process, free_port, live_time, stop, vcran, wait_until  # noqa: F401, F811
 from transports.orion.client import OrionClient
-from transports.orion.manage import ManageOptions, OrionLink
+from transports.orion.link import LinkOptions
+from transports.orion.manage import OrionManagerLink
 from vcran.broker import start_broker
 from vcran.cli import main
 from vcran.core.build import motion_message
@@ -29,17 +32,27 @@ from vcran.io.trace import EVENTS_FILE, event_records
 WAREHOUSE = ROOT / "scenarios" / "warehouse.toml"
 
 
+def warehouse_live(url: str, out: Path) -> subprocess.Popen:
+    """``vcran orion init`` and ``vcran live`` (subscribed) of the warehouse's robots, ticking and listening."""
+    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
+    live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(out), "--factor", "20",
+                 "--notify-url", f"http://127.0.0.1:{free_port()}/notify")
+    try:
+        assert wait_until(lambda: live_time(url) >= 1.0, 60)  # the robots tick
+        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 60)  # and listen
+    except BaseException:
+        stop(live)
+        raise
+    return live
+
+
 @pytest.mark.parametrize("inbound", ["subscription", "polling"])
 def test_the_dispatcher_completes_the_warehouses_first_jobs_through_the_broker(broker_process, tmp_path,  # noqa: F811
                                                                                inbound):
     """In both modes: the manager subscribed to Orion (``--notify-url``), or polling it (its default)."""
     url = broker_process
-    assert main(["orion", "init", str(WAREHOUSE), "--orion", url]) == 0
-    live = vcran("live", str(WAREHOUSE), "--orion", url, "--out", str(tmp_path / "live"), "--factor", "20",
-                 "--notify-url", f"http://127.0.0.1:{free_port()}/notify")
+    live = warehouse_live(url, tmp_path / "live")
     try:
-        assert wait_until(lambda: live_time(url) >= 1.0, 15)  # the robots tick
-        assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)  # and listen
         extra = ["--notify-url", f"http://127.0.0.1:{free_port()}/notify"] if inbound == "subscription" else []
         manage = vcran("manage", str(WAREHOUSE), "--orion", url, "--factor", "20", "--jobs", "3", *extra,
                        "--out", str(tmp_path / "manage"))
@@ -181,15 +194,15 @@ def motion_at(t: float):
     return motion_message(Time.from_seconds(t), t, 0.0, 0.0, 0.0, 0.0)
 
 
-def polling_link(url: str, batches: list[list[Outbound]], attributes: frozenset[str] | None) -> OrionLink:
+def polling_link(url: str, batches: list[list[Outbound]], attributes: frozenset[str] | None) -> OrionManagerLink:
     client = CountingClient(url)
-    options = ManageOptions("ROBOT", poll_interval=0.02, backoff_start=0.02, backoff_cap=0.1)
-    link = OrionLink(CallNow(), client, ROBOTS, options, attributes, batches.append)  # type: ignore[arg-type]
-    link.open()
+    options = LinkOptions("ROBOT", ROBOTS, poll_interval=0.02, backoff_start=0.02, backoff_cap=0.1)
+    link = OrionManagerLink(CallNow(), client, options, attributes, batches.append)  # type: ignore[arg-type]
+    link.start(CallNow.speed, strict=True)
     return link
 
 
-def read_again(link: OrionLink, reads: int = 2) -> None:
+def read_again(link: OrionManagerLink, reads: int = 2) -> None:
     """Return once ``reads`` more reads have begun (and the one before them ended): what Orion held when
     this was called has been read at least once, and handed on if it was to be."""
     client = link.client
@@ -322,10 +335,11 @@ def test_a_notification_entity_with_an_id_that_is_no_string_is_skipped_not_raise
     """SPEC §7: a notification is outside input. An entity whose id is a list (unhashable) raised TypeError
     in the membership test, the listener answered 500 and the batch's other robots were lost too."""
     batches: list[list[Outbound]] = []
-    options = ManageOptions("ROBOT", "http://127.0.0.1:9/notify")
-    link = OrionLink(CallNow(), OrionClient("http://127.0.0.1:9"), ROBOTS, options, None, batches.append)  # type: ignore[arg-type]
+    options = LinkOptions("ROBOT", ROBOTS, "http://127.0.0.1:9/notify")
+    link = OrionManagerLink(CallNow(), OrionClient("http://127.0.0.1:9"), options, None, batches.append)  # type: ignore[arg-type]
+    link._ours["s"] = link.subscriptions[0]  # as if subscribed
     status = encode_attribute("ran_status", RanStatus(state="WAITING"))
-    link._on_notification(None, [{"id": ["robot_1"], "type": "ROBOT", "ran_status": status},  # type: ignore[arg-type]
+    link._on_notification("s", [{"id": ["robot_1"], "type": "ROBOT", "ran_status": status},
                                  {"id": {"a": 1}, "type": "ROBOT", "ran_status": status},
                                  {"id": "robot_2", "type": "ROBOT", "ran_status": status}])
     assert [updates(b) for b in batches] == [{("robot_2", "ran_status", RanStatus(state="WAITING"))}]
@@ -347,9 +361,9 @@ def test_the_manager_is_told_of_each_forced_description_write_and_of_no_unchange
     url = broker.url
     put(url, "robot_1", robot_description=desc, ran_status=RanStatus(state="WAITING"))
     batches: list[list[Outbound]] = []
-    options = ManageOptions("ROBOT", f"http://127.0.0.1:{free_port()}/notify")
-    link = OrionLink(CallNow(), OrionClient(url), ROBOTS, options, None, batches.append)  # type: ignore[arg-type]
-    link.open()
+    options = LinkOptions("ROBOT", ROBOTS, f"http://127.0.0.1:{free_port()}/notify")
+    link = OrionManagerLink(CallNow(), OrionClient(url), options, None, batches.append)  # type: ignore[arg-type]
+    link.start(CallNow.speed, strict=True)
     forced = {"actionType": "append", "entities": [
         {"id": "robot_1", "type": "ROBOT", "robot_description": encode_attribute("robot_description", desc)}]}
 

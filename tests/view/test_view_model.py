@@ -27,6 +27,8 @@ from vcran.view.pack import packed, payload
 from vcran.view.parts import productions
 from vcran.view.poses import Poses
 
+pytestmark = pytest.mark.slow  # every bundled scenario and a generated fleet run once for the module
+
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):

@@ -1,11 +1,16 @@
-"""The outbound side of live mode: the fleet's changes to Orion, one batch update per tick (SPEC §7).
+"""The outbound side of the link: what the outbox holds, to Orion, as batch updates (SPEC §7).
 
-At every telemetry tick the sender takes the :class:`Outbox` and writes it with ``POST /v2/op/update``:
-one entity element per robot (its ``current_motion`` and changed state, with its oldest waiting
-``ran_error``), then one more element of the same entity per further ``ran_error`` of that tick. Orion
-applies the elements of a batch one after the other, as separate updates of the entity, so every error is
-delivered, in order, in the one request of the tick (more requests only when a body would pass Orion's
-1 MB limit).
+The sender takes the :class:`Outbox` when it is told to (a telemetry tick of the fleet; a fleet manager's
+write) and writes it with ``POST /v2/op/update``, in one request (more only when a body would pass Orion's
+1 MB limit). Each robot's values go in its entity elements in write order, and an element holds one value
+per attribute in the order the reading side takes an entity's attributes (:data:`ORDER`: the RAN reads
+motion, action, cancel; a fleet manager's handle sees ``current_motion`` before the rest). A value that
+cannot keep that order in a robot's current element starts the robot's next one, after every robot's
+current one. Orion applies the elements of a batch one after the other, as separate updates of the entity,
+so every queued value (each ``ran_error``; each command a fleet manager writes) is delivered, in order, in
+the one request: the fleet's tick is one element per robot (its ``current_motion``, its changed state and
+its oldest waiting ``ran_error``), then one element per further ``ran_error``; a task of several motions
+is several elements of its robot.
 
 ``robot_description`` (:data:`~vcran.core.messages.FORCED_UPDATES`) goes in a request of its own, after
 the tick's, with ``options=forcedUpdate``: its value never changes, and Orion notifies only changes, so
@@ -14,13 +19,13 @@ option forces every attribute of its request, hence the separate request: nothin
 unchanged. It costs one more request per ``description_period`` (every robot's description in it).
 
 When a request fails the sender stops there, gives back what Orion did not take and waits before the
-next attempt (ticks meanwhile are coalesced into the outbox, so nothing queues up but the latest state
-and the errors):
+next attempt (ticks and writes meanwhile are coalesced into the outbox, so nothing queues up but the
+latest state and the queued values):
 
 * Orion unreachable, too slow, 5xx, or 429: nothing is lost; the delay doubles from ``backoff_start`` to
   ``backoff_cap`` and is never shorter than a ``Retry-After`` (at most 60 s);
 * any other 4xx refuses the request, not an outage. 400, 413 and 422 refuse its content: the state values
-  of the refused body are dropped (the next tick carries fresh ones) and its ``ran_error``s are retried
+  of the refused body are dropped (the next tick carries fresh ones) and its queued values are retried
   once more, then reported undeliverable; any other 4xx (401 expired token, 403, 404 unknown tenant)
   says nothing about the content, so everything is kept, and retried with the same backoff. Either way
   each distinct cause is logged once, and nothing is resent in a loop.
@@ -33,67 +38,70 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from time import monotonic
 
 from transports.orion.client import OrionClient, OrionError, OrionRejected
 from transports.orion.health import Backoff, Health
-from transports.orion.outbox import Batch, Outbox, PendingError
+from transports.orion.outbox import Batch, Outbox, Queued, Value
 from vcran.core.build import motion_message
-from vcran.core.messages import FORCED_UPDATES, Message, Time
+from vcran.core.messages import FORCED_UPDATES, INBOUND, Time
 from vcran.core.wire import Frame
 
 log = logging.getLogger("vcran.orion")
 
-#: Order of attributes inside one entity of a batch update: every attribute the RAN publishes (battery
-#: too, SPEC §4; a fleet manager reads it from Orion, §9), the one ``ran_error`` of the element last.
-ATTRIBUTE_ORDER = ("current_motion", "assignment_state", "ran_status", "robot_description", "battery_state", "ran_error")
+#: The order of the fleet's state in an entity (every attribute the RAN publishes: battery too, SPEC §4;
+#: a fleet manager reads it from Orion, §9), then the queued values.
+STATE_ORDER = ("current_motion", "assignment_state", "ran_status", "robot_description", "battery_state")
+ORDER = {name: k for k, name in enumerate((*STATE_ORDER, "ran_error", *INBOUND))}
 #: Orion's answers that refuse a request's content (NGSI v2 BadRequest, RequestEntityTooLarge,
 #: Unprocessable): sending the same content again cannot help.
 CONTENT_REFUSALS = frozenset({400, 413, 422})
-#: A ran_error in this many content refusals is reported undeliverable instead of being sent again.
+#: A queued value in this many content refusals is reported undeliverable instead of being sent again.
 MAX_REFUSALS = 2
 
 
 @dataclass
 class Counts:
-    """What the sender did: requests tried and taken, and the fate of every ``ran_error``."""
+    """What the sender did: requests tried and taken, and the fate of every queued value."""
 
     attempts: int = 0
     accepted: int = 0
     refused: int = 0  # a 4xx
     failed: int = 0  # unreachable, timeout, 5xx
-    errors_delivered: int = 0
-    errors_undeliverable: int = 0
+    delivered: int = 0
+    undeliverable: int = 0
 
 
 @dataclass(eq=False)
 class Element:
-    """One entity element of a batch update and what it carries: ``state`` (without current_motion,
-    which comes from the frame) goes back to the outbox if Orion does not take it, and so does ``error``."""
+    """One entity element of a batch update and what it carries: ``state`` (the fleet's, without
+    current_motion, which comes from the frame) goes back to the outbox if Orion does not take it, and so
+    do the ``queued`` values."""
 
     robot: str
-    data: bytes
-    state: dict[str, Message] = field(default_factory=dict)
-    error: PendingError | None = None
+    attrs: dict[str, Value] = field(default_factory=dict)
+    state: dict[str, Value] = field(default_factory=dict)
+    queued: list[Queued] = field(default_factory=list)
     forced: bool = False  # written with options=forcedUpdate (FORCED_UPDATES), in a request of its own
+    data: bytes = b""
 
 
 class Sender:
     def __init__(self, client: OrionClient, outbox: Outbox, entity_type: str, robots: tuple[str, ...],
-                 backoff: Backoff) -> None:
+                 backoff: Backoff, health: Health | None = None, noun: str = "ran_error") -> None:
         self.client, self.outbox = client, outbox
         self.entity_type, self.robots = entity_type, robots
         self.backoff = backoff
-        self.health = Health("outbound")
+        self.health = Health("outbound") if health is None else health
+        self.noun = noun  # what the queued values are, in log lines
         self.counts = Counts()
         self._tick = threading.Event()
         self._wake = threading.Event()
         self._reported_drops = 0
 
     def tick(self) -> None:
-        """A telemetry tick: send what the outbox holds (unless backing off)."""
+        """Something to send: send what the outbox holds (unless backing off)."""
         self._tick.set()
 
     def wake(self) -> None:
@@ -122,12 +130,13 @@ class Sender:
         self._tick.set()
 
     def finish(self) -> None:
-        """A last attempt at closing; whatever ``ran_error`` is still waiting is reported undeliverable."""
+        """A last attempt at closing; whatever queued value is still waiting is reported undeliverable."""
         if self.deliver() is not None:
-            left = self.outbox.take().errors
+            left = self.outbox.take().queued
+            self.outbox.settle()
             if left:
-                self.counts.errors_undeliverable += len(left)
-                log.warning("outbound: %d ran_error(s) not delivered: %s", len(left), self.health.fault)
+                self.counts.undeliverable += len(left)
+                log.warning("%s: %d %s(s) not delivered: %s", self.health.what, len(left), self.noun, self.health.fault)
         self._report_drops()
 
     def deliver(self) -> float | None:
@@ -136,121 +145,139 @@ class Sender:
         from vcran.core.codec import split_batch_counted
 
         batch = self.outbox.take()
-        self._report_drops()
-        if not batch:
-            return None
-        elements = list(self._elements(batch))  # the tick's elements, then the forced ones
-        frame = batch.frame
-        done = 0
-        for forced in (False, True):
-            group = [e for e in elements if e.forced is forced]
-            for body, count in split_batch_counted(e.data for e in group):
-                self.counts.attempts += 1
-                try:
-                    self.client.update(body, forced=forced)
-                except OrionError as exc:
-                    return self._failed(exc, frame, elements[done:done + count], elements[done + count:])
-                self.counts.accepted += 1
-                self.counts.errors_delivered += sum(1 for e in elements[done:done + count] if e.error is not None)
-                done += count
-            frame = None  # delivered with the tick's request(s)
+        try:
+            self._report_drops()
+            if not batch:
+                return None
+            elements = [e for e in self._elements(batch) if self._encoded(e)]  # the tick's, then the forced
+            frame = batch.frame
+            done = 0
+            for forced in (False, True):
+                group = [e for e in elements if e.forced is forced]
+                for body, count in split_batch_counted(e.data for e in group):
+                    self.counts.attempts += 1
+                    try:
+                        self.client.update(body, forced=forced)
+                    except OrionError as exc:
+                        return self._failed(exc, frame, elements[done:done + count], elements[done + count:])
+                    self.counts.accepted += 1
+                    self.counts.delivered += sum(len(e.queued) for e in elements[done:done + count])
+                    done += count
+                frame = None  # delivered with the tick's request(s)
+        finally:
+            self.outbox.settle()
         self.backoff.reset()
-        if self.health.ok("delivered the fleet's latest state"):
+        if self.health.ok("delivered the latest state"):
             self.wake()  # Orion may have come back empty: restore everything, not only the changes
         return None
 
     def _failed(self, exc: OrionError, frame: Frame | None, refused: list[Element], later: list[Element]) -> float:
         content = isinstance(exc, OrionRejected) and exc.status in CONTENT_REFUSALS
         back = Batch(frame=frame)
-        lost: list[PendingError] = []
+        lost: list[Queued] = []
         for element in refused if content else ():
             # State Orion refused as invalid is not sent again (the next tick has fresh state); its
-            # errors get one more chance, in case another element of the body was the invalid one.
-            if element.error is not None:
-                element.error.refusals += 1
-                (lost if element.error.refusals >= MAX_REFUSALS else back.errors).append(element.error)
+            # queued values get one more chance, in case another element of the body was the invalid one.
+            for item in element.queued:
+                item.refusals += 1
+                (lost if item.refusals >= MAX_REFUSALS else back.queued).append(item)
         for element in later if content else refused + later:
-            error = element.error
             if element.state:
                 back.state.setdefault(element.robot, {}).update(element.state)
-            if error is not None:
-                back.errors.append(error)
+            back.queued += element.queued
         self.outbox.give_back(back)
         if isinstance(exc, OrionRejected):
             self.counts.refused += 1
-            what = ("its state values dropped, its ran_errors retried once" if content else
+            what = (f"its state values dropped, its {self.noun}s retried once" if content else
                     "everything kept") + ", retrying with backoff"
             self.health.failed(f"Orion refused a batch update ({exc}); {what}", f"{exc.status} {exc.error}")
         else:
             self.counts.failed += 1
             self.health.failed(f"{exc}; retrying with backoff")
         if lost:
-            self.counts.errors_undeliverable += len(lost)
-            log.warning("outbound: %d ran_error(s) refused %d times by Orion, not sent again: %s",
-                        len(lost), MAX_REFUSALS, exc)
+            self.counts.undeliverable += len(lost)
+            log.warning("%s: %d %s(s) refused %d times by Orion, not sent again: %s",
+                        self.health.what, len(lost), self.noun, MAX_REFUSALS, exc)
         return self.backoff.next(exc.retry_after)
 
     def _report_drops(self) -> None:
-        dropped = self.outbox.errors_dropped
+        dropped = self.outbox.dropped
         if dropped > self._reported_drops:
-            self.counts.errors_undeliverable += dropped - self._reported_drops
-            log.warning("outbound: %d ran_error(s) dropped, more were waiting than the outbox keeps",
-                        dropped - self._reported_drops)
+            self.counts.undeliverable += dropped - self._reported_drops
+            log.warning("%s: %d %s(s) dropped, more were waiting than the outbox keeps", self.health.what,
+                        dropped - self._reported_drops, self.noun)
             self._reported_drops = dropped
 
     # --- encoding ---------------------------------------------------------------------------------------
 
-    def _elements(self, batch: Batch) -> Iterator[Element]:
-        """The entity elements of a batch, in fleet order, then each robot's further errors in order, then
-        the forced attributes (FORCED_UPDATES) of each robot, for a request of their own."""
+    def _elements(self, batch: Batch) -> list[Element]:
+        """The entity elements of a batch, in rounds (module docstring): every robot's state in fleet
+        order, then the queued values in order; then the forced attributes (FORCED_UPDATES) of each robot,
+        for a request of their own."""
+        rounds: list[dict[str, Element]] = []
+        current: dict[str, int] = {}  # each robot's current round
+
+        def place(robot: str, attribute: str, value: Value) -> Element:
+            k = current.get(robot, 0)
+            while True:
+                if k == len(rounds):
+                    rounds.append({})
+                element = rounds[k].setdefault(robot, Element(robot))
+                if attribute not in element.attrs and all(ORDER[a] < ORDER[attribute] for a in element.attrs):
+                    break
+                k += 1
+            current[robot] = k
+            element.attrs[attribute] = value
+            return element
+
         motions = {}
         if batch.frame is not None:
             stamp = Time.from_seconds(batch.frame.t)
             for robot, (x, y, theta, v, w) in zip(batch.frame.robots, batch.frame.columns.tolist(), strict=True):
                 motions[robot] = motion_message(stamp, x, y, theta, v, w)
-        errors: dict[str, list[PendingError]] = {}
-        for error in batch.errors:
-            errors.setdefault(error.robot, []).append(error)
-        forced: list[tuple[str, dict[str, Message]]] = []
+        forced: list[Element] = []
         for robot in self.robots:
+            if robot in motions:
+                place(robot, "current_motion", motions[robot])
             pending = batch.state.get(robot, {})
-            state = {name: pending[name] for name in ATTRIBUTE_ORDER[1:-1]
-                     if name in pending and name not in FORCED_UPDATES}
-            if any(name in pending for name in FORCED_UPDATES):
-                forced.append((robot, {name: pending[name] for name in ATTRIBUTE_ORDER if name in FORCED_UPDATES
-                                       and name in pending}))
-            queue = errors.get(robot, [])
-            first = queue.pop(0) if queue else None
-            attrs = ({"current_motion": motions[robot]} if robot in motions else {}) | state
-            if first is not None:
-                attrs["ran_error"] = first.message
-            if attrs:
-                yield from self._encoded(Element(robot, b"", state, first), attrs)
-        for robot in self.robots:  # fleet order; each robot's errors oldest first
-            for error in errors.get(robot, []):
-                yield from self._encoded(Element(robot, b"", {}, error), {"ran_error": error.message})
-        for robot, state in forced:
-            yield from self._encoded(Element(robot, b"", state, forced=True), dict(state))
+            for name in STATE_ORDER:
+                if name not in pending:
+                    continue
+                if name in FORCED_UPDATES:
+                    if not forced or forced[-1].robot != robot:
+                        forced.append(Element(robot, forced=True))
+                    element = forced[-1]
+                    element.attrs[name] = pending[name]
+                else:
+                    element = place(robot, name, pending[name])
+                element.state[name] = pending[name]
+        for item in batch.queued:  # each robot's oldest first
+            place(item.robot, item.attribute, item.value).queued.append(item)
+        return [e for elements in rounds for e in elements.values()] + forced
 
-    def _encoded(self, element: Element, attrs: dict[str, Message]) -> Iterator[Element]:
-        from vcran.core.codec import CodecError, encode_entity_json
+    def _encoded(self, element: Element) -> bool:
+        """Encode the element (``data``); an attribute that cannot be encoded is dropped with its queued
+        value, which is counted undeliverable. False: nothing of it can be sent."""
+        from vcran.core.codec import CodecError, encode_attribute_json, encode_entity_json
         from vcran.core.orion_rules import MAX_REQUEST_BYTES
 
+        attrs = element.attrs
         while attrs:
             try:
-                data = encode_entity_json(element.robot, self.entity_type, attrs)
+                head = encode_entity_json(element.robot, self.entity_type, {})[:-1]
+                element.data = head + "".join(
+                    f',"{name}":{value if isinstance(value, str) else encode_attribute_json(name, value)}'
+                    for name, value in attrs.items()).encode() + b"}"
             except CodecError as exc:  # a bug, not Orion's fault: drop the attribute, keep the rest
                 log.error("cannot encode %s of %s, dropped: %s", exc.attribute or "an attribute", element.robot, exc)
                 attrs = {k: v for k, v in attrs.items() if k != exc.attribute} if exc.attribute in attrs else {}
                 continue
-            if len(data) > MAX_REQUEST_BYTES - 64:
-                log.error("%s encodes to %d bytes, over Orion's request limit: not sent", element.robot, len(data))
-                break
-            if element.error is not None and "ran_error" not in attrs:
-                self.counts.errors_undeliverable += 1  # its encoding failed: said above, not lost silently
-                element.error = None
-            element.data = data
-            yield element
-            return
-        if element.error is not None:  # never sent: say so rather than lose it silently
-            self.counts.errors_undeliverable += 1
+            if len(element.data) > MAX_REQUEST_BYTES - 64:
+                log.error("%s encodes to %d bytes, over Orion's request limit: not sent", element.robot, len(element.data))
+                attrs = {}
+            break
+        sent = [item for item in element.queued if item.attribute in attrs]
+        self.counts.undeliverable += len(element.queued) - len(sent)  # said above, not lost silently
+        element.queued = sent
+        element.state = {k: v for k, v in element.state.items() if k in attrs}
+        return bool(attrs)

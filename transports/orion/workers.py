@@ -1,8 +1,8 @@
 """The loops of live mode's worker threads: reading Orion at a period, and a worker that outlives a bug.
 
-Shared by ``vcran live`` (:mod:`transports.orion.transport` polls the fleet's commands) and ``vcran
-manage`` (:mod:`transports.orion.manage` polls the robots' updates), so both pace their reads and ride
-out an Orion that is down the same way (SPEC §7; docs/live.md, "Faults").
+The threads of the Orion link (:mod:`transports.orion.link`), which ``vcran live`` and ``vcran manage``
+share, so both pace their reads and ride out an Orion that is down the same way (SPEC §7; docs/live.md,
+"Faults").
 """
 
 from __future__ import annotations

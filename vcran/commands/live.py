@@ -38,7 +38,8 @@ def run(args: argparse.Namespace) -> int:
     from collections import Counter
     from dataclasses import replace
 
-    from transports.orion.transport import LiveOptions, OrionTransport
+    from transports.orion.link import LinkOptions
+    from transports.orion.transport import OrionTransport
     from vcran.io.progress import LiveStatus, StatusLine
     from vcran.runner import run_to
     from vcran.sim.live import LiveEnvironment
@@ -54,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
     env = LiveEnvironment(speed=args.factor)
-    options = LiveOptions(
+    options = LinkOptions(
         entity_type=scenario.settings.entity_type, robots=tuple(r.id for r in scenario.robots),
         notify_url=args.notify_url, listen_host=args.listen, poll_interval=args.poll_interval,
     )

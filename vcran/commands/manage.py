@@ -7,7 +7,7 @@ the scenario's duration has passed, on Ctrl-C, or, with the scenario's ``until_i
 come or open, no timer is pending and every write has reached Orion. The manager learns of the robots'
 updates from a subscription (``--notify-url``: Orion must be able to reach vcran there) or, by default,
 by polling Orion every ``--poll-interval`` simulated seconds. docs/live.md ("A fleet manager, live")
-describes the wiring; :mod:`transports.orion.manage` the link.
+describes the wiring; :mod:`transports.orion.manage` and :mod:`transports.orion.link` the link.
 """
 
 from __future__ import annotations
@@ -53,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
     from itertools import islice
 
     from transports.orion.client import OrionError
-    from transports.orion.manage import ManageOptions, OrionLink, OrionLoop
+    from transports.orion.link import LinkOptions
+    from transports.orion.manage import OrionLoop, OrionManagerLink
     from vcran.api import ManagerError, build_manager
     from vcran.io.runfolder import RunFolderError
     from vcran.io.sinks import FolderSinks, MemorySinks, Sinks
@@ -102,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
             view.close()
         raise
     env = LiveEnvironment(speed=args.factor)
-    options = ManageOptions(scenario.settings.entity_type, args.notify_url, listen_host=listen,
+    options = LinkOptions(scenario.settings.entity_type, notify_url=args.notify_url, listen_host=listen,
                             poll_interval=poll_interval)
     loop = OrionLoop(scenario, manager, sinks.events.write, client, options)
     try:
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
         env.timeout(scenario.settings.duration).callbacks.append(finish)
     mode = f"polling every {poll_interval:g} s" if polling else f"subscription to {args.notify_url}"
     link = loop.link
-    assert isinstance(link, OrionLink)
+    assert isinstance(link, OrionManagerLink)
     # SIGINT or SIGTERM: the normal end of the run (exit 0), as its duration's; a second one stops it at once
     try:
         with StopSignals(lambda: env.call_from_signal(finish)):
@@ -158,6 +159,6 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:  # what reached the manager: notifications, or the reads of Orion when polling
         inbound = f"{link.reads} read(s)" if polling else f"{link.notifications} notification(s)"
         print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "
-              f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.requests} "
+              f"{jobs['failed']} failed, {jobs['open']} open; {link.writes} write(s) in {link.updates} "
               f"request(s), {inbound}")
     return 0

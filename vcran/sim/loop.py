@@ -91,9 +91,9 @@ class Loop(Transport):
         raise NotImplementedError
 
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> ManagerLink:
-        """The link between manager and robots, in simulated time. ``vcran manage`` puts a real Orion here
-        (:class:`transports.orion.manage.OrionLink`): anything with :meth:`Link.write`, ``inbound_idle`` and
-        ``outbound_idle`` that calls :meth:`notified` with what reaches the manager."""
+        """The link between manager and robots, in simulated time. ``vcran manage`` puts a real Orion
+        here (:class:`transports.orion.manage.OrionManagerLink`): anything with :meth:`Link.write`,
+        ``inbound_idle`` and ``outbound_idle`` that calls :meth:`notified` with what reaches the manager."""
         return Link(env, self.fleet.robot_ids, self.scenario.link, random.Random(f"link:{self.scenario.settings.seed}"),
                     deliver, self.notified, periodic=self.periodic, every=self.every)
 

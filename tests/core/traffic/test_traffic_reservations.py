@@ -142,6 +142,7 @@ def check(plan: Reservations) -> None:
         assert any(plan.held(name)[1:] for name in on_route), f"nobody moves: {on_route}, waits {waits}"
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(worlds())
 def test_no_node_held_twice_no_cyclic_wait_every_route_finishes(world: tuple[Roadmap, list[str], list]) -> None:

@@ -4,9 +4,10 @@ its acceptance rules (vcran.testing.vda5050.model), and its invariants after eve
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import settings
 
 from vcran.testing.vda5050.stateful import VehicleMachine
 
-TestVehicleAgainstModel = VehicleMachine.TestCase
+TestVehicleAgainstModel = pytest.mark.slow(VehicleMachine.TestCase)
 TestVehicleAgainstModel.settings = settings(max_examples=60, stateful_step_count=40)
