@@ -20,6 +20,8 @@ walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in order
   the job a try: the same vehicle tries again from where it stands (a pick that found nothing, in place)
   after ``retry_after`` seconds, doubled for each further try. After ``max_tries`` the job is failed with the
   reason. A vehicle with a FATAL error gets no order until the error has cleared.
+* Orders travel at QoS 0 (§6.2): one that a vehicle's state shows neither taken nor refused ``resend_after``
+  seconds after it went out is sent again.
 * Charging: a vehicle without a job whose battery is below ``charge_below`` (a fraction) goes to the
   nearest charger and ``startCharging`` there; at ``charge_until`` it is sent ``stopCharging`` (a vehicle
   that is full stops by itself) and works again.
@@ -81,16 +83,17 @@ class MasterControl(Master):
     topics = frozenset({"state"})
 
     def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3,
-                 charge_until: float = 1.0, routing: str = "roadmap") -> None:
+                 charge_until: float = 1.0, routing: str = "roadmap", resend_after: float = 5.0) -> None:
         if max_tries < 1:
             raise ValueError(f"max_tries must be at least 1, got {max_tries}")
-        if not (retry_after >= 0 and math.isfinite(retry_after)):
-            raise ValueError(f"retry_after must be a finite number of seconds >= 0, got {retry_after}")
+        for name, value in (("retry_after", retry_after), ("resend_after", resend_after)):
+            if not (value >= 0 and math.isfinite(value)) or (name == "resend_after" and value == 0):
+                raise ValueError(f"{name} must be a finite number of seconds > 0, got {value}")
         if not 0.0 <= charge_below < charge_until <= 1.0:
             raise ValueError(f"0 <= charge_below < charge_until <= 1 (fractions), got {charge_below}, {charge_until}")
         if routing not in ("roadmap", "straight"):
             raise ValueError(f"routing is 'roadmap' or 'straight', got {routing!r}")
-        self.max_tries, self.retry_after = max_tries, retry_after
+        self.max_tries, self.retry_after, self.resend_after = max_tries, retry_after, resend_after
         self.charge_below, self.charge_until, self.routing = charge_below, charge_until, routing
 
     def on_start(self) -> None:
@@ -341,6 +344,7 @@ class MasterControl(Master):
         actions = self.actions(errand) if stops[-1].node_id == errand.goal else ()
         order = self.handle.extend(serial, stops[1:], base=len(move.nodes), actions=actions)
         errand.ahead = [(n.node_id, n.sequence_id) for n in order.nodes[1:] if n.released]
+        self.handle.call_later(self.resend_after, self.arrived, serial, order.order_id, order.order_update_id)
 
     def send(self, serial: str, errand: Errand, stops: list[Stop], base: int | None) -> None:
         """The errand's order along ``stops``, its action at the end if that is the goal."""
@@ -349,6 +353,20 @@ class MasterControl(Master):
         order = self.handle.order(serial, stops, base=base, actions=actions, order_id=errand.order_id,
                                   job=trip.job if trip is not None else None)
         errand.ahead = [(n.node_id, n.sequence_id) for n in order.nodes[1:] if n.released]
+        self.handle.call_later(self.resend_after, self.arrived, serial, order.order_id, order.order_update_id)
+
+    def arrived(self, serial: str, order_id: str, update_id: int) -> None:
+        """``resend_after`` seconds after an order (update) went out: if it is still the vehicle's latest and
+        its state shows it neither taken nor refused, it was lost (QoS 0, §6.2): again, and check again."""
+        line, state, errand = self.handle.line(serial), self.handle.state(serial), self.errands.get(serial)
+        if (line.order_id, line.order_update_id) != (order_id, update_id) or errand is None \
+                or errand.order_id != order_id:
+            return
+        if state is not None and ((state.order_id, state.order_update_id) == (order_id, update_id)
+                                  or _refused(state, order_id, update_id)):
+            return
+        self.handle.resend(serial)
+        self.handle.call_later(self.resend_after, self.arrived, serial, order_id, update_id)
 
     def actions(self, errand: Errand) -> list[Action]:
         if errand.action_id is None:

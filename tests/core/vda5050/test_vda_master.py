@@ -181,6 +181,20 @@ def test_header_ids_count_per_topic_and_vehicle_and_timestamps_are_simulated_tim
         ("startPause", "startPause_1", "NONE")]
 
 
+def test_resend_sends_the_last_order_again_with_a_new_header() -> None:
+    """QoS 0 (§6.2): a lost order goes again as it was, the same orderId and orderUpdateId (a vehicle that
+    had it discards the copy, §6.6.4.3), under the next headerId."""
+    handle = Handle(MasterFleet.of(line()))
+    with pytest.raises(ValueError, match="was sent no order"):
+        handle.resend("agv1")
+    handle.order("agv1", ["p", "w", "d"], base=2)
+    update = handle.extend("agv1", ["d"])
+    again = handle.resend("agv1")
+    assert (again.order_id, again.order_update_id, again.nodes, again.edges) == (
+        update.order_id, update.order_update_id, update.nodes, update.edges)
+    assert [m.header.header_id for _, _, m in handle.sent] == [0, 1, 2]
+
+
 def test_an_order_for_a_job_is_recorded_as_its_work() -> None:
     """SPEC §9: the job book records the order sent for a job (``job_assigned``, the order as its task)."""
     events: list[dict[str, Any]] = []

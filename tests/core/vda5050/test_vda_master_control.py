@@ -18,7 +18,7 @@ import pytest
 
 from vcran.core.scenario import Scenario
 from vcran.core.vda5050.config import PREDEFINED, VehicleConfig
-from vcran.core.vda5050.enums import BlockingType
+from vcran.core.vda5050.enums import BlockingType, Topic
 from vcran.io.scenario_file import parse
 from vcran.managers.vda5050 import MasterControl
 from vcran.testing.vda5050.yard import Yard
@@ -216,8 +216,42 @@ def test_charging_stops_at_charge_until() -> None:
     assert seen(yard, "OrderAccepted")[-1] == (68.3, "OrderAccepted", "park2_agv1")
 
 
+def test_a_lost_order_is_sent_again() -> None:
+    """Orders travel at QoS 0 (§6.2). The link loses the first: 5 s later (resend_after) the vehicle's state
+    still shows no order, so it goes again (6.0, reaching the vehicle at 6.05) and everything of the first
+    test happens 5 s later: the job is done at 32.30. A copy that arrives after all is discarded (§6.6.4.3)."""
+    lost: list[Topic] = []
+
+    def lose_first_order(serial: str, topic: Topic) -> bool:
+        if topic is Topic.ORDER and not lost:
+            lost.append(topic)
+            return True
+        return False
+
+    yard = Yard(line(), MasterControl(resend_after=5.0), lose=lose_first_order)
+    yard.run(60.0)
+    assert seen(yard, "job_assigned", "OrderAccepted", "job_completed")[:3] == [
+        (1.0, "job_assigned", "job_1_pick1"), (6.05, "OrderAccepted", "job_1_pick1"),
+        (11.1, "job_assigned", "job_1_drop1")]
+    assert seen(yard, "job_completed") == [(32.3, "job_completed", "job_1")]
+
+
+def test_lost_states_do_not_lose_the_job() -> None:
+    """State messages travel at QoS 0 too: with every other one lost, the master still learns each outcome
+    from the next state (each state carries all of it), the periodic one at the latest (§6.10: 30 s)."""
+    count = [0]
+
+    def every_other_state(serial: str, topic: Topic) -> bool:
+        count[0] += topic is Topic.STATE
+        return topic is Topic.STATE and count[0] % 2 == 0
+
+    yard = Yard(line(), MasterControl(), lose=every_other_state)
+    yard.run(200.0)
+    assert [r.outcome for r in yard.jobs.records()] == ["completed"]
+
+
 @pytest.mark.parametrize(("options", "message"), [
-    ({"max_tries": 0}, "max_tries"), ({"retry_after": -1.0}, "retry_after"),
+    ({"max_tries": 0}, "max_tries"), ({"retry_after": -1.0}, "retry_after"), ({"resend_after": 0.0}, "resend_after"),
     ({"charge_below": 0.5, "charge_until": 0.4}, "charge_below < charge_until"), ({"routing": "astar"}, "routing"),
 ])
 def test_bad_options_are_refused_with_a_clear_message(options: dict[str, Any], message: str) -> None:

@@ -55,6 +55,8 @@ class OrderLine:
         #: The last released node sent, and its sequenceId: the next update's first node.
         self.decision: Stop | None = None
         self.decision_sequence = 0
+        #: The last order or update built, to send again if it was lost (QoS 0, §6.2).
+        self.last: Order | None = None
 
     def new(self, header: Header, order_id: str, route: Sequence[Stop], base: int | None = None) -> Order:
         """A new order along ``route`` (its first stop is where the vehicle stands), the first ``base``
@@ -93,7 +95,8 @@ class OrderLine:
                  start_node_id=a.node_id, end_node_id=b.node_id, max_speed=b.max_speed)
             for i, (a, b) in enumerate(zip(route, route[1:])))
         self.decision, self.decision_sequence = route[released - 1], first + 2 * (released - 1)
-        return Order(header=header, order_id=order_id, order_update_id=update_id, nodes=nodes, edges=edges)
+        self.last = Order(header=header, order_id=order_id, order_update_id=update_id, nodes=nodes, edges=edges)
+        return self.last
 
 
 def _released(base: int | None, n: int, least: int) -> int:

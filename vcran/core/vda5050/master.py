@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from vcran.core.vda5050.builder import OrderLine, Stop, action
@@ -133,6 +134,16 @@ class MasterHandle:
         its first ``base`` nodes released (None: all), the rest the new horizon (§6.6.2)."""
         line = self._lines[self._serial(serial)]
         order = line.update(self._header(serial, Topic.ORDER), self._stops(route, actions), base)
+        self._publish(serial, Topic.ORDER, order)
+        return order
+
+    def resend(self, serial: str) -> Order:
+        """Send ``serial``'s last order (or update) again, with a new header: orders travel at QoS 0 (§6.2), and
+        a vehicle that had it already discards the copy and publishes its state (§6.6.4.3)."""
+        line = self._lines[self._serial(serial)]
+        if line.last is None:
+            raise ValueError(f"resend: {serial} was sent no order")
+        order = replace(line.last, header=self._header(serial, Topic.ORDER))
         self._publish(serial, Topic.ORDER, order)
         return order
 

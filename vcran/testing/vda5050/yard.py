@@ -14,7 +14,8 @@ pure :class:`~vcran.core.vda5050.vehicle.Vehicle` with a plain body:
 - its battery (the robot's ``[robots.battery]``) drains ``per_metre`` with each leg driven, and the
   vehicle is told when it crosses the ``low`` level.
 
-Master and vehicles talk over a link of fixed ``latency`` each way. What the master sends is encoded and
+Master and vehicles talk over a link of fixed ``latency`` each way, which loses the messages ``lose(serial,
+topic)`` says it does (MQTT's QoS 0, §6.2: any topic but ``connection``). What the master sends is encoded and
 decoded as on the wire (so its orders are validated against the official schema as a real vehicle would);
 what vehicles publish reaches the master as the models they built. Within an instant the order is the
 simulation's (vcran/sim/timing.py): messages reaching vehicles, completions, injected faults, messages
@@ -79,10 +80,11 @@ class Yard:
     """
 
     def __init__(self, scenario: Scenario, master: Master, *, latency: float = 0.05,
-                 configs: Sequence[VehicleConfig] | None = None) -> None:
+                 configs: Sequence[VehicleConfig] | None = None,
+                 lose: Callable[[str, Topic], bool] | None = None) -> None:
         if not latency > 0:
             raise ValueError(f"the link's latency must be positive, got {latency}")
-        self.scenario, self.master, self.latency = scenario, master, latency
+        self.scenario, self.master, self.latency, self.lose = scenario, master, latency, lose
         self.fleet = MasterFleet.of(scenario, configs)
         self.now = 0.0
         self.events: list[dict[str, Any]] = []
@@ -141,7 +143,8 @@ class Yard:
         self._next_job()
 
     def _to_master(self, serial: str, message: Heard) -> None:
-        self.call_at(self.now + self.latency, self._heard, serial, message, priority=UPDATE)
+        if self.lose is None or not self.lose(serial, topic_of(message)):
+            self.call_at(self.now + self.latency, self._heard, serial, message, priority=UPDATE)
 
     def _heard(self, serial: str, message: Heard) -> None:
         self.handle._heard(serial, message)
@@ -179,6 +182,8 @@ class _YardHandle(MasterHandle):
     def _publish(self, serial: str, topic: Topic, message: Order | InstantActions) -> None:
         body = self.yard.bodies[serial]
         raw = codec.encode(message, body.vehicle.config.version)
+        if self.yard.lose is not None and self.yard.lose(serial, topic):
+            return
         self.yard.call_at(self.now + self.yard.latency, body.receive, topic, raw, priority=INBOUND)
 
 
