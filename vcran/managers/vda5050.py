@@ -222,13 +222,16 @@ class MasterControl(Master):
 
     def errand_failed(self, serial: str, errand: Errand, reason: str) -> None:
         """A try lost: again after the back-off, or the job failed after ``max_tries``; a charge or a park
-        that failed leaves the vehicle idle (it charges, or parks, when next free)."""
+        that failed leaves the vehicle idle (it charges, or parks, when next free) once it holds no route."""
         del self.errands[serial]
         if self.reservations is not None and serial in self.reservations.pending():
             self.reservations.request(serial, self.reservations.held(serial)[0])  # withdrawn: it stays
         trip = self.trips.get(serial)
-        if trip is None:
-            self.idle_again(serial)
+        if trip is None:  # a charge or a park
+            if self.on_route(serial):
+                self.available(serial)  # to the end of the route it holds, first
+            else:
+                self.idle_again(serial)
             return
         trip.tries += 1
         if trip.tries >= self.max_tries:

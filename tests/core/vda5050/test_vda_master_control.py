@@ -10,6 +10,7 @@ master 0.05 s later; what the master sends in reply reaches the vehicle 0.05 s a
 
 from __future__ import annotations
 
+import random
 import tomllib
 from dataclasses import replace
 from typing import Any
@@ -296,19 +297,29 @@ def ladder(seed: int) -> Scenario:
 
 def occupied(yard: Yard, scenario: Scenario) -> list[tuple[str, float, float, frozenset[str]]]:
     """Each vehicle's nodes over time, from the legs it drove (not from the master): resting, the node it
-    stands on; on a leg, both ends."""
+    stands on; on a leg, both ends; stopped on the way (the next leg starts elsewhere than this one ends),
+    both ends until it drives on."""
     assert scenario.roadmap is not None
     node = {(n.x, n.y): n.id for n in scenario.roadmap.nodes}
     spans = []
     for r in scenario.robots:
-        here, since = node[(r.pose[0], r.pose[1])], 0.0
-        for serial, leg in yard.legs:
-            if serial == r.id:
-                spans += [(r.id, since, leg.t0, frozenset({here})),
-                          (r.id, leg.t0, leg.t_end, frozenset({node[(leg.x0, leg.y0)], node[(leg.x1, leg.y1)]}))]
-                here, since = node[(leg.x1, leg.y1)], leg.t_end
-        spans.append((r.id, since, yard.now, frozenset({here})))
+        driven = [leg for serial, leg in yard.legs if serial == r.id]
+        here, since = frozenset({node[(r.pose[0], r.pose[1])]}), 0.0
+        for i, leg in enumerate(driven):
+            start = node.get((leg.x0, leg.y0))
+            ends = (frozenset({start}) if start is not None else here) | {node[(leg.x1, leg.y1)]}
+            after = driven[i + 1] if i + 1 < len(driven) else None
+            cut = after is not None and (after.x0, after.y0) != (leg.x1, leg.y1)
+            until = after.t0 if after is not None and cut else leg.t_end
+            spans += [(r.id, since, leg.t0, here), (r.id, leg.t0, until, ends)]
+            here, since = (ends if cut else frozenset({node[(leg.x1, leg.y1)]})), until
+        spans.append((r.id, since, yard.now, here))
     return spans
+
+
+def shared(spans: list[tuple[str, float, float, frozenset[str]]]) -> list[tuple[str, str, float, list[str]]]:
+    return [(a[0], b[0], max(a[1], b[1]), sorted(a[3] & b[3])) for i, a in enumerate(spans) for b in spans[i + 1:]
+            if a[0] != b[0] and a[1] < b[2] and b[1] < a[2] and a[3] & b[3]]
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -320,7 +331,22 @@ def test_a_fleet_on_a_ladder_does_every_job_and_no_two_vehicles_ever_share_a_nod
     yard.run(3600.0)
     records = yard.jobs.records()
     assert len(records) > 40 and all(r.outcome == "completed" for r in records)
-    spans = occupied(yard, s)
-    shared = [(a[0], b[0], max(a[1], b[1]), sorted(a[3] & b[3])) for i, a in enumerate(spans) for b in spans[i + 1:]
-              if a[0] != b[0] and a[1] < b[2] and b[1] < a[2] and a[3] & b[3]]
-    assert shared == []
+    assert shared(occupied(yard, s)) == []
+
+
+def test_on_the_ladder_with_halts_and_a_lossy_link_every_job_still_completes() -> None:
+    """The same fleet with a link that loses three messages in ten (orders, instant actions and states alike;
+    QoS 0, §6.2) and six halts on the way (SPEC §4: motion failures and collisions give the order up): the
+    master resends what was lost, resumes what was given up, and still completes every job without two
+    vehicles on one node."""
+    rng = random.Random(7)
+    yard = Yard(s := ladder(1), MasterControl(), lose=lambda serial, topic: topic is not Topic.CONNECTION
+                and rng.random() < 0.3)
+    for t, serial, why in [(130.0, "r0", "motion_failed"), (260.5, "r1", "collision"), (400.0, "r2", "motion_failed"),
+                           (555.5, "r3", "collision"), (700.0, "r0", "collision"), (901.0, "r1", "motion_failed")]:
+        yard.call_at(t, yard.halt, serial, why)
+    yard.run(6000.0)
+    records = yard.jobs.records()
+    assert len(records) > 40 and all(r.outcome == "completed" for r in records)
+    assert sum(e["event"] == "OrderEnded" and e["how"] in ("motion_failed", "collision") for e in yard.events) >= 3
+    assert shared(occupied(yard, s)) == []
