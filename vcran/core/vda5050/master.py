@@ -23,6 +23,11 @@ What the loop that hosts a master provides (a subclass of :class:`MasterHandle`,
 - ``master._bind(fleet, handle)``, then ``on_start``; each job at its time (``handle._jobs.arrived`` first,
   then ``on_job``); each message that reaches the master: ``handle._heard(serial, message)``, then the hook
   :data:`HOOKS` names for its topic, if :meth:`Master.hears` it; timers as they fall due.
+
+The time-based helpers and job reports (``call_later``, ``job_done``, ``job_failed``) and ``_bind`` are
+OPIL's handle's, written again here because VDA 5050 may import nothing of OPIL's and ``vcran.core.manager``
+is still OPIL's: once issue 30 makes a shared manager and handle, :class:`Master` and :class:`MasterHandle`
+subclass them and keep only what is VDA 5050's.
 """
 
 from __future__ import annotations
