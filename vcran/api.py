@@ -21,9 +21,10 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 from transports.scripted import ScriptedTransport
 from vcran.core.motion import Leg
 from vcran.core.scenario import ManagerSpec, Scenario
+from vcran.core.validity import validate
 from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.io.runfolder import publish, staging
-from vcran.io.scenario_file import ScenarioError, load, parse
+from vcran.io.scenario_file import ScenarioError, load
 from vcran.io.trace import EVENTS_FILE, event_records, events_beside, long_table, telemetry_table, trace_in
 from vcran.runner import EventLog, run_model, trace_writer, write_summary
 from vcran.sim.model import Model
@@ -109,11 +110,12 @@ def simulate(scenario: str | Path | Scenario, *, manager: ManagerLike | None = N
 
     Raises :class:`vcran.ScenarioError` for a scenario that cannot run this way (jobs but no manager, a
     script and a manager, a closed loop without a duration) or that the loader would refuse: a
-    :class:`vcran.Scenario` made with ``dataclasses.replace`` is checked as its file would be (settings,
-    fleet, stations, faults, jobs, job stream, link and manager; script messages are checked as they are
-    built). :class:`ManagerError` for a manager that cannot be built, :class:`vcran.RunFolderError` for
-    an ``out`` that cannot receive a run (an existing folder that is not a run folder). An exception
-    raised by the manager itself ends the run and propagates, with a note saying which hook raised it and when.
+    :class:`vcran.Scenario` built in code or made with ``dataclasses.replace`` is checked by the rules a
+    file's reader applies (:func:`vcran.core.validity.validate`), told in the same words (script messages
+    are checked as they are built). :class:`ManagerError` for a manager that cannot be built,
+    :class:`vcran.RunFolderError` for an ``out`` that cannot receive a run (an existing folder that is not
+    a run folder). An exception raised by the manager itself ends the run and propagates, with a note
+    saying which hook raised it and when.
     """
     if isinstance(scenario, Scenario):
         _check_given(scenario)
@@ -123,24 +125,15 @@ def simulate(scenario: str | Path | Scenario, *, manager: ManagerLike | None = N
 
 
 def _check_given(sc: Scenario) -> None:
-    """A scenario built or changed in code, checked by the loader's own rules: written back as the table a
-    file holds and parsed (a fraction of a millisecond for the bundled scenarios). A value it refuses
-    would otherwise fail deep inside the simulation, or not at all (a seed of 1.5)."""
-    from vcran.io.scenario_toml import loop_dict
-
+    """A scenario built or changed in code, checked by the model's rules (:func:`vcran.core.validity.validate`),
+    the ones a file's reader applies: a value they refuse would otherwise fail deep inside the simulation, or
+    not at all (a seed of 1.5). Told as its file would be, the file being the scenario as given."""
     try:
-        parse(loop_dict(sc), f"{sc.source} (as given)")
-    except ScenarioError:
-        raise
-    except (TypeError, ValueError, AttributeError) as exc:  # a field of the wrong kind altogether
+        problems = validate(sc)
+    except (TypeError, ValueError, AttributeError) as exc:  # inside a part no rule looks into (a roadmap's node)
         raise ScenarioError(f"{sc.source} (as given): {type(exc).__name__}: {exc}") from None
-    end = sc.settings.duration  # the script is not in that table: its times checked as the loader does
-    if end is None:
-        return
-    late = [e.t for e in sc.script if e.t > end] + [c.t for c in sc.cycles if c.t > end]
-    if late:
-        raise ScenarioError(f"{sc.source} (as given): script: an entry is sent at t = {min(late):g}, after the run "
-                            f"ends (duration = {end:g})")
+    if problems:
+        raise ScenarioError(f"{sc.source} (as given): {problems[0]}")
 
 
 def run(

@@ -142,6 +142,6 @@ def test_the_command_prints_the_schema(capsys: pytest.CaptureFixture[str]) -> No
 def test_the_recording_table_overrides_every_reading_method() -> None:
     """A reading method added to Table but not to RecordingTable would read nothing into the schema."""
     reading = {name for name, member in inspect.getmembers(Table, inspect.isfunction)
-               if not name.startswith("_") and name not in ("done", "fail")}
+               if not name.startswith("_") and name not in ("done", "fail", "bind")}  # bind reads nothing
     missing = {name for name in reading if getattr(RecordingTable, name) is getattr(Table, name)}
     assert reading and missing == set()

@@ -27,8 +27,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from vcran.core.orion_rules import FORBIDDEN_CHARS
+from vcran.core.validity.fields import Choices, Integer, Number, OneOf
 from vcran.io.scenario_file import read
-from vcran.io.toml_table import _MISSING, Table
+from vcran.io.toml_table import _MISSING, _NO_RULES, Rules, Table
 
 __all__ = ["RecordingTable", "scenario_schema"]
 
@@ -70,8 +71,8 @@ class RecordingTable(Table):
     the fields come before the checks that relate them.
     """
 
-    def __init__(self, run: _Run, path: str) -> None:
-        super().__init__({}, "<schema>", path)
+    def __init__(self, run: _Run, path: str, rules: Rules = _NO_RULES) -> None:
+        super().__init__({}, "<schema>", path, rules)
         self.run, self.path = run, path
         self.fields: dict[str, _Field] = {}
         self.chosen: dict[str, str] = {}
@@ -97,9 +98,14 @@ class RecordingTable(Table):
     def done(self) -> None:
         self.closed = True
 
-    def _child(self, key: str, many: bool) -> RecordingTable:
+    def _child(self, key: str, many: bool, rules: Rules) -> RecordingTable:
         path = f"{self.path}.{key}" if self.path else key
-        return RecordingTable(self.run, path + "[]" if many else path)
+        return RecordingTable(self.run, path + "[]" if many else path, rules)
+
+    def _options(self, key: str, options: Sequence[str]) -> Sequence[str]:
+        """The values a key may take: its rule's (:mod:`vcran.core.validity`), else the read's."""
+        rule = self.rules.get(key)
+        return rule.options if isinstance(rule, (OneOf, Choices)) else options
 
     # --- the reads --------------------------------------------------------------------------------------
 
@@ -107,22 +113,25 @@ class RecordingTable(Table):
         self._note(key, {}, default)
         return {}
 
-    def table(self, key: str) -> Table:
-        child = self._child(key, many=False)
+    def table(self, key: str, rules: Rules = _NO_RULES) -> Table:
+        child = self._child(key, False, rules)
         self._note(key, {}, {}, child=child.path)
         return child
 
-    def optional_table(self, key: str) -> Table | None:
-        child = self._child(key, many=False)
+    def optional_table(self, key: str, rules: Rules = _NO_RULES) -> Table | None:
+        child = self._child(key, False, rules)
         self._note(key, {}, None, child=child.path)
         return child
 
-    def tables(self, key: str) -> list[Table]:
-        child = self._child(key, many=True)
+    def tables(self, key: str, rules: Rules = _NO_RULES) -> list[Table]:
+        child = self._child(key, True, rules)
         self._note(key, {}, [], child=child.path, many=True)
         return [child]
 
     def number(self, key: str, default: Any = _MISSING, *, minimum: float | None = None, positive: bool = False) -> Any:
+        rule = self.rules.get(key)
+        if isinstance(rule, Number):
+            minimum, positive = rule.minimum, rule.positive
         schema: dict[str, Any] = dict(_NUMBER)
         if minimum is not None:
             schema["minimum"] = minimum
@@ -132,6 +141,9 @@ class RecordingTable(Table):
         return (minimum or 0.0) + 1.0 + self.run.variant
 
     def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> Any:
+        rule = self.rules.get(key)
+        if isinstance(rule, Integer):
+            minimum = rule.minimum
         self._note(key, {"type": "integer"} | ({} if minimum is None else {"minimum": minimum}), default)
         return (minimum or 0) + 1 + self.run.variant
 
@@ -151,15 +163,18 @@ class RecordingTable(Table):
         self._note(key, {"type": ["string", "integer"], "minLength": 1, "pattern": _PUBLISHABLE}, default)
         return self._sample("x0", "x1")
 
-    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "",
+    def choice(self, key: str, options: Sequence[str] = (), default: Any = _MISSING, *, hint: str = "",
                what: str = "") -> Any:
+        options = self._options(key, options)
         self._note(key, {"enum": list(options)}, default)
         point = (self.path, key)
         self.run.choices[point] = tuple(options)
         self.chosen[key] = self.run.forced.get(point, options[0])
         return self.chosen[key]
 
-    def choices(self, key: str, options: Sequence[str], default: list[str], *, what: str = "value") -> list[str]:
+    def choices(self, key: str, options: Sequence[str] = (), default: Any = _MISSING, *,
+                what: str = "value") -> list[str]:
+        options = self._options(key, options)
         self._note(key, {"type": "array", "items": {"enum": list(options)}}, default)
         return [options[0]]
 

@@ -4,6 +4,12 @@ Every read names the file, the entry and the field when it fails (:class:`Scenar
 refuses keys nobody read (typos). Kept apart from :mod:`vcran.io.scenario_file` so that the scenario module is
 about scenarios, not about reading TOML.
 
+What a value may be is the model's: a table opened with ``rules`` (the model's rules for that part,
+:mod:`vcran.core.validity`) checks each key that has one with it, on the value as the file writes it, so a
+bound said in the core is told "got -1" for ``-1`` and recorded in the schema; a key without a rule (a
+sweep file's, or one the model does not hold) is checked with the bounds the read names. The wording of
+every check of one value is the core's (:mod:`vcran.core.validity.fields`).
+
 The JSON Schema of the format (``vcran schema scenario``) is recorded from these reads
 (:mod:`vcran.io.scenario_schema` runs the loader on a recording subclass), so a section reader states what
 it reads through these methods: sub-tables through :meth:`Table.table`/:meth:`Table.tables` (never
@@ -13,26 +19,42 @@ is required only in some cases as optional, checked afterwards.
 
 from __future__ import annotations
 
-import math
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from vcran.core.orion_rules import FORBIDDEN_CHARS
+from vcran.core.validity.fields import (
+    INT64,
+    Rule,
+    choices_problem,
+    describe,
+    flag_problem,
+    integer_problem,
+    is_number,
+    name_problem,
+    number_problem,
+    one_of_problem,
+    pair_problem,
+    place_problem,
+    points_problem,
+    pose_problem,
+    string_problem,
+    strings_problem,
+    text_problem,
+    triple_problem,
+    weights_problem,
+)
+
+__all__ = ["INT64", "ScenarioError", "Table", "is_number", "read_toml"]
+
+#: A part's rules, by key (:mod:`vcran.core.validity`).
+Rules = Mapping[str, Rule]
+_NO_RULES: Rules = {}
 
 
 class ScenarioError(ValueError):
     """A scenario that cannot run; the message names the file, the entry and the field."""
-
-
-#: TOML's integers are 64-bit signed (toml.io, "Integer"); tomllib reads longer ones, which numpy, orjson
-#: (the trace header, the events) and Parquet (a sweep's seed column) cannot hold.
-INT64 = range(-(2**63), 2**63)
-
-
-def is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def read_toml(path: Path, kind: str = "scenario") -> tuple[str, dict[str, Any]]:
@@ -64,17 +86,19 @@ _MISSING = object()
 
 
 class Table:
-    """Typed, strict reads from one TOML table; every failure names file, entry and field."""
+    """Typed, strict reads from one TOML table; every failure names file, entry and field. A key left out
+    reads as the read's ``default``, the reader's own value, returned as it is."""
 
-    def __init__(self, data: Any, source: str, where: str) -> None:
+    __slots__ = ("data", "source", "where", "rules", "used")
+
+    def __init__(self, data: Any, source: str, where: str, rules: Rules = _NO_RULES) -> None:
         if not isinstance(data, dict):
             raise ScenarioError(f"{source}: {where}: expected a table, got {type(data).__name__}")
-        self.data, self.source, self.where = data, source, where
+        self.data, self.source, self.where, self.rules = data, source, where, rules
         self.used: set[str] = set()
 
     def fail(self, key: str, problem: str) -> NoReturn:
-        where = f"{self.where}: " if self.where else ""
-        raise ScenarioError(f"{self.source}: {where}field {key!r}: {problem}")
+        raise ScenarioError(f"{self.source}: {describe(self.where, key, problem)}")
 
     def raw(self, key: str, default: Any = _MISSING) -> Any:
         self.used.add(key)
@@ -86,71 +110,78 @@ class Table:
 
     def reject(self, problem: str) -> NoReturn:
         """A rule between fields or sections is broken: the message names the file (and table), no field."""
-        where = f"{self.where}: " if self.where else ""
-        raise ScenarioError(f"{self.source}: {where}{problem}")
+        raise ScenarioError(f"{self.source}: {describe(self.where, None, problem)}")
 
     def done(self) -> None:
-        unknown = sorted(set(self.data) - self.used)
-        if unknown:
-            self.fail(unknown[0], "unknown key (a typo?)")
+        if self.used.issuperset(self.data):
+            return
+        self.fail(sorted(set(self.data) - self.used)[0], "unknown key (a typo?)")
 
-    def table(self, key: str) -> Table:
-        return Table(self.raw(key, {}), self.source, self._sub(key))
+    def bind(self, rules: Rules) -> Table:
+        """This table, its keys checked with ``rules`` too (a script entry's, once its kind is known)."""
+        self.rules = {**self.rules, **rules}
+        return self
 
-    def optional_table(self, key: str) -> Table | None:
+    def table(self, key: str, rules: Rules = _NO_RULES) -> Table:
+        return Table(self.raw(key, {}), self.source, self._sub(key), rules)
+
+    def optional_table(self, key: str, rules: Rules = _NO_RULES) -> Table | None:
         """A sub-table whose presence means something (``[manager]``, ``[job_stream]``): None when absent."""
-        return self.table(key) if key in self.data else None
+        return self.table(key, rules) if key in self.data else None
 
-    def tables(self, key: str) -> list[Table]:
+    def tables(self, key: str, rules: Rules = _NO_RULES) -> list[Table]:
         value = self.raw(key, [])
         if not isinstance(value, list):
             self.fail(key, f"expected an array of tables: [[{key}]] sections, or {key} = [{{...}}, ...]")
-        return [Table(v, self.source, self._sub(f"{key}[{i}]")) for i, v in enumerate(value)]
+        where = self._sub(key)
+        return [Table(v, self.source, f"{where}[{i}]", rules) for i, v in enumerate(value)]
 
     def _sub(self, key: str) -> str:
         return f"{self.where}.{key}" if self.where else key
+
+    def _check(self, key: str, v: Any, own: Callable[..., str | None], *bounds: Any) -> None:
+        """Fail with the problem of ``v``: its key's rule's (:mod:`vcran.core.validity`), or for a key without
+        one, the read's ``own`` check with the read's ``bounds``."""
+        rule = self.rules.get(key)
+        problem = own(v, *bounds) if rule is None else rule.check(v)
+        if problem:
+            self.fail(key, problem)
 
     def number(self, key: str, default: Any = _MISSING, *, minimum: float | None = None, positive: bool = False) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        if not is_number(v):
-            self.fail(key, f"expected a finite number, got {v!r}")
-        if positive and v <= 0:
-            self.fail(key, f"must be positive, got {v}")
-        if minimum is not None and v < minimum:
-            self.fail(key, f"must be at least {minimum}, got {v}")
+        self._check(key, v, number_problem, minimum, positive)
         return float(v)
 
     def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        if isinstance(v, bool) or not isinstance(v, int):
-            self.fail(key, f"expected an integer, got {v!r}")
-        if v not in INT64:
-            self.fail(key, f"{v} is outside TOML's 64-bit integer range")
-        if minimum is not None and v < minimum:
-            self.fail(key, f"must be at least {minimum}, got {v}")
+        self._check(key, v, integer_problem, minimum)
         return v
 
     def boolean(self, key: str, default: Any = _MISSING) -> Any:
         v = self.raw(key, default)
-        if not isinstance(v, bool):
-            self.fail(key, f"expected true or false, got {v!r}")
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, flag_problem)
         return v
 
     def string(self, key: str, default: Any = _MISSING) -> Any:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        if not isinstance(v, str) or not v:
-            self.fail(key, f"expected a non-empty string, got {v!r}")
+        self._check(key, v, string_problem)
         return v
 
     def text(self, key: str, default: str) -> str:
         """A string that will be published: Orion refuses some characters in values (SPEC §2)."""
-        return self._publishable(key, self.string(key, default))
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, text_problem)
+        return v  # type: ignore[no-any-return]
 
     def name(self, key: str, default: Any = _MISSING) -> Any:
         """An id name (task, motion, action); an integer is its decimal string (task 100 = "100")."""
@@ -159,51 +190,47 @@ class Table:
             return v
         if isinstance(v, int) and not isinstance(v, bool):
             v = str(v)
-        if not isinstance(v, str) or not v:
-            self.fail(key, f"expected a non-empty string or an integer, got {v!r}")
-        return self._publishable(key, v)
-
-    def _publishable(self, key: str, v: str) -> str:
-        bad = sorted(set(v) & FORBIDDEN_CHARS)
-        if bad:
-            self.fail(key, f"contains {' '.join(bad)}, which Orion refuses in values")
+        self._check(key, v, name_problem)
         return v
 
-    def choice(self, key: str, options: Sequence[str], default: Any = _MISSING, *, hint: str = "",
+    def choice(self, key: str, options: Sequence[str] = (), default: Any = _MISSING, *, hint: str = "",
                what: str = "") -> Any:
-        """One of ``options`` (a kind, an action); the error names the value as ``what`` (default: the key),
-        lists the options, then ``hint``."""
+        """One of ``options`` (a kind, an action: the key's rule's, if it has one); the error names the value
+        as ``what`` (default: the key), lists the options, then ``hint``."""
         v = self.string(key, default)
         if v is default and default is not _MISSING:
             return v
-        if v not in options:
-            self.fail(key, f"unknown {what or key} {v!r}; known: {', '.join(options)}{hint}")
+        self._check(key, v, one_of_problem, options, what or key, hint)
         return v
 
-    def choices(self, key: str, options: Sequence[str], default: list[str], *, what: str = "value") -> list[str]:
-        """A list of values, each one of ``options``."""
-        values = self.strings(key, default)
-        for v in values:
-            if v not in options:
-                self.fail(key, f"unknown {what} {v!r}; known: {', '.join(options)}")
-        return values
+    def choices(self, key: str, options: Sequence[str] = (), default: Any = _MISSING, *,
+                what: str = "value") -> list[str]:
+        """A list of values, each one of ``options`` (the key's rule's, if it has one)."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, choices_problem, options, what)
+        return list(v)
 
     def strings(self, key: str, default: list[str]) -> list[str]:
         v = self.raw(key, default)
-        if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
-            self.fail(key, f"expected a list of strings, got {v!r}")
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, strings_problem)
         return list(v)
 
     def pair(self, key: str, default: Any = _MISSING) -> tuple[float, float]:
         v = self.raw(key, default)
-        if not (isinstance(v, (list, tuple)) and len(v) == 2 and all(is_number(c) for c in v)):
-            self.fail(key, f"expected [x, y], got {v!r}")
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, pair_problem)
         return float(v[0]), float(v[1])
 
     def triple(self, key: str, default: Any = _MISSING) -> tuple[float, float, float]:
         v = self.raw(key, default)
-        if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(is_number(c) for c in v)):
-            self.fail(key, f"expected [x, y, theta], got {v!r}")
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, triple_problem)
         return float(v[0]), float(v[1]), float(v[2])
 
     def sequence(self, key: str) -> tuple[int, int]:
@@ -216,11 +243,9 @@ class Table:
 
     def points(self, key: str, default: list[Any]) -> list[tuple[float, float]]:
         v = self.raw(key, default)
-        ok = isinstance(v, list) and all(
-            isinstance(p, (list, tuple)) and len(p) == 2 and all(is_number(c) for c in p) for p in v
-        )
-        if not ok:
-            self.fail(key, f"expected a list of [x, y] points, got {v!r}")
+        if v is default and default is not _MISSING:
+            return v
+        self._check(key, v, points_problem)
         return [(float(p[0]), float(p[1])) for p in v]
 
     def pose(self, key: str, default: Any = _MISSING) -> Any:
@@ -228,8 +253,7 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
-        if not (isinstance(v, (list, tuple)) and len(v) in (2, 3) and all(is_number(c) for c in v)):
-            self.fail(key, f"expected [x, y] or [x, y, theta], got {v!r}")
+        self._check(key, v, pose_problem)
         return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
 
     def place(self, key: str, default: Any = _MISSING) -> Any:
@@ -237,12 +261,9 @@ class Table:
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v
+        self._check(key, v, place_problem)
         if isinstance(v, str):
-            if not v:
-                self.fail(key, "expected [x, y] or [x, y, theta], or a roadmap node's id, got ''")
             return v
-        if not (isinstance(v, (list, tuple)) and len(v) in (2, 3) and all(is_number(c) for c in v)):
-            self.fail(key, f"expected [x, y] or [x, y, theta], or a roadmap node's id, got {v!r}")
         return float(v[0]), float(v[1]), float(v[2]) if len(v) == 3 else None
 
     def weights(self, key: str) -> list[tuple[str, float]]:
@@ -251,22 +272,21 @@ class Table:
         if isinstance(v, list) and all(isinstance(x, str) for x in v):
             pairs = [(x, 1.0) for x in v]
         elif isinstance(v, dict):
-            for name, w in v.items():
-                if not is_number(w) or w <= 0:
-                    self.fail(key, f"weight of {name!r} must be a positive number, got {w!r}")
-            pairs = [(name, float(w)) for name, w in v.items()]
+            pairs = list(v.items())
         else:
             self.fail(key, f"expected a list of station ids or a table {{station = weight}}, got {v!r}")
-        if not pairs:
-            self.fail(key, "names no station")
-        return pairs
+        self._check(key, pairs, weights_problem)
+        return [(name, float(w)) for name, w in pairs]
 
     def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
-        """A path: points ``[x, y]``, or ``[x, y, theta]`` where the heading matters."""
+        """A path: points ``[x, y]``, or ``[x, y, theta]`` where the heading matters. Each point is checked
+        on its own and told by its index (``path[2]``): the key's rule (a list of such points) point by point."""
         v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
         if not isinstance(v, list):
             self.fail(key, f"expected a list of [x, y] or [x, y, theta] points, got {v!r}")
         for i, p in enumerate(v):
-            if not (isinstance(p, (list, tuple)) and len(p) in (2, 3) and all(is_number(c) for c in p)):
-                self.fail(f"{key}[{i}]", f"expected [x, y] or [x, y, theta], got {p!r}")
+            if problem := pose_problem(p):
+                self.fail(f"{key}[{i}]", problem)
         return [(float(p[0]), float(p[1]), float(p[2]) if len(p) == 3 else None) for p in v]
