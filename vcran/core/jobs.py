@@ -12,9 +12,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from vcran.core.scenario import Job
+if TYPE_CHECKING:  # a type only: the job book serves both protocols, and the scenario module still imports OPIL's
+    from vcran.core.scenario import Job
 
 COMPLETED, FAILED, OPEN = "completed", "failed", "open"
 
@@ -118,9 +119,12 @@ class JobBook:
         }
 
     def _open(self, job: Job | str, what: str) -> JobRecord:
-        if not isinstance(job, Job | str):
+        if isinstance(job, str):
+            key = job
+        elif isinstance(getattr(job, "id", None), str) and hasattr(job, "dropoff"):  # a Job, known by its fields
+            key = job.id
+        else:
             raise TypeError(f"a job is a vcran.Job or its id, got {type(job).__name__}")
-        key = job if isinstance(job, str) else job.id
         record = self._records.get(key)
         if record is None:
             raise JobError(f"cannot {what} job {key!r}: no such job has arrived")

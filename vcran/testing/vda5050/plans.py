@@ -12,9 +12,10 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
-from vcran.core.vda5050.enums import BlockingType, Version
+from vcran.core.vda5050.builder import action
+from vcran.core.vda5050.enums import Version
 from vcran.core.vda5050.header import Header, timestamp
-from vcran.core.vda5050.order import Action, ActionParameter, Edge, InstantActions, Node, NodePosition, Order
+from vcran.core.vda5050.order import Action, Edge, InstantActions, Node, NodePosition, Order
 
 MANUFACTURER, SERIAL = "acme", "agv1"
 
@@ -24,12 +25,6 @@ Point = tuple[str, float, float]
 def header(header_id: int = 0, version: Version = Version.V2_1_0, now: float = 0.0) -> Header:
     return Header(header_id=header_id, timestamp=timestamp(now), version=version.value, manufacturer=MANUFACTURER,
                   serial_number=SERIAL)
-
-
-def action(action_type: str, action_id: str, blocking: str = "HARD", **parameters: Any) -> Action:
-    """``action("pick", "p1", "SOFT", stationName="A")``."""
-    return Action(action_type=action_type, action_id=action_id, blocking_type=BlockingType(blocking),
-                  action_parameters=tuple(ActionParameter(key=k, value=v) for k, v in parameters.items()) or None)
 
 
 def order(order_id: str, update_id: int, points: Iterable[Point], *, base: int | None = None, start: int = 0,
