@@ -26,6 +26,10 @@
 * Only robots configured to ``load`` and ``unload`` get jobs. A job that no robot can ever take (none is
   so configured, or each ran empty and is never swapped) is reported failed ``unassignable`` when it
   would be dispatched: on arrival, or when its back-off ends.
+* Routing (SPEC §12): with ``routing = "roadmap"`` (the default, ``"auto"``, when the scenario has a
+  roadmap) robots drive the roadmap's shortest routes under node reservations, one task per stretch
+  (:mod:`vcran.managers.routing`); ``"straight"`` sends them straight to the dock, as without a roadmap,
+  to show what goes wrong in traffic.
 """
 
 from __future__ import annotations
@@ -37,11 +41,13 @@ from dataclasses import dataclass
 
 from vcran.core.ids import Id
 from vcran.core.manager import FleetManager
-from vcran.core.messages import BatteryState, Message, RanError, RanStatus
+from vcran.core.messages import BatteryState, Message
 from vcran.core.scenario import Job
+from vcran.managers.routing import BATTERY_EMPTY, COMPLETED, Router, task_outcome
 
 PICKUP, DROPOFF = "pick", "drop"
-COMPLETED, BATTERY_EMPTY, UNASSIGNABLE = "completed", "battery_empty", "unassignable"
+UNASSIGNABLE = "unassignable"
+ROUTINGS = ("auto", "roadmap", "straight")
 Point = tuple[float, float, float | None]  # x, y, theta (a pose, or a dock)
 
 
@@ -52,7 +58,7 @@ class Trip:
     job: Job
     arrival: int
     phase: str = PICKUP
-    task: Id | None = None
+    task: Id | str | None = None  # on a roadmap, the name of the router's errand
     tries: int = 0
 
     @property
@@ -62,18 +68,22 @@ class Trip:
 
 class Dispatcher(FleetManager):
     """FIFO jobs, nearest idle robot, re-planning after a cancelled task (with back-off), failure after
-    ``max_tries``, charging below ``charge_below``."""
+    ``max_tries``, charging below ``charge_below``, routes on the roadmap (``routing``)."""
 
-    attributes = frozenset({"ran_status", "ran_error", "battery_state"})
+    attributes = frozenset({"ran_status", "ran_error", "battery_state", "assignment_state"})
 
-    def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3) -> None:
+    def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3,
+                 routing: str = "auto") -> None:
         if max_tries < 1:
             raise ValueError(f"max_tries must be at least 1, got {max_tries}")
         if retry_after < 0:
             raise ValueError(f"retry_after must not be negative, got {retry_after}")
         if not 0.0 <= charge_below < 1.0:
             raise ValueError(f"charge_below is a fraction of capacity in [0, 1), got {charge_below}")
+        if routing not in ROUTINGS:
+            raise ValueError(f"routing is one of {', '.join(ROUTINGS)}; got {routing!r}")
         self.max_tries, self.retry_after, self.charge_below = max_tries, retry_after, charge_below
+        self.routing = routing
 
     def on_start(self) -> None:
         self.queue: list[Trip] = []                      # jobs waiting for a robot, head first
@@ -83,10 +93,14 @@ class Dispatcher(FleetManager):
         self._rank = {robot: i for i, robot in enumerate(self.fleet.robot_ids)}
         self._arrivals = 0
         self.chargers = [s.id for s in self.fleet.stations if s.charger]
-        self.charging: dict[str, Id] = {}                # robot -> its charge task
+        self.charging: dict[str, Id | str] = {}          # robot -> its charge task
         self.out: set[str] = set()                       # robots whose battery ran empty, until swapped
         self.level: dict[str, float] = {}                # robot -> its latest published percentage
         self._charges = 0
+        if self.routing == "roadmap" or (self.routing == "auto" and self.fleet.roadmap is not None):
+            self.router: Router | None = Router(self.fleet, self.handle, self.free)
+        else:
+            self.router = None
 
     def on_job(self, job: Job) -> None:
         self._arrivals += 1
@@ -98,8 +112,11 @@ class Dispatcher(FleetManager):
             self.battery_changed(robot, message.percentage)
             return
         trip = self.trips.get(robot)
-        task = trip.task if trip is not None else self.charging.get(robot)
-        outcome = _outcome(message, task) if task is not None else None
+        if self.router is not None:
+            outcome = self.router.update(robot, message)  # the errand's, and the robot's progress on the way
+        else:
+            task = trip.task if trip is not None else self.charging.get(robot)
+            outcome = task_outcome(message, task) if isinstance(task, Id) else None
         if outcome is None:
             return
         if trip is None:
@@ -161,6 +178,8 @@ class Dispatcher(FleetManager):
         if robot in self.out:
             if percentage >= self.charge_below:  # swapped for a charged battery
                 self.out.discard(robot)
+                if self.router is not None:
+                    self.router.resume(robot)  # drives on to the end of the route it stopped on
                 trip = self.trips.get(robot)
                 if trip is not None:
                     self.send(robot, trip)  # the drop-off that waited for the swap
@@ -188,6 +207,10 @@ class Dispatcher(FleetManager):
         battery = self.fleet.robot(robot).battery
         return robot in self.out and (battery is None or battery.swap_after is None)
 
+    def free(self, robot: str) -> bool:
+        """The robot has no work of the Dispatcher's (the router may park it out of the way)."""
+        return not (robot in self.trips or robot in self.charging or robot in self.out)
+
     def requeue(self, trip: Trip) -> None:
         """``trip``'s wait after a failed pickup is over: back in the queue at its old place."""
         bisect.insort(self.queue, trip, key=lambda t: t.order)
@@ -195,18 +218,24 @@ class Dispatcher(FleetManager):
 
     # --- actions ------------------------------------------------------------------------------------------
 
+    def go(self, robot: str, station: str, action: str, name: str, job: Job | None = None) -> Id | str:
+        """Send ``robot`` to ``station``'s dock to perform ``action`` there: one task straight to the dock,
+        or the router's errand along the roadmap (one task per stretch); the task's id, or the errand's name."""
+        if self.router is None:
+            return self.handle.send_task(robot, [self.fleet.dock(station)], [action], task=name, job=job)
+        self.router.go(robot, station, action, name, job)
+        return name
+
     def send(self, robot: str, trip: Trip) -> None:
-        """One task for the trip's phase: the path to the station's dock, then load or unload there."""
+        """One errand for the trip's phase: to the station's dock, then load or unload there."""
         station, action = (trip.job.pickup, "load") if trip.phase == PICKUP else (trip.job.dropoff, "unload")
-        name = f"{trip.job.id}_{trip.phase}{trip.tries + 1}"
-        trip.task = self.handle.send_task(robot, [self.fleet.dock(station)], [action], task=name, job=trip.job)
+        trip.task = self.go(robot, station, action, f"{trip.job.id}_{trip.phase}{trip.tries + 1}", trip.job)
 
     def charge(self, robot: str) -> None:
         """Send ``robot`` to the charger nearest to it, to charge to full."""
         self._charges += 1
         station = _nearest(self.chargers, self.handle.pose(robot), self.fleet.dock)
-        self.charging[robot] = self.handle.send_task(robot, [self.fleet.dock(station)], ["charge"],
-                                                     task=f"charge{self._charges}_{robot}")
+        self.charging[robot] = self.go(robot, station, "charge", f"charge{self._charges}_{robot}")
 
     def release(self, robot: str) -> None:
         """``robot`` has no job any more."""
@@ -226,25 +255,11 @@ class Dispatcher(FleetManager):
         """Back among the idle ones (in fleet order), and maybe the next job."""
         bisect.insort(self.idle, robot, key=self._rank.__getitem__)
         self.dispatch()
+        if self.router is not None:
+            self.router.advance()  # an idle robot in another's way is parked
 
 
 def _nearest(candidates: list[str], point: Point, where: Callable[[str], Point]) -> str:
     """The candidate whose place is nearest to ``point`` in a straight line (min keeps the first of equals)."""
     return min(candidates, key=lambda c: math.hypot(where(c)[0] - point[0], where(c)[1] - point[1]))
 
-
-def _outcome(message: Message, task: Id) -> str | None:
-    """How ``task`` ended according to ``message``: ``"completed"``, a cancel reason, or None (not yet).
-
-    A ``ran_error`` ``battery_empty`` naming the task ends it at once: published when the robot stops
-    (its ``ran_status`` follows at the next tick), and the only word on a task the robot refused
-    because it was already out of service (a refused task never appears in ``ran_status``)."""
-    if isinstance(message, RanStatus):
-        if task in message.completed:
-            return COMPLETED
-        for ended in message.cancelled:
-            if ended.task_id == task:
-                return ended.reason
-    elif isinstance(message, RanError) and message.code == BATTERY_EMPTY and message.task_id == task:
-        return BATTERY_EMPTY
-    return None
