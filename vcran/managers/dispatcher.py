@@ -26,6 +26,11 @@
 * Only robots configured to ``load`` and ``unload`` get jobs. A job that no robot can ever take (none is
   so configured, or each ran empty and is never swapped) is reported failed ``unassignable`` when it
   would be dispatched: on arrival, or when its back-off ends.
+* A robot with a part on board (``ran_status``'s ``carrying``) is never sent to pick up. A part it could
+  not deliver (its drop-off failed ``max_tries`` times, or it started loaded) is returned first: unloaded
+  at the station nearest to the robot that has not refused it (chargers and the failed drop-off left out),
+  one task each (``return{n}_{robot}``); when every station refused it, the robot keeps it and takes no
+  more jobs (an operator must unload it).
 * Routing (SPEC §12): with ``routing = "roadmap"`` (the default, ``"auto"``, when the scenario has a
   roadmap) robots drive the roadmap's shortest routes under node reservations, one task per stretch
   (:mod:`vcran.managers.routing`); ``"straight"`` sends them straight to the dock, as without a roadmap,
@@ -41,7 +46,7 @@ from dataclasses import dataclass
 
 from vcran.core.ids import Id
 from vcran.core.manager import FleetManager
-from vcran.core.messages import BatteryState, Message
+from vcran.core.messages import BatteryState, Message, RanStatus
 from vcran.core.scenario import Job
 from vcran.managers.routing import BATTERY_EMPTY, COMPLETED, Router, task_outcome
 
@@ -88,7 +93,8 @@ class Dispatcher(FleetManager):
     def on_start(self) -> None:
         self.queue: list[Trip] = []                      # jobs waiting for a robot, head first
         self.movers = [r for r in self.fleet.robot_ids if self.fleet.robot(r).moves_parts]  # may get jobs
-        self.idle: list[str] = list(self.movers)         # robots without a job, in fleet order
+        self.load = {r: self.fleet.robot(r).carrying for r in self.fleet.robot_ids}  # parts on board, as published
+        self.idle: list[str] = [r for r in self.movers if not self.load[r]]  # robots without a job, fleet order
         self.trips: dict[str, Trip] = {}                 # robot -> the job it works on
         self._rank = {robot: i for i, robot in enumerate(self.fleet.robot_ids)}
         self._arrivals = 0
@@ -97,10 +103,17 @@ class Dispatcher(FleetManager):
         self.out: set[str] = set()                       # robots whose battery ran empty, until swapped
         self.level: dict[str, float] = {}                # robot -> its latest published percentage
         self._charges = 0
+        self.returning: dict[str, tuple[str, Id | str]] = {}  # robot -> (station, task) returning a part there
+        self.refused: dict[str, set[str]] = {}           # robot -> stations that refused the part it carries
+        self.keeping: set[str] = set()                   # robots keeping a part no station took
+        self._returns = 0
         if self.routing == "roadmap" or (self.routing == "auto" and self.fleet.roadmap is not None):
             self.router: Router | None = Router(self.fleet, self.handle, self.free)
         else:
             self.router = None
+        for robot in self.movers:
+            if self.load[robot]:
+                self.return_part(robot)
 
     def on_job(self, job: Job) -> None:
         self._arrivals += 1
@@ -111,15 +124,19 @@ class Dispatcher(FleetManager):
         if isinstance(message, BatteryState):
             self.battery_changed(robot, message.percentage)
             return
+        if isinstance(message, RanStatus):
+            self.load[robot] = message.carrying
         trip = self.trips.get(robot)
         if self.router is not None:
             outcome = self.router.update(robot, message)  # the errand's, and the robot's progress on the way
         else:
-            task = trip.task if trip is not None else self.charging.get(robot)
+            task = trip.task if trip is not None else self.charging.get(robot) or self.returning.get(robot, ("", None))[1]
             outcome = task_outcome(message, task) if isinstance(task, Id) else None
         if outcome is None:
             return
-        if trip is None:
+        if robot in self.returning:
+            self.return_ended(robot, outcome)
+        elif trip is None:
             self.charge_ended(robot, outcome)
         elif outcome == COMPLETED:
             self.task_completed(robot, trip)
@@ -162,6 +179,8 @@ class Dispatcher(FleetManager):
         stranded = trip.phase == DROPOFF and self.lost(robot)
         if trip.tries >= self.max_tries or stranded:
             self.handle.job_failed(trip.job, reason)  # the last task's reason; the event counts the tasks
+            if trip.phase == DROPOFF:
+                self.refused[robot] = {trip.job.dropoff}  # the part, still on board, is returned elsewhere
             self.release(robot)
             return
         wait = self.retry_after * 2 ** (trip.tries - 1)
@@ -202,6 +221,18 @@ class Dispatcher(FleetManager):
     def low(self, robot: str) -> bool:
         return self.level.get(robot, 1.0) < self.charge_below
 
+    def return_ended(self, robot: str, outcome: str) -> None:
+        """The part went back (the robot may work again), or that station refused it: the next one."""
+        station, _ = self.returning.pop(robot)
+        if outcome == COMPLETED:
+            self.refused.pop(robot, None)
+        elif outcome == BATTERY_EMPTY:
+            self.out.add(robot)  # it tries again when its battery is swapped
+            return
+        else:
+            self.refused.setdefault(robot, set()).add(station)
+        self.available(robot)
+
     def lost(self, robot: str) -> bool:
         """Out of service for good: its battery ran empty and is never swapped."""
         battery = self.fleet.robot(robot).battery
@@ -209,7 +240,7 @@ class Dispatcher(FleetManager):
 
     def free(self, robot: str) -> bool:
         """The robot has no work of the Dispatcher's (the router may park it out of the way)."""
-        return not (robot in self.trips or robot in self.charging or robot in self.out)
+        return not (robot in self.trips or robot in self.charging or robot in self.returning or robot in self.out)
 
     def requeue(self, trip: Trip) -> None:
         """``trip``'s wait after a failed pickup is over: back in the queue at its old place."""
@@ -237,6 +268,18 @@ class Dispatcher(FleetManager):
         station = _nearest(self.chargers, self.handle.pose(robot), self.fleet.dock)
         self.charging[robot] = self.go(robot, station, "charge", f"charge{self._charges}_{robot}")
 
+    def return_part(self, robot: str) -> None:
+        """Unload the part on board at the station nearest to ``robot`` that has not refused it; none left:
+        the robot keeps it and takes no more jobs."""
+        refused = self.refused.get(robot, set())
+        stations = [s.id for s in self.fleet.stations if not s.charger and s.id not in refused]
+        if not stations:
+            self.keeping.add(robot)  # an operator must unload it; the jobs wait for the other robots
+            return
+        self._returns += 1
+        station = _nearest(stations, self.handle.pose(robot), self.fleet.dock)
+        self.returning[robot] = station, self.go(robot, station, "unload", f"return{self._returns}_{robot}")
+
     def release(self, robot: str) -> None:
         """``robot`` has no job any more."""
         del self.trips[robot]
@@ -252,7 +295,10 @@ class Dispatcher(FleetManager):
             self.idle_again(robot)
 
     def idle_again(self, robot: str) -> None:
-        """Back among the idle ones (in fleet order), and maybe the next job."""
+        """Back among the idle ones (in fleet order), and maybe the next job; a part on board goes back first."""
+        if self.load[robot]:
+            self.return_part(robot)
+            return
         bisect.insort(self.idle, robot, key=self._rank.__getitem__)
         self.dispatch()
         if self.router is not None:
