@@ -296,6 +296,51 @@ def test_s4_the_warehouse_with_one_action_failure_completes_every_job():
     assert (failed["robot"], failed["code"]) == ("robot_1", "action_fault")
 
 
+# --- a part the Dispatcher could not deliver (issue 29 item 5: never a pickup on a loaded robot) -----------
+
+def test_s4_a_part_whose_drop_off_failed_for_good_is_returned_and_the_robot_works_on():
+    """Issue 29 item 5: j1's unload at b fails (the fault armed at 13; it ends 35.10, heard 36.05) and with
+    max_tries = 1 j1 fails with the part on board. It used to stay there: j2's pickups then failed load_full.
+    Now the part goes back to the nearest station that has not refused it, a (b did): return1_robot_1 lands
+    36.10, drives 20 m to a's dock (56.10) and unloads until 58.10, heard 59.05. j2 (arrived 40) then loads
+    at a where the robot stands (59.10 + 2 s, heard 62.05) and unloads at b (62.10 + 20 m + 2 s = 84.10,
+    heard 85.05). Parts: a 5 - 1 + 1 - 1 = 4, b 1, none on board."""
+    result = vcran.simulate(scenario(job(0, "j1") + job(40, "j2") + ACTION_FAILURE.format(t=13.0)),
+                            manager=Dispatcher(max_tries=1))
+    assert [(e["job"], e["reason"], e["t"]) for e in of(result, "job_failed")] == [
+        ("j1", "action_failed", pytest.approx(36.05))]
+    assert [(e["task"], e["t"]) for e in of(result, "task_completed")][1] == ("return1_robot_1", pytest.approx(58.10))
+    assert [(e["task"], e["t"]) for e in of(result, "job_assigned") if e["job"] == "j2"] == [
+        ("j2_pick1", pytest.approx(59.05)), ("j2_drop1", pytest.approx(62.05))]
+    assert result.job("j2").outcome == "completed" and result.job("j2").lead_time == pytest.approx(85.05 - 40)
+    assert not [e for e in result.events if e["event"] == "failed" and e.get("code") == "load_full"]
+    stations = result.summary["stations"]
+    assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (4, 1, 0)
+
+
+def test_s4_a_part_no_station_takes_stays_on_board_and_its_robot_takes_no_pickup():
+    # as above, and a second fault armed at 37 fails the return's unload at a (58.10): every station has
+    # refused the part, so robot_1 keeps it (an operator must unload it) and is sent to no pickup: j2 waits
+    result = vcran.simulate(scenario(job(0, "j1") + job(40, "j2") + ACTION_FAILURE.format(t=13.0)
+                                     + ACTION_FAILURE.format(t=37.0)), manager=Dispatcher(max_tries=1))
+    assert [e["task"] for e in of(result, "task_cancelled")] == ["j1_drop1", "return1_robot_1"]
+    assert [e["job"] for e in of(result, "job_assigned")] == ["j1", "j1"]
+    assert result.job("j2").outcome == "open" and result.summary["robots"]["robot_1"]["carrying"] == 1
+    assert not [e for e in result.events if e["event"] == "failed" and e.get("code") == "load_full"]
+
+
+def test_s4_a_robot_that_starts_loaded_returns_its_part_before_its_first_pickup():
+    # robot_1 starts with a part: a and b are both 10 m from it, a listed first. return1_robot_1 lands 0.05,
+    # at a 10.05, unloaded 12.05, heard 13.05; then j1 (waiting since 0) loads at a (13.10 + 2 s, heard 16.05)
+    # and unloads at b (16.10 + 20 m + 2 s = 38.10, heard 39.05). It used to take j1 at once, and fail load_full.
+    text = FLEET.format(robot_2="", parts=5).replace("max_velocity = 1.0\n", "max_velocity = 1.0\ncarrying = 1\n", 1)
+    result = vcran.simulate(parse(tomllib.loads(text + job(0, "j1")), "<test>"), manager=Dispatcher())
+    assert [(e["task"], e["t"]) for e in of(result, "task_completed")][0] == ("return1_robot_1", pytest.approx(12.05))
+    assert result.job("j1").tasks == ("j1_pick1", "j1_drop1") and result.job("j1").lead_time == pytest.approx(39.05)
+    stations = result.summary["stations"]
+    assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (5, 1, 0)
+
+
 # --- jobs no robot can serve (SPEC §9: a job failed with evidence; issue 29 item 6) -------------------------
 
 def test_a_job_no_robot_can_serve_is_reported_unassignable_at_once():

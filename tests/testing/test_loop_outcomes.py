@@ -4,20 +4,17 @@ fails them; the reference Dispatcher keeps them."""
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 
 import pytest
 
 import vcran
-
 from tests.conftest import ROOT
 from tests.sim.test_dispatcher import job, resting
-from tests.testing.loop_managers import GiveUp, GivesUpAfterThePickup, NeverSends
+from tests.testing.loop_managers import GivesUpAfterThePickup, GiveUp, NeverSends
+from vcran.cli import main
 from vcran.core.faults import FaultSpec
 from vcran.core.scenario import Job
-from vcran.io.scenario_file import parse
-from vcran.cli import main
 from vcran.io.scenario_toml import dumps, loop_dict
 from vcran.managers import Dispatcher
 from vcran.testing.loop import check_jobs_ended, check_no_idle_while_waiting, check_protocol, loop_problems

@@ -111,7 +111,7 @@ def seen(planner: Planner, topic: str, predicate) -> list:  # noqa: ANN001
     return [value for _, value in planner.got(topic) if predicate(value)]
 
 
-def test_a_firos_planner_drives_a_task_and_a_cancel_through_vcran_live_and_the_broker(broker_process, tmp_path):
+def test_a_firos_planner_drives_a_task_and_a_cancel_through_vcran_live_and_the_broker(broker_process, tmp_path):  # noqa: F811 (a fixture)
     url = broker_process
     scenario = tmp_path / "firos.toml"
     scenario.write_text(SCENARIO)
@@ -165,7 +165,7 @@ def test_a_firos_planner_drives_a_task_and_a_cancel_through_vcran_live_and_the_b
     # every notification of every attribute vcran publishes: the NGSI types FIROS rebuilds ROS messages
     # from, and the converter's decoding into exactly the fields of the attribute's .msg
     assert {topic for _, topic, _, _ in planner.received} == set(PUBLISHED)
-    for sid, topic, attribute, value in planner.received:
+    for _sid, topic, attribute, value in planner.received:
         check_types(attribute, TOPICS[topic], topic)
         check_fields(value, TOPICS[topic], topic)
     # received while subscribed late, and across renewals: several subscriptions delivered each

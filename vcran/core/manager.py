@@ -21,6 +21,7 @@ from typing import Any, NoReturn
 
 from vcran.core.jobs import JobBook
 from vcran.core.scenario import Job, LinkSettings, RobotConfig, Scenario, Settings, StationConfig
+from vcran.core.traffic.roadmap import Roadmap
 
 
 class ReadOnlyDict(dict[str, float]):
@@ -41,12 +42,14 @@ class ReadOnlyDict(dict[str, float]):
 
 @dataclass(frozen=True)
 class Fleet:
-    """What a fleet manager is told at the start: the robots, the stations, the settings and the link."""
+    """What a fleet manager is told at the start: the robots, the stations, the settings, the link, and the
+    roadmap robots drive on (SPEC §12; None: none, robots drive anywhere)."""
 
     robots: tuple[RobotConfig, ...]
     stations: tuple[StationConfig, ...]
     settings: Settings
     link: LinkSettings
+    roadmap: Roadmap | None = None
     _robots: dict[str, RobotConfig] = field(init=False, repr=False, compare=False)
     _stations: dict[str, StationConfig] = field(init=False, repr=False, compare=False)
 
@@ -59,7 +62,8 @@ class Fleet:
         """The scenario's fleet, read-only: its one mutable part, ``settings.durations``, is the model's
         too, so a manager writing to it changed the simulated actions and the caller's scenario."""
         durations = ReadOnlyDict(scenario.settings.durations)
-        return cls(scenario.robots, scenario.stations, replace(scenario.settings, durations=durations), scenario.link)
+        return cls(scenario.robots, scenario.stations, replace(scenario.settings, durations=durations), scenario.link,
+                   scenario.roadmap)
 
     @property
     def robot_ids(self) -> tuple[str, ...]:

@@ -54,7 +54,6 @@ from vcran.io.trace import (
     whole_lines,
 )
 
-
 #: Fields added to published messages since recordings were first made, by attribute: a recording whose
 #: first record of the attribute lacks one was made before it existed (:func:`_added_since`).
 ADDED_FIELDS: dict[str, str] = {"ran_status": "carrying"}

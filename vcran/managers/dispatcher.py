@@ -26,6 +26,15 @@
 * Only robots configured to ``load`` and ``unload`` get jobs. A job that no robot can ever take (none is
   so configured, or each ran empty and is never swapped) is reported failed ``unassignable`` when it
   would be dispatched: on arrival, or when its back-off ends.
+* A robot with a part on board (``ran_status``'s ``carrying``) is never sent to pick up. A part it could
+  not deliver (its drop-off failed ``max_tries`` times, or it started loaded) is returned first: unloaded
+  at the station nearest to the robot that has not refused it (chargers and the failed drop-off left out),
+  one task each (``return{n}_{robot}``); when every station refused it, the robot keeps it and takes no
+  more jobs (an operator must unload it).
+* Routing (SPEC §12): with ``routing = "roadmap"`` (the default, ``"auto"``, when the scenario has a
+  roadmap) robots drive the roadmap's shortest routes under node reservations, one task per stretch
+  (:mod:`vcran.managers.routing`); ``"straight"`` sends them straight to the dock, as without a roadmap,
+  to show what goes wrong in traffic.
 """
 
 from __future__ import annotations
@@ -36,12 +45,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from vcran.core.ids import Id
-from vcran.core.messages import BatteryState, Message, RanError, RanStatus
+from vcran.core.messages import BatteryState, Message, RanStatus
 from vcran.core.opil.manager import FleetManager
 from vcran.core.scenario import Job
+from vcran.managers.routing import BATTERY_EMPTY, COMPLETED, Router, task_outcome
 
 PICKUP, DROPOFF = "pick", "drop"
-COMPLETED, BATTERY_EMPTY, UNASSIGNABLE = "completed", "battery_empty", "unassignable"
+UNASSIGNABLE = "unassignable"
+ROUTINGS = ("auto", "roadmap", "straight")
 Point = tuple[float, float, float | None]  # x, y, theta (a pose, or a dock)
 
 
@@ -52,7 +63,7 @@ class Trip:
     job: Job
     arrival: int
     phase: str = PICKUP
-    task: Id | None = None
+    task: Id | str | None = None  # on a roadmap, the name of the router's errand
     tries: int = 0
 
     @property
@@ -62,31 +73,47 @@ class Trip:
 
 class Dispatcher(FleetManager):
     """FIFO jobs, nearest idle robot, re-planning after a cancelled task (with back-off), failure after
-    ``max_tries``, charging below ``charge_below``."""
+    ``max_tries``, charging below ``charge_below``, routes on the roadmap (``routing``)."""
 
-    attributes = frozenset({"ran_status", "ran_error", "battery_state"})
+    attributes = frozenset({"ran_status", "ran_error", "battery_state", "assignment_state"})
 
-    def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3) -> None:
+    def __init__(self, max_tries: int = 3, retry_after: float = 10.0, charge_below: float = 0.3,
+                 routing: str = "auto") -> None:
         if max_tries < 1:
             raise ValueError(f"max_tries must be at least 1, got {max_tries}")
         if retry_after < 0:
             raise ValueError(f"retry_after must not be negative, got {retry_after}")
         if not 0.0 <= charge_below < 1.0:
             raise ValueError(f"charge_below is a fraction of capacity in [0, 1), got {charge_below}")
+        if routing not in ROUTINGS:
+            raise ValueError(f"routing is one of {', '.join(ROUTINGS)}; got {routing!r}")
         self.max_tries, self.retry_after, self.charge_below = max_tries, retry_after, charge_below
+        self.routing = routing
 
     def on_start(self) -> None:
         self.queue: list[Trip] = []                      # jobs waiting for a robot, head first
         self.movers = [r for r in self.fleet.robot_ids if self.fleet.robot(r).moves_parts]  # may get jobs
-        self.idle: list[str] = list(self.movers)         # robots without a job, in fleet order
+        self.load = {r: self.fleet.robot(r).carrying for r in self.fleet.robot_ids}  # parts on board, as published
+        self.idle: list[str] = [r for r in self.movers if not self.load[r]]  # robots without a job, fleet order
         self.trips: dict[str, Trip] = {}                 # robot -> the job it works on
         self._rank = {robot: i for i, robot in enumerate(self.fleet.robot_ids)}
         self._arrivals = 0
         self.chargers = [s.id for s in self.fleet.stations if s.charger]
-        self.charging: dict[str, Id] = {}                # robot -> its charge task
+        self.charging: dict[str, Id | str] = {}          # robot -> its charge task
         self.out: set[str] = set()                       # robots whose battery ran empty, until swapped
         self.level: dict[str, float] = {}                # robot -> its latest published percentage
         self._charges = 0
+        self.returning: dict[str, tuple[str, Id | str]] = {}  # robot -> (station, task) returning a part there
+        self.refused: dict[str, set[str]] = {}           # robot -> stations that refused the part it carries
+        self.keeping: set[str] = set()                   # robots keeping a part no station took
+        self._returns = 0
+        if self.routing == "roadmap" or (self.routing == "auto" and self.fleet.roadmap is not None):
+            self.router: Router | None = Router(self.fleet, self.handle, self.free)
+        else:
+            self.router = None
+        for robot in self.movers:
+            if self.load[robot]:
+                self.return_part(robot)
 
     def on_job(self, job: Job) -> None:
         self._arrivals += 1
@@ -97,12 +124,19 @@ class Dispatcher(FleetManager):
         if isinstance(message, BatteryState):
             self.battery_changed(robot, message.percentage)
             return
+        if isinstance(message, RanStatus):
+            self.load[robot] = message.carrying
         trip = self.trips.get(robot)
-        task = trip.task if trip is not None else self.charging.get(robot)
-        outcome = _outcome(message, task) if task is not None else None
+        if self.router is not None:
+            outcome = self.router.update(robot, message)  # the errand's, and the robot's progress on the way
+        else:
+            task = trip.task if trip is not None else self.charging.get(robot) or self.returning.get(robot, ("", None))[1]
+            outcome = task_outcome(message, task) if isinstance(task, Id) else None
         if outcome is None:
             return
-        if trip is None:
+        if robot in self.returning:
+            self.return_ended(robot, outcome)
+        elif trip is None:
             self.charge_ended(robot, outcome)
         elif outcome == COMPLETED:
             self.task_completed(robot, trip)
@@ -145,6 +179,8 @@ class Dispatcher(FleetManager):
         stranded = trip.phase == DROPOFF and self.lost(robot)
         if trip.tries >= self.max_tries or stranded:
             self.handle.job_failed(trip.job, reason)  # the last task's reason; the event counts the tasks
+            if trip.phase == DROPOFF:
+                self.refused[robot] = {trip.job.dropoff}  # the part, still on board, is returned elsewhere
             self.release(robot)
             return
         wait = self.retry_after * 2 ** (trip.tries - 1)
@@ -161,6 +197,8 @@ class Dispatcher(FleetManager):
         if robot in self.out:
             if percentage >= self.charge_below:  # swapped for a charged battery
                 self.out.discard(robot)
+                if self.router is not None:
+                    self.router.resume(robot)  # drives on to the end of the route it stopped on
                 trip = self.trips.get(robot)
                 if trip is not None:
                     self.send(robot, trip)  # the drop-off that waited for the swap
@@ -183,10 +221,26 @@ class Dispatcher(FleetManager):
     def low(self, robot: str) -> bool:
         return self.level.get(robot, 1.0) < self.charge_below
 
+    def return_ended(self, robot: str, outcome: str) -> None:
+        """The part went back (the robot may work again), or that station refused it: the next one."""
+        station, _ = self.returning.pop(robot)
+        if outcome == COMPLETED:
+            self.refused.pop(robot, None)
+        elif outcome == BATTERY_EMPTY:
+            self.out.add(robot)  # it tries again when its battery is swapped
+            return
+        else:
+            self.refused.setdefault(robot, set()).add(station)
+        self.available(robot)
+
     def lost(self, robot: str) -> bool:
         """Out of service for good: its battery ran empty and is never swapped."""
         battery = self.fleet.robot(robot).battery
         return robot in self.out and (battery is None or battery.swap_after is None)
+
+    def free(self, robot: str) -> bool:
+        """The robot has no work of the Dispatcher's (the router may park it out of the way)."""
+        return not (robot in self.trips or robot in self.charging or robot in self.returning or robot in self.out)
 
     def requeue(self, trip: Trip) -> None:
         """``trip``'s wait after a failed pickup is over: back in the queue at its old place."""
@@ -195,18 +249,36 @@ class Dispatcher(FleetManager):
 
     # --- actions ------------------------------------------------------------------------------------------
 
+    def go(self, robot: str, station: str, action: str, name: str, job: Job | None = None) -> Id | str:
+        """Send ``robot`` to ``station``'s dock to perform ``action`` there: one task straight to the dock,
+        or the router's errand along the roadmap (one task per stretch); the task's id, or the errand's name."""
+        if self.router is None:
+            return self.handle.send_task(robot, [self.fleet.dock(station)], [action], task=name, job=job)
+        self.router.go(robot, station, action, name, job)
+        return name
+
     def send(self, robot: str, trip: Trip) -> None:
-        """One task for the trip's phase: the path to the station's dock, then load or unload there."""
+        """One errand for the trip's phase: to the station's dock, then load or unload there."""
         station, action = (trip.job.pickup, "load") if trip.phase == PICKUP else (trip.job.dropoff, "unload")
-        name = f"{trip.job.id}_{trip.phase}{trip.tries + 1}"
-        trip.task = self.handle.send_task(robot, [self.fleet.dock(station)], [action], task=name, job=trip.job)
+        trip.task = self.go(robot, station, action, f"{trip.job.id}_{trip.phase}{trip.tries + 1}", trip.job)
 
     def charge(self, robot: str) -> None:
         """Send ``robot`` to the charger nearest to it, to charge to full."""
         self._charges += 1
         station = _nearest(self.chargers, self.handle.pose(robot), self.fleet.dock)
-        self.charging[robot] = self.handle.send_task(robot, [self.fleet.dock(station)], ["charge"],
-                                                     task=f"charge{self._charges}_{robot}")
+        self.charging[robot] = self.go(robot, station, "charge", f"charge{self._charges}_{robot}")
+
+    def return_part(self, robot: str) -> None:
+        """Unload the part on board at the station nearest to ``robot`` that has not refused it; none left:
+        the robot keeps it and takes no more jobs."""
+        refused = self.refused.get(robot, set())
+        stations = [s.id for s in self.fleet.stations if not s.charger and s.id not in refused]
+        if not stations:
+            self.keeping.add(robot)  # an operator must unload it; the jobs wait for the other robots
+            return
+        self._returns += 1
+        station = _nearest(stations, self.handle.pose(robot), self.fleet.dock)
+        self.returning[robot] = station, self.go(robot, station, "unload", f"return{self._returns}_{robot}")
 
     def release(self, robot: str) -> None:
         """``robot`` has no job any more."""
@@ -223,28 +295,17 @@ class Dispatcher(FleetManager):
             self.idle_again(robot)
 
     def idle_again(self, robot: str) -> None:
-        """Back among the idle ones (in fleet order), and maybe the next job."""
+        """Back among the idle ones (in fleet order), and maybe the next job; a part on board goes back first."""
+        if self.load[robot]:
+            self.return_part(robot)
+            return
         bisect.insort(self.idle, robot, key=self._rank.__getitem__)
         self.dispatch()
+        if self.router is not None:
+            self.router.advance()  # an idle robot in another's way is parked
 
 
 def _nearest(candidates: list[str], point: Point, where: Callable[[str], Point]) -> str:
     """The candidate whose place is nearest to ``point`` in a straight line (min keeps the first of equals)."""
     return min(candidates, key=lambda c: math.hypot(where(c)[0] - point[0], where(c)[1] - point[1]))
 
-
-def _outcome(message: Message, task: Id) -> str | None:
-    """How ``task`` ended according to ``message``: ``"completed"``, a cancel reason, or None (not yet).
-
-    A ``ran_error`` ``battery_empty`` naming the task ends it at once: published when the robot stops
-    (its ``ran_status`` follows at the next tick), and the only word on a task the robot refused
-    because it was already out of service (a refused task never appears in ``ran_status``)."""
-    if isinstance(message, RanStatus):
-        if task in message.completed:
-            return COMPLETED
-        for ended in message.cancelled:
-            if ended.task_id == task:
-                return ended.reason
-    elif isinstance(message, RanError) and message.code == BATTERY_EMPTY and message.task_id == task:
-        return BATTERY_EMPTY
-    return None

@@ -24,7 +24,9 @@ the manager behaved); :func:`assert_loop_properties` raises one AssertionError l
   the R2/R8-R10/R12 rejections; action failures and cancel races are not the manager's protocol bugs);
 * :func:`check_no_idle_while_waiting` — no robot sat idle (WAITING) for more than ``bound`` seconds
   while a job was waiting for a robot. A job waits from its arrival, and again from the cancellation of
-  its latest task, until the manager sends a task for it or reports it ended.
+  its latest task, until the manager sends a task for it or reports it ended;
+* :func:`~vcran.testing.deadlocks.check_no_deadlock` — where it applies (a roadmap, or ``deadlock``
+  events: SPEC §12): no ``deadlock`` event, and no robot stuck idle on an open job past a bound.
 
 :func:`fuzz_manager` is the search behind ``vcran fuzz SCENARIO --manager module:Class``: hypothesis's
 ``find`` over :func:`loop_variants`, seeded, without an example database, shrinking to a minimal failing
@@ -48,7 +50,10 @@ from hypothesis import strategies as st
 from vcran.core.faults import KINDS, RANDOM_KINDS, FaultSpec
 from vcran.core.jobs import waiting_spans
 from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
+from vcran.testing.deadlocks import STUCK_BOUND, check_no_deadlock
+from vcran.testing.deadlocks import applies as deadlock_applies
 from vcran.testing.outcomes import COMPLETION_MARGIN, check_failures_have_evidence, check_feasible_jobs_completed
+from vcran.testing.spans import assignees, away_spans, fault_spans, idle_spans, minus, robot_at
 
 #: ``ran_error`` codes that mean the fleet manager broke the OPIL protocol (docs/rules.md).
 PROTOCOL_ERRORS = frozenset({
@@ -200,7 +205,7 @@ def check_protocol(result: Any) -> list[str]:
     Rejections of a robot while its link is down, up to the instant it is back (§4), are the outage's: what
     the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out).
     """
-    cut_off = _fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
+    cut_off = fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
     return [f"t={e['t']:g} {e['robot'] or 'fleet'}: ran_error {e['code']}: {e.get('message', '')}"
             for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS
             and not any(a <= e["t"] <= b for a, b in cut_off.get(e["robot"], []))]
@@ -218,18 +223,16 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     if not bound >= 0:  # a negative bound reported every robot, over stretches that end before they begin
         raise ValueError(f"check_no_idle_while_waiting: bound must be a number of seconds >= 0, got {bound}")
     end = float(result.summary["sim_time"])
-    away = _fault_spans(result.events, end, UNAVAILABLE_FAULTS)
-    for robot, spans in _empty_spans(result.events, end).items():
-        away.setdefault(robot, []).extend(spans)
-    unseen = _fault_spans(result.events, end, frozenset({"link_down"}))
-    assignees = _assignees(result.events)
+    away = away_spans(result.events, end)
+    unseen = fault_spans(result.events, end, frozenset({"link_down"}))
+    given = assignees(result.events)
     waiting = [(job, c, d) for job, a, b in waiting_spans(result.events, end)
-               for c, d in _minus([(a, b)], unseen.get(_robot_at(assignees.get(job, []), a), []))]
+               for c, d in minus([(a, b)], unseen.get(robot_at(given.get(job, []), a), []))]
     problems = []
     scenario = getattr(result, "scenario", None)
     robots = [r.id for r in scenario.robots if r.moves_parts] if isinstance(scenario, Scenario) else result.robots
-    for robot, idle in _idle_spans(result.events, robots, end).items():
-        for a, b in _minus(idle, away.get(robot, [])):
+    for robot, idle in idle_spans(result.events, robots, end).items():
+        for a, b in minus(idle, away.get(robot, [])):
             for job, c, d in waiting:
                 lo, hi = max(a, c), min(b, d)
                 if hi - lo > bound:
@@ -239,106 +242,22 @@ def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[
     return problems
 
 
-def loop_problems(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN) -> list[str]:
-    """Every violation of the five properties."""
+def loop_problems(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN,
+                  stuck: float = STUCK_BOUND) -> list[str]:
+    """Every violation of the five properties, and of "no deadlock" where it applies
+    (:func:`vcran.testing.deadlocks.applies`; ``stuck``: its bound)."""
     return (check_jobs_ended(result) + check_failures_have_evidence(result)
             + check_feasible_jobs_completed(result, margin) + check_protocol(result)
-            + check_no_idle_while_waiting(result, bound))
+            + check_no_idle_while_waiting(result, bound)
+            + (check_no_deadlock(result, stuck) if deadlock_applies(result) else []))
 
 
-def assert_loop_properties(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN) -> None:
-    """Raise AssertionError listing every violation of the five properties."""
-    problems = loop_problems(result, bound, margin)
+def assert_loop_properties(result: Any, bound: float = IDLE_BOUND, margin: float = COMPLETION_MARGIN,
+                           stuck: float = STUCK_BOUND) -> None:
+    """Raise AssertionError listing every violation of the loop properties (:func:`loop_problems`)."""
+    problems = loop_problems(result, bound, margin, stuck)
     if problems:
         raise AssertionError("the fleet manager broke the loop properties:\n  " + "\n  ".join(problems))
-
-
-#: Fault kinds during which a robot is out of the fleet manager's reach (from ``fault`` to ``fault_end``).
-UNAVAILABLE_FAULTS = frozenset({"link_down", "breakdown"})
-
-
-def _fault_spans(events: list[dict[str, Any]], end: float, kinds: frozenset[str]) -> dict[str, list[tuple[float, float]]]:
-    """Per robot, the spans of its faults of ``kinds`` that applied (one still on at ``end`` lasts until then)."""
-    since: dict[tuple[str, str], float] = {}
-    spans: dict[str, list[tuple[float, float]]] = {}
-    for e in events:
-        if e["event"] not in ("fault", "fault_end") or e.get("kind") not in kinds:
-            continue
-        key = (e["robot"], e["kind"])
-        if e["event"] == "fault" and e.get("applied", True):
-            since.setdefault(key, e["t"])
-        elif e["event"] == "fault_end" and key in since:
-            spans.setdefault(key[0], []).append((since.pop(key), e["t"]))
-    for (robot, _kind), start in since.items():
-        spans.setdefault(robot, []).append((start, end))
-    return spans
-
-
-def _empty_spans(events: list[dict[str, Any]], end: float) -> dict[str, list[tuple[float, float]]]:
-    """Per robot, the spans its battery was empty: from ``battery_empty`` to ``battery_swapped`` (or ``end``)."""
-    since: dict[str, float] = {}
-    spans: dict[str, list[tuple[float, float]]] = {}
-    for e in events:
-        if e["event"] == "battery_empty":
-            since.setdefault(e["robot"], e["t"])
-        elif e["event"] == "battery_swapped" and e["robot"] in since:
-            spans.setdefault(e["robot"], []).append((since.pop(e["robot"]), e["t"]))
-    for robot, start in since.items():
-        spans.setdefault(robot, []).append((start, end))
-    return spans
-
-
-def _assignees(events: list[dict[str, Any]]) -> dict[str, list[tuple[float, str]]]:
-    """Per job, its robots in assignment order, with the instant each was given it."""
-    out: dict[str, list[tuple[float, str]]] = {}
-    for e in events:
-        if e["event"] == "job_assigned":
-            out.setdefault(e["job"], []).append((e["t"], e["robot"]))
-    return out
-
-
-def _robot_at(assigned: list[tuple[float, str]], t: float) -> str:
-    """The robot a job was last given at or before ``t`` ("" before its first assignment)."""
-    robot = ""
-    for since, who in assigned:
-        if since > t:
-            break
-        robot = who
-    return robot
-
-
-def _minus(spans: list[tuple[float, float]], cuts: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    """``spans`` with every instant inside one of ``cuts`` taken out (a span may split in two)."""
-    for c, d in cuts:
-        kept = []
-        for a, b in spans:
-            if a < c:
-                kept.append((a, min(b, c)))
-            if b > d:
-                kept.append((max(a, d), b))
-        spans = kept
-    return spans
-
-
-def _idle_spans(events: list[dict[str, Any]], robots: Sequence[str], end: float) -> dict[str, list[tuple[float, float]]]:
-    """Per robot, the spans it was WAITING (robots start WAITING at t = 0)."""
-    since: dict[str, float | None] = dict.fromkeys(robots, 0.0)
-    spans: dict[str, list[tuple[float, float]]] = {r: [] for r in robots}
-    for e in events:
-        if e["event"] != "state":
-            continue
-        robot = e["robot"]
-        if e["to"] == "WAITING":
-            since[robot] = e["t"]
-        elif e["from"] == "WAITING":
-            start = since.get(robot)
-            if start is not None:
-                spans[robot].append((start, e["t"]))
-            since[robot] = None
-    for robot, start in since.items():
-        if start is not None:
-            spans[robot].append((start, end))
-    return spans
 
 
 # --- the search -------------------------------------------------------------------------------------------
