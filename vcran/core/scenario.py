@@ -43,6 +43,8 @@ PROTOCOLS = (OPIL, VDA5050)
 VDA5050_VERSIONS = ("2.1.0", "2.0.0")
 #: A VDA 5050 vehicle's ``interface_name`` unless it says otherwise (§6.3: "uagv").
 INTERFACE_NAME = "uagv"
+#: The topics a VDA 5050 script sends on (a script entry's ``attribute``).
+VDA5050_TOPICS = ("order", "instantActions")
 
 
 @dataclass(frozen=True, slots=True)

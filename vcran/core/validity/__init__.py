@@ -7,8 +7,8 @@ into the model, calls :func:`validate` and says where in the file each problem l
 ``stations[0].dock``, ``jobs[1].pickup``; the file's keys), told as one line by ``str(problem)``.
 
 The rules, by part: settings, robots and stations in :mod:`.fleet`; faults, the closed loop (jobs, job
-stream, link, manager) and the script in :mod:`.workload`; what the scenario's protocol adds (VDA 5050
-vehicles and their script's messages) in :mod:`.vda5050`; a roadmap's in
+stream, link, manager) and the script in :mod:`.workload`; what the scenario's protocol allows (VDA 5050
+vehicles, and the script's messages) in :mod:`.protocol`; a roadmap's in
 :func:`vcran.core.traffic.roadmap.validate`; the rules between parts and of the whole scenario here. Each
 field's own rule (kind and bounds) is declared once in those modules, and the file's reader applies it to
 the value as the file writes it (:mod:`.fields`).
@@ -24,8 +24,9 @@ from vcran.core.traffic import roadmap as traffic
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.validity.fields import Problem, is_number
 from vcran.core.validity.fleet import robot_problems, settings_problems, station_problems
-from vcran.core.validity.vda5050 import script_problems as protocol_script_problems
-from vcran.core.validity.vda5050 import vehicle_problems
+from vcran.core.validity.protocol import link_problems as protocol_link_problems
+from vcran.core.validity.protocol import script_problems as protocol_script_problems
+from vcran.core.validity.protocol import vehicle_problems
 from vcran.core.validity.workload import (
     fault_problems,
     in_time_order,
@@ -69,7 +70,8 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
         out.append(Problem("roadmap", f"expected a Roadmap or None, got {type(sc.roadmap).__name__}"))
     elif not stations:  # the roadmap's rules read the stations' docks
         out += [Problem(*p) for p in traffic.validate(sc.roadmap, sc.stations)]
-    out += link_problems(sc.link, own)
+    link = link_problems(sc.link, own)
+    out += link or (protocol_link_problems(sc.link, protocol) if protocol is not None else [])
     if sc.manager is not None:
         out += manager_problems(sc.manager, own)
     robots = _ids(sc.robots, RobotConfig)
@@ -87,7 +89,7 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
         out += job_stream_problems(sc.job_stream, names, listed, end, own)
     script = script_problems(sc.script, sc.cycles, robots, end, own)
     if protocol is not None and not script:
-        script = protocol_script_problems(sc.script, sc.cycles, sc.robots, protocol, own)
+        script = protocol_script_problems(sc.script, sc.cycles, protocol)
     out += script
     return out + _whole(sc, faults_sound=not faults)
 
