@@ -52,10 +52,15 @@ def add_scenario_argument(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def load_scenario(path: Path) -> Scenario:
-    """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field."""
+    """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field; also
+    for a scenario whose protocol the simulation does not host yet (:func:`vcran.runner.check_protocol`),
+    before a command connects to anything."""
     from vcran.io.scenario_file import ScenarioError, load
+    from vcran.runner import check_protocol
 
     try:
-        return load(path)
+        scenario = load(path)
+        check_protocol(scenario)
     except ScenarioError as exc:
         raise CommandError(str(exc)) from None
+    return scenario
