@@ -26,7 +26,7 @@ from vcran.core.vda5050.fleet import MasterFleet
 from vcran.core.vda5050.order import InstantActions, Order
 from vcran.io.scenario_file import ScenarioError, parse
 from vcran.io.scenario_schema import scenario_schema
-from vcran.io.scenario_toml import dumps, scenario_dict
+from vcran.io.scenario_toml import dumps, loop_dict, scenario_dict
 
 FLEET = """
 [simulation]
@@ -266,6 +266,12 @@ def test_the_writer_writes_a_vda5050_scenario_back() -> None:
              + entry(2.0, "instantActions", f"message = '{PAUSE}'") + entry(3.0, "order", "payload = 'not json'"))
     again = parse(tomllib.loads(dumps(scenario_dict(s, s.script))), "x.toml")
     assert again == s
+
+
+def test_the_writer_writes_a_vda5050_closed_loop_back() -> None:
+    """vcran fuzz --manager saves a shrunk failing scenario with loop_dict: the protocol and the vehicles too."""
+    s = vcran.load_scenario("vda5050-warehouse")
+    assert parse(tomllib.loads(dumps(loop_dict(s))), s.source, "vda5050-warehouse") == s
 
 
 def test_the_writer_refuses_a_header_the_reader_would_not_stamp() -> None:
