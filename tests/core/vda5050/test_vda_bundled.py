@@ -2,45 +2,36 @@
 the ``vda5050`` script moves the demo's part in three orders (its timing is derived in docs/vda5050.md, "VDA
 5050 scenarios", which runs it), and the reference master does every job of ``vda5050-warehouse``.
 
-The Yard produces no parts: each station's production (``produce_every``, up to ``capacity``) is injected
-at the times the scenario gives.
+The Yard produces no parts: :func:`vcran.testing.vda5050.scripted.produce` injects each station's production.
 """
 
 from __future__ import annotations
 
+import tomllib
+
+import pytest
+
 import vcran
-from vcran.core.scenario import Scenario
-from vcran.core.vda5050.master import Master
+from vcran.io.scenario_file import parse
 from vcran.managers.vda5050 import MasterControl
+from vcran.testing.vda5050.scripted import ScriptedMaster, produce
 from vcran.testing.vda5050.yard import Yard
 
-
-def produce(yard: Yard, scenario: Scenario, until: float) -> None:
-    """Each station's parts as the simulation would produce them (SPEC §4), injected into the Yard."""
-    for s in scenario.stations:
-        limit = s.produce_limit or float("inf")
-        t, n = (s.produce_start if s.produce_start is not None else s.produce_every), 0
-        while s.produce_every > 0 and t <= until and n < limit:
-            yard.call_at(t, lambda s=s: yard.stock.update({s.id: min(s.capacity, yard.stock[s.id] + 1)}))
-            t, n = t + s.produce_every, n + 1
-
-
-class Script(Master):
-    """A scenario's script played as it is: each message to its vehicle at its time."""
-
-    def __init__(self, scenario: Scenario) -> None:
-        self.scenario = scenario
-
-    def on_start(self) -> None:
-        serials = {r.id: r.serial_number for r in self.scenario.robots}
-        for entry in self.scenario.script:
-            self.handle.call_at(entry.t, self.handle.send, serials[entry.robot], entry.message)
+FLEET = """
+[simulation]
+duration = 100.0
+protocol = "vda5050"
+[[robots]]
+id = "r1"
+manufacturer = "acme"
+serial_number = "0001"
+"""
 
 
 def test_the_vda5050_script_moves_the_part_in_three_orders_and_comes_home() -> None:
     scenario = vcran.load_scenario("vda5050")
-    yard = Yard(scenario, Script(scenario))
-    produce(yard, scenario, 100.0)
+    yard = Yard(scenario, ScriptedMaster(scenario))
+    produce(yard, 100.0)
     yard.run(100.0)
     # each order accepted when it arrives and completed before the next is sent (none refused)
     seen = [(e["event"], e["order_id"]) for e in yard.events if e["event"].startswith("Order")]
@@ -57,8 +48,46 @@ def test_the_reference_master_does_every_job_of_the_vda5050_warehouse() -> None:
     scenario = vcran.load_scenario("vda5050-warehouse")
     assert scenario.manager is not None
     yard = Yard(scenario, MasterControl(**dict(scenario.manager.options)), latency=scenario.link.latency)
-    produce(yard, scenario, scenario.settings.duration)
+    produce(yard, scenario.settings.duration)
     yard.run(scenario.settings.duration)
     outcomes = [job.outcome for job in yard.jobs.records()]
     assert len(outcomes) == len(list(scenario.workload())) > 0
     assert set(outcomes) == {"completed"}
+
+
+def test_production_in_the_yard_is_the_simulations() -> None:
+    """SPEC §4 (docs/scenarios.md): a part every produce_every from produce_start (default: produce_every), a
+    full station skipping its turn, at most produce_limit parts. Up to t = 24: ticks at 10 and 20 (a, b, c),
+    at 5 and 15 (d)."""
+    text = FLEET + """
+[[stations]]
+id = "a"
+position = [10.0, 0.0]
+produce_every = 10.0
+capacity = 1
+[[stations]]
+id = "b"
+position = [20.0, 0.0]
+produce_every = 10.0
+produce_limit = 1
+[[stations]]
+id = "c"
+position = [30.0, 0.0]
+produce_every = 10.0
+parts = 3
+[[stations]]
+id = "d"
+position = [40.0, 0.0]
+produce_every = 10.0
+produce_start = 5.0
+"""
+    yard = Yard(parse(tomllib.loads(text)), ScriptedMaster(parse(tomllib.loads(text))))
+    produce(yard, 24.0)
+    yard.run(100.0)
+    assert yard.stock == {"a": 1, "b": 1, "c": 5, "d": 2}
+
+
+def test_the_scripted_master_refuses_a_payload_it_cannot_send() -> None:
+    scenario = parse(tomllib.loads(FLEET + '[[script]]\nt = 1.0\nrobot = "r1"\nkind = "order"\npayload = "{}"\n'))
+    with pytest.raises(ValueError, match="script entry at t = 1: a payload, which the Yard cannot send"):
+        Yard(scenario, ScriptedMaster(scenario))
