@@ -8,10 +8,14 @@ production at the times the simulation would.
 
 from __future__ import annotations
 
-from vcran.core.scenario import Scenario
+from typing import TYPE_CHECKING
+
 from vcran.core.stations import Station
 from vcran.core.vda5050.master import Master
 from vcran.testing.vda5050.yard import Yard
+
+if TYPE_CHECKING:  # types only: VDA 5050 imports nothing of OPIL's, which the scenario module still does
+    from vcran.core.scenario import Scenario
 
 __all__ = ["ScriptedMaster", "produce"]
 
