@@ -92,12 +92,13 @@ TOPIC_LEVEL_FORBIDDEN = "/+#$\0"
 def _topic_level(v: str) -> str | None:
     bad = [c if c != "\0" else "NUL" for c in TOPIC_LEVEL_FORBIDDEN if c in v]
     if bad:
-        return f"contains {' '.join(bad)}, which an MQTT topic level cannot hold (VDA 5050 §6.3: it names the vehicle's topics)"
+        return (f"contains {' '.join(bad)}, which an MQTT topic level cannot hold (VDA 5050 §6.3: it names the "
+                "vehicle's topics)")
     return None
 
 
 #: A VDA 5050 vehicle's identity (SPEC §11): required or refused by the scenario's protocol
-#: (:func:`vcran.core.validity.vda5050.vehicle_problems`), so absent (None) here.
+#: (:func:`vcran.core.validity.protocol.vehicle_problems`), so absent (None) here.
 VEHICLE: dict[str, Rule] = {
     "manufacturer": Text(absent=None, then=_topic_level),
     "serial_number": Text(absent=None, then=_topic_level),
