@@ -12,8 +12,9 @@ field. ``payload`` instead sends a text as it is, unchecked: a master's malforme
 vehicle refuses with a ``validationError``.
 
 Stamping needs every entry's time and vehicle, so an entry is read into a :class:`Draft` first and
-stamped once all are read (:func:`stamped`). What relates an entry to the scenario (its robot, its
-protocol, its vehicle's version) is :mod:`vcran.core.validity.vda5050`'s.
+stamped once all are read (:func:`stamped`). The message is checked here, as it is built (the shared model
+imports no protocol); what relates an entry to the scenario (its robot, its protocol, a message or a
+payload) is :mod:`vcran.core.validity.protocol`'s.
 """
 
 from __future__ import annotations
