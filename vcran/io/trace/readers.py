@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import orjson
 
-from vcran.core.messages import ATTRIBUTES, RENAMED
+from vcran.core.opil.messages import ATTRIBUTES, RENAMED
 from vcran.core.wire import Frame
 from vcran.io.render import expand
 from vcran.io.trace.files import (
