@@ -42,6 +42,7 @@ from vcran.core.opil.effects import (
     TaskCompleted,
     TaskQueued,
 )
+from vcran.core.opil.history import Ended, History, fingerprint
 from vcran.core.opil.ids import NIL, Id
 from vcran.core.opil.messages import (
     ActionAssignment,
@@ -52,7 +53,7 @@ from vcran.core.opil.messages import (
     TaskEnd,
     Time,
 )
-from vcran.core.opil.tasks import Ended, History, Task, assignment_id, fingerprint, kind_of, same_content
+from vcran.core.opil.tasks import Task, assignment_id, kind_of, same_content
 from vcran.core.slots import unchecked
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
