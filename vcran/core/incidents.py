@@ -1,6 +1,6 @@
 """What happens to a robot on its own (SPEC §4): battery, faults, collisions, as events for ``events.jsonl``.
 
-RanLogic's events (:mod:`vcran.core.effects`) say what the rules did; these say what the robot went
+RanLogic's events (:mod:`vcran.core.opil.effects`) say what the rules did; these say what the robot went
 through, and are logged by the SimPy model when it happens. Where the fleet manager would notice, the model
 also publishes a ``ran_error`` (docs/robots.md lists which).
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from vcran.core.effects import ErrorReport, Event
+from vcran.core.events import Event
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,10 +83,3 @@ class Collision(Event):
 
     def fields(self) -> dict[str, Any]:
         return {"other": self.other, "x": self.x, "y": self.y}
-
-
-@dataclass(frozen=True, slots=True)
-class Published(ErrorReport):
-    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
-
-    NAME = ""

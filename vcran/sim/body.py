@@ -13,7 +13,7 @@ Commands (what a logic's effects become):
   DispatchPath), :meth:`Body.extend` appends to it, also while driving (VDA 5050's Drive),
   :meth:`Body.stop_after_leg` empties it (R8), :meth:`Body.skip` drops a waypoint not yet driven (R13);
   ``wake(token)`` tells the AGV a route is there;
-* ``act((token, kind, tag))``: queue one action (an :class:`~vcran.core.messages.ActionKind`); AgvAction
+* ``act((token, kind, tag))``: queue one action (an :class:`~vcran.core.actions.ActionKind`); AgvAction
   performs them one at a time, in order, and reports :class:`Acted` with ``tag``. A failed load or unload
   moves nothing;
 * :meth:`~vcran.sim.holds.Holds.abandon` (R14), :meth:`~vcran.sim.holds.Holds.hold` /
@@ -44,8 +44,8 @@ from typing import Any
 
 import simpy
 
+from vcran.core.actions import ActionKind
 from vcran.core.battery import ACT, CHARGE, DRIVE, REST, FleetBattery, charge_refusal, leg_cut, linear_empty_after
-from vcran.core.messages import ActionKind
 from vcran.core.motion import FleetKinematics, Leg, Limits
 from vcran.core.scenario import RobotConfig
 from vcran.core.stations import Outcome, StationMap, attempt, transfer

@@ -12,10 +12,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from vcran.core.effects import ErrorReport, Event, State, StateChanged, TaskCancelled, TaskCompleted
-from vcran.core.messages import BatteryState, Header, Message, Time
-from vcran.core.ranlogic import RanLogic
-from vcran.core.stations import motion_area_problem
+from vcran.core.events import Event
+from vcran.core.opil.effects import ErrorReport, State, StateChanged, TaskCancelled, TaskCompleted
+from vcran.core.opil.messages import BatteryState, Header, Message, Time
+from vcran.core.opil.motion_area import motion_area_problem
+from vcran.core.opil.ranlogic import RanLogic
 from vcran.core.wire import Inbound, Transport
 from vcran.sim.body import Body
 from vcran.sim.opil.node import RanNode
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
 
 
 def default_decode(attribute: str, raw: Any) -> Message:
-    from vcran.core.codec import decode_attribute  # imported on first raw payload only
+    from vcran.core.opil.codec import decode_attribute  # imported on first raw payload only
 
     return decode_attribute(attribute, raw)
 

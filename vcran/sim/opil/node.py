@@ -1,7 +1,7 @@
 """RanLogic's process for one robot: OPIL's vehicle logic around the shared body (seed §2, docs/protocols.md).
 
 The process decides nothing. It hands each arriving signal (an inbound message routed by the RAN, the body's
-reports, a due R7 deadline) to the pure :class:`~vcran.core.ranlogic.RanLogic` and carries out the effects it
+reports, a due R7 deadline) to the pure :class:`~vcran.core.opil.ranlogic.RanLogic` and carries out the effects it
 returns: commands become the body's commands (:mod:`vcran.sim.body`), every other effect is an event for the
 log. OPIL's motions are the body's waypoints as they are (:meth:`RanNode.leg_to` plans a leg to one).
 """
@@ -17,23 +17,23 @@ from typing import Any
 
 import simpy
 
-from vcran.core.effects import (
+from vcran.core.events import Event
+from vcran.core.motion import Leg
+from vcran.core.opil.effects import (
     Abandon,
     ClearTimer,
     DispatchAction,
     DispatchPath,
     Effect,
-    Event,
+    Published,
     Reason,
     SkipMotion,
     StartTimer,
     StopAfterLeg,
 )
-from vcran.core.ids import Id
-from vcran.core.incidents import Published
-from vcran.core.messages import ActionAssignment, CancelTask, Message, MotionAssignment, PolygonStamped
-from vcran.core.motion import Leg
-from vcran.core.ranlogic import RanLogic
+from vcran.core.opil.ids import Id
+from vcran.core.opil.messages import ActionAssignment, CancelTask, Message, MotionAssignment, PolygonStamped
+from vcran.core.opil.ranlogic import RanLogic
 from vcran.sim.body import Acted, Body, Reached
 from vcran.sim.holds import Halted, InService
 from vcran.sim.mailbox import Mailbox
