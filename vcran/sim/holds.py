@@ -61,6 +61,7 @@ class Holds:
 
     env: simpy.Environment
     tell: Callable[[object], None]
+    route: Any
     battery: Any
     _level: Callable[[], float]
     _rate: Callable[[], float]
@@ -144,8 +145,6 @@ class Holds:
         self.route.clear()
         if self._worker is not None:
             self._worker.interrupt(ABANDON)
-
-    route: Any
 
     def _stopped(self, cause: Halted | str) -> None:
         """A work ended early: tell the logic when the robot stopped on its own; an abandoned (R14) or
