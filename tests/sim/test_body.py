@@ -9,6 +9,7 @@ import math
 import pytest
 
 from vcran.core.actions import ActionKind
+from vcran.core.battery import BatteryConfig, FleetBattery
 from vcran.core.motion import FleetKinematics
 from vcran.core.scenario import RobotConfig
 from vcran.core.stations import StationMap
@@ -164,3 +165,27 @@ def test_place_sets_the_pose_of_a_body_at_rest():
     b.drive([Waypoint(2.0, 4.0, tag="a")])
     b.env.run(until=20.0)
     assert reached(told) == [(3.0, "a")]  # 3 m from where it was placed
+
+
+def test_what_the_body_shows_mid_leg_pose_speeds_odometer_and_charge():
+    """At 1.5 s on a 4 m leg along +x at 1 m/s: x = 1.5, speed 1, odometer 1.5; no battery: no charge. With a
+    battery of 10 Ah drawing 0.1 Ah a metre and nothing at rest: 10 - 0.15 Ah."""
+    b, _ = body()
+    b.drive([Waypoint(4.0, 0.0, tag="a")])
+    seen: list[object] = []
+    when(b, 1.5, lambda: seen.extend([b.motion(), b.odometer(), b.charge()]))
+    b.env.run(until=20.0)
+    assert seen == [pytest.approx((1.5, 0.0, 0.0, 1.0, 0.0)), pytest.approx(1.5), None]
+    assert b.motion() == (4.0, 0.0, 0.0, 0.0, 0.0) and b.odometer() == pytest.approx(4.0)
+
+
+def test_the_battery_drains_by_the_metre_and_reads_as_the_charge():
+    env = Environment(0.0)
+    config = RobotConfig("r", battery=BatteryConfig(capacity=10.0, per_metre=0.1))
+    b = Body(env, 0, config, FleetKinematics([config.pose]), StationMap([]), {}, FleetBattery([config.battery]))
+    b.start()
+    b.drive([Waypoint(4.0, 0.0, tag="a")])
+    seen: list[float | None] = []
+    when(b, 1.5, lambda: seen.append(b.charge()))
+    env.run(until=20.0)
+    assert seen == [pytest.approx(10.0 - 0.15)] and b.charge() == pytest.approx(10.0 - 0.4)

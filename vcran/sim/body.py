@@ -30,8 +30,9 @@ only if ``token == current()`` (the work may have ended while it waited, e.g. wh
 Reports, handed to the glue's ``tell`` hook in the order they happen: :class:`Reached` (a waypoint),
 :class:`~vcran.sim.agvaction.Acted` (an action's tag, ok, code, message), :class:`~vcran.sim.holds.Halted`
 (why, message, out of service), :class:`~vcran.sim.holds.InService`. Read-only state: ``pose`` (at rest),
-:meth:`~vcran.sim.energy.Energy.position`, ``driving``, ``working``, ``holds``, ``beside``, ``carrying``,
-``parts_moved``, ``empty``, and the battery's level (``battery``, a :class:`~vcran.core.battery.FleetBattery`).
+:meth:`~vcran.sim.energy.Energy.position`, :meth:`Body.motion` (pose and speeds now), :meth:`Body.odometer`,
+``driving``, ``working``, ``holds``, ``beside``, ``carrying``, ``parts_moved``, ``empty``, and the battery's
+:meth:`~vcran.sim.energy.Energy.charge`.
 
 Hooks the glue sets before :meth:`Body.start`: ``tell(report)``, ``current()``, ``plan(waypoint) -> Leg``
 (how its waypoints become legs; the default, :meth:`Body.leg_to`, takes a :class:`Waypoint`),
@@ -159,6 +160,15 @@ class Body(Holds, Energy, AgvAction):
     @property
     def driving(self) -> bool:
         return self.index in self.fleet.current
+
+    def motion(self) -> tuple[float, float, float, float, float]:
+        """``(x, y, theta, linear speed, angular speed)`` now: on the running leg, or at rest."""
+        leg = self.fleet.current.get(self.index)
+        return leg.pose_at(self.env.now) if leg is not None else (*self.pose, 0.0, 0.0)
+
+    def odometer(self) -> float:
+        """Metres driven since the run began, the running leg's so far included."""
+        return self.fleet.distance(self.index, self.env.now)
 
     def log_incident(self, event: Any) -> None:
         self.log(self, event)

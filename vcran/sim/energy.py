@@ -58,6 +58,10 @@ class Energy:
             self.watch_idle()  # may run out before the power tick would notice
         return level
 
+    def charge(self) -> float | None:
+        """The battery's charge now, in Ah (None: this robot has no battery)."""
+        return None if self.battery is None else self._level()
+
     def _level(self) -> float:
         b = self.battery
         assert b is not None
