@@ -75,7 +75,7 @@ def check_sequence(outcome: Outcome) -> None:
     assert outcome.returncode == 0 and outcome.of("done"), shown
     assert not outcome.of("dropped"), shown  # no state failed the library's 2.0 schema check
     steps = [line["name"] for line in outcome.of("step")]
-    assert steps == ["order", "update", "stale", "pause", "resume", "cancel"], shown
+    assert steps == ["order", "pause", "update", "stale", "resume", "cancel"], shown
 
     def after(step: str) -> list[dict]:
         """The states received after the master began ``step``."""
@@ -92,33 +92,37 @@ def check_sequence(outcome: Outcome) -> None:
         "event": "orderProcessed", "order": "o1/0", "error": None, "byCancelation": False, "active": True,
         "lastNodeId": None}, shown
 
+    # §6.8.1 startPause: "No more AGV driving movements", "Order is resumable"; §6.8.2: FINISHED when "The
+    # AGV reports .paused: true". Until stopPause the vehicle does not move, whatever it is sent.
+    pause = outcome.of("instantActionState", actionType="startPause")[0]["actionId"]
+    paused = next(s for s in after("pause") if s["paused"] and s["actions"].get(pause) == "FINISHED")
+    assert (paused["orderUpdateId"], paused["lastNodeId"], paused["driving"]) == (0, "n1", False), shown
+
     # §6.6.2, Figure 8 (7): the update stitches on the decision point n1 (seq 2) and is accepted: n2 and n3
-    # released, nothing before n1 comes back.
+    # released, nothing before n1 comes back; paused, the vehicle does not drive them yet.
     update = next(s for s in after("update") if s["orderUpdateId"] == 1)
     assert (update["orderId"], update["lastNodeId"]) == ("o1", "n1"), shown
+    assert (update["paused"], update["driving"]) == (True, False), shown
     assert (update["nodes"], update["edges"]) == (["n2/4", "n3/6"], ["n1-n2/3", "n2-n3/5"]), shown
 
     # §6.6.4.3: o1/0 again, lower than the current 1: "Vehicle does NOT take over the new order", "keeps the
     # previous order", "reports the warning orderUpdateError" (with orderId and orderUpdateId of the
     # rejected update, §6.6.6's orderUpdateId: "If an order update is rejected, this field is to be passed
-    # in the rejection message") and "continues with executing the previous order".
+    # in the rejection message") and "continues with executing the previous order" (below).
     stale = next(s for s in after("stale") if s["errors"])
-    assert stale["orderUpdateId"] == 1 and stale["lastNodeId"] in ("n1", "n2"), shown
+    assert (stale["orderUpdateId"], stale["nodes"], stale["lastNodeId"]) == (1, update["nodes"], "n1"), shown
     [error] = stale["errors"]
     assert (error["type"], error["level"], error["refs"].get("orderId"), error["refs"].get("orderUpdateId")) \
         == ("orderUpdateError", "WARNING", "o1", "0"), shown
     assert [line["error"] for line in outcome.of("orderProcessed", order="o1/0")][1:] == [
         {"type": "orderUpdateError", "level": "WARNING"}], shown
 
-    # §6.8.1 startPause: "No more AGV driving movements", "Order is resumable": paused, standing, the order
-    # still held; stopPause: "Movement and all other actions will be resumed". The vehicle did not move
-    # while paused, and then drove o1 to its end (n3), the stale update changing nothing.
-    pause = next(line for line in outcome.of("instantActionState", actionType="startPause"))
-    paused = next(s for s in after("pause") if s["paused"] and s["actions"].get(pause["actionId"]) == "FINISHED")
-    assert not paused["driving"] and paused["orderUpdateId"] == 1 and paused["nodes"], shown
-    resume = next(line for line in outcome.of("instantActionState", actionType="stopPause"))
-    resumed = next(s for s in after("resume") if s["actions"].get(resume["actionId"]) == "FINISHED")
+    # stopPause: "Movement and all other actions will be resumed": from where the vehicle stood when paused,
+    # o1/1 is driven to its end (n3), the stale update changing nothing.
+    resume = outcome.of("instantActionState", actionType="stopPause")[0]["actionId"]
+    resumed = next(s for s in after("resume") if s["actions"].get(resume) == "FINISHED")
     assert not resumed["paused"] and resumed["position"] == paused["position"], shown
+    assert all(s["position"] == paused["position"] for s in after("pause") if s["paused"]), shown
     done = next(s for s in after("resume") if s["lastNodeId"] == "n3")
     assert (done["orderId"], done["orderUpdateId"], done["lastNodeSequenceId"]) == ("o1", 1, 6), shown
     assert (done["nodes"], done["edges"], done["driving"]) == ([], [], False), shown

@@ -2,12 +2,13 @@
 // (issue 31, "Must show"). It drives one vehicle on an MQTT broker through the sequence the issue names and
 // prints what it observed as JSON lines on stdout, for a Python test to assert on:
 //
-//   1. order o1/0 from where the vehicle stands: start -> n1 released, n2 horizon (VDA 5050 §6.6.2);
-//   2. order update o1/1, stitching at n1 (seq 2): n1 -> n2 -> n3 all released;
-//   3. the stale update o1/0 again while o1/1 runs: to be rejected with orderUpdateError (§6.6.4.3);
-//   4. startPause while the vehicle drives o1/1, stopPause a second later (§6.8.1);
-//   5. o1/1 driven to its end (n3);
-//   6. order o2/0 from n3 over m1 to m2, all released, and cancelOrder once it drives (§6.6.3).
+//   1. order o1/0 from where the vehicle stands: start -> n1 released, n2 horizon (VDA 5050 §6.6.2), legs
+//      of --leg metres along +x; the vehicle stops on n1, the end of its base;
+//   2. startPause there (§6.8.1): what follows happens while the vehicle must not move;
+//   3. order update o1/1, stitching at n1 (seq 2): n1 -> n2 -> n3 all released;
+//   4. the stale update o1/0 again: to be rejected with orderUpdateError (§6.6.4.3);
+//   5. stopPause a second later, and o1/1 driven to its end (n3);
+//   6. order o2/0 from n3 over m1 (3 legs on) to m2, all released, and cancelOrder once it drives (§6.6.3).
 //
 // Each step waits for the vehicle's answer (a state message) before the next, up to STEP_TIMEOUT_S wall
 // seconds; a step that times out prints {"event": "timeout"} and the script exits 1. The script judges
@@ -175,6 +176,10 @@ class Run {
         await this.assign("o1", 0, [[start, 0, ...at(0)], ["n1", 2, ...at(1)], ["n2", 4, ...at(2)]], 2);
         await this.until("order", s => s.orderId === "o1" && s.lastNodeId === "n1" && !s.driving);
 
+        emit("step", { name: "pause" });
+        const pause = await this.instant("startPause");
+        await this.until("pause", s => s.paused && (s.actionStates.find(a => a.actionId === pause) || {}).actionStatus === "FINISHED");
+
         emit("step", { name: "update" });
         await this.assign("o1", 1, [["n1", 2, ...at(1)], ["n2", 4, ...at(2)], ["n3", 6, ...at(3)]], 3);
         await this.until("update", s => s.orderId === "o1" && s.orderUpdateId === 1);
@@ -182,10 +187,6 @@ class Run {
         emit("step", { name: "stale" });
         await this.assign("o1", 0, [["n1", 2, ...at(1)], ["n2", 4, ...at(2)]], 2);
         await this.until("stale", s => s.errors.some(e => e.errorType === "orderUpdateError"));
-
-        emit("step", { name: "pause" });
-        const pause = await this.instant("startPause");
-        await this.until("pause", s => s.paused && (s.actionStates.find(a => a.actionId === pause) || {}).actionStatus === "FINISHED");
         await new Promise(resolve => setTimeout(resolve, 1000));  // paused a while: the vehicle must not move
 
         emit("step", { name: "resume" });
@@ -194,7 +195,7 @@ class Run {
         await this.until("o1 done", s => s.lastNodeId === "n3" && s.nodeStates.length === 0 && !s.driving);
 
         emit("step", { name: "cancel" });
-        await this.assign("o2", 0, [["n3", 0, ...at(3)], ["m1", 2, ...at(4)], ["m2", 4, ...at(5)]], 3);
+        await this.assign("o2", 0, [["n3", 0, ...at(3)], ["m1", 2, ...at(6)], ["m2", 4, ...at(7)]], 3);
         await this.until("o2 driving", s => s.orderId === "o2" && s.driving);
         const cancel = await this.instant("cancelOrder");
         await this.until("cancel", s => (s.actionStates.find(a => a.actionId === cancel) || {}).actionStatus === "FINISHED");
