@@ -35,7 +35,7 @@ STATE_SCHEMA = json.loads((Path(__file__).parents[3] / "vcran/core/vda5050/schem
 
 @pytest.fixture
 def master(request) -> Path:
-    return installed(request.config.cache)
+    return installed(request)
 
 
 @pytest.fixture

@@ -33,15 +33,18 @@ def unavailable() -> str | None:
     return None
 
 
-def installed(cache: pytest.Cache) -> Path:
-    """A folder holding master.js and the pinned node_modules; ``npm ci`` only when the lock file changed."""
+def installed(request: pytest.FixtureRequest) -> Path:
+    """A folder holding master.js and the pinned node_modules, in pytest's cache (a temporary folder with
+    ``-p no:cacheprovider``); ``npm ci`` only when the lock file changed."""
     reason = unavailable()
     if reason is not None:
         if in_ci():
             pytest.fail(f"CI runs the third-party master (issue 31), but {reason}")
         pytest.skip(f"the third-party master needs Node.js: {reason}")
     digest = hashlib.sha256(b"".join((HERE / name).read_bytes() for name in PINNED)).hexdigest()[:16]
-    folder = cache.mkdir(f"vda-5050-lib-{digest}")
+    cache: pytest.Cache | None = getattr(request.config, "cache", None)
+    name = f"vda-5050-lib-{digest}"
+    folder = cache.mkdir(name) if cache is not None else request.getfixturevalue("tmp_path_factory").mktemp(name)
     if not (folder / "node_modules" / "vda-5050-lib" / "package.json").exists():
         for name in PINNED:
             shutil.copyfile(HERE / name, folder / name)
