@@ -5,7 +5,12 @@ of times (fuzzing, determinism tests). The fleet manager's part is either a mess
 JMeter file) or, in a closed loop (SPEC §9), a workload of jobs for a fleet manager, the link between
 that manager and the RAN, and which manager to run. Reading and writing scenario files (TOML) is
 :mod:`vcran.io`'s part: :mod:`vcran.io.scenario_file` loads them strictly, :mod:`vcran.io.scenario_toml`
-writes them back.
+writes them back. A scenario speaks one protocol (``Settings.protocol``): OPIL, or VDA 5050, whose robots
+carry a vehicle's identity and whose script sends VDA 5050 messages (SPEC §11).
+
+One concept, over 450 lines: the scenario as data, every part a frozen record the others refer to (the
+script's lazy expansion with it, since it is what :meth:`Scenario.messages` returns); its rules are
+:mod:`vcran.core.validity`'s.
 """
 
 from __future__ import annotations
