@@ -21,6 +21,10 @@ from vcran.sim.timing import INBOUND as INBOUND_PRIORITY
 from vcran.sim.timing import at
 
 
+#: What a VDA 5050 vehicle receives (docs/vda5050.md), recorded raw: its glue decodes and validates it.
+VDA5050_TOPICS = ("order", "instantActions")
+
+
 class TraceError(ValueError):
     """A trace that cannot be replayed; the message names the file and line."""
 
@@ -77,6 +81,10 @@ def inbound_records(trace: Path) -> Iterator[tuple[float, Inbound]]:
         where = f"{trace}:{n}"
         if not isinstance(t, (int, float)) or t < last:
             raise TraceError(f"{where}: time {t!r} is not a number at or after {last}")
+        if attr in VDA5050_TOPICS and "raw" in record:  # a VDA 5050 message as on the wire: the vehicle decodes it
+            last = float(t)
+            yield last, Inbound(str(record.get("robot")), attr, None, record["raw"])
+            continue
         if attr not in INBOUND:
             raise TraceError(f"{where}: unknown inbound attribute {attr!r}")
         last = float(t)

@@ -146,7 +146,8 @@ def run(
     """:func:`simulate`, with a progress observer (what ``vcran run`` shows) and ``on_start``, called with
     the model before it runs (``vcran run`` stops it there on a signal)."""
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
-    check_protocol(sc)  # before a VDA 5050 master is taken for a FleetManager that is not one
+    if manager is not None or sc.manager is not None:  # before a VDA 5050 master is taken for a FleetManager that is not one
+        check_protocol(sc, "a closed loop")
     fleet_manager, name = build_manager(manager, sc)
     _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
     options: dict[str, Any] = ({"transport": "scripted"} if fleet_manager is None else

@@ -51,16 +51,16 @@ def add_scenario_argument(parser: argparse.ArgumentParser, what: str) -> None:
                         help=f"scenario file (TOML){what}, or a bundled scenario by name: {', '.join(BUNDLED)}")
 
 
-def load_scenario(path: Path) -> Scenario:
+def load_scenario(path: Path, mode: str | None) -> Scenario:
     """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field; also
-    for a scenario whose protocol the simulation does not host yet (:func:`vcran.runner.check_protocol`),
-    before a command connects to anything."""
+    for a scenario whose protocol the simulation does not host in ``mode`` (what the command runs; None: a
+    scripted run, :func:`vcran.runner.check_protocol`), before a command connects to anything."""
     from vcran.io.scenario_file import ScenarioError, load
     from vcran.runner import check_protocol
 
     try:
         scenario = load(path)
-        check_protocol(scenario)
+        check_protocol(scenario, mode)
     except ScenarioError as exc:
         raise CommandError(str(exc)) from None
     return scenario

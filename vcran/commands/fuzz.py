@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
         raise CommandError(f"--save {save}: {'is a folder' if os.path.isdir(save) else 'its folder does not exist'}")
-    base = load_scenario(args.scenario)
+    base = load_scenario(args.scenario, "vcran fuzz")
     text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     loop = args.manager is not None or base.manager is not None
     if loop:

@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     check_positive("--poll-interval", args.poll_interval)
     if args.notify_url is not None:
         check_notify_url(args.notify_url)
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, "vcran live")
     check_out(args.out)
     check_view(args.view, args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".

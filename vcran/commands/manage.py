@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     polling = args.notify_url is None
     poll_interval = POLL_INTERVAL if args.poll_interval is None else args.poll_interval
     listen = "127.0.0.1" if args.listen is None else args.listen
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, "vcran manage")
     if args.jobs is not None:
         scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
     try:

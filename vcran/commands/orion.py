@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     from vcran.sim.opil.ran import description
 
     setup_logging()
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, "vcran orion")
     client = client_from_args(args)
     entity_type = scenario.settings.entity_type
     try:

@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from vcran.io.progress import progress_bar
     from vcran.io.scenario_file import ScenarioError
 
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, None)
     check_out(args.out)
     if args.report:  # a missing extra is said at once, not after the run
         from vcran.report import ReportError, require_matplotlib

@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     setup_logging(args.quiet)
     check_positive("--factor", args.factor)
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(args.scenario, "vcran send")
     client = client_from_args(args)
     signals = StopSignals()  # stop between two messages, never in the middle of one
     try:

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 #: Protocol name -> the module of its glue, which has ``glue(model) -> Glue``.
 PROTOCOLS: dict[str, str] = {
     "opil": "vcran.sim.opil.glue",
+    "vda5050": "vcran.sim.vda5050.glue",
 }
 
 

@@ -16,6 +16,7 @@ from typing import Any
 import orjson
 
 from vcran.core.motion import Leg
+from vcran.core.opil.messages import Message
 from vcran.core.wire import Frame, Inbound, Publish
 from vcran.io.render import converter, delta_converter
 from vcran.io.trace.files import EVENT_KEYS, FORMAT, LEG_COLUMNS, LEGS_FILE, NPY_HEADER, TRACE_FILE, VERSION
@@ -93,6 +94,9 @@ class TraceWriter:
         if last is not None and type(last[0]) is type(message):
             value = last[2](message, last[0], last[1])
             last[0] = message
+        elif not isinstance(message, Message):
+            self._wire(t, "in", inbound.entity, inbound.attribute, message)
+            return
         else:
             value = self._first(key, message)
         # an inbound message is always written, even one equal to the last (value {}): the RAN reacted to it
@@ -113,6 +117,9 @@ class TraceWriter:
             last[0] = message
             if not value:
                 return  # nothing a reader cannot take from the last record
+        elif not isinstance(message, Message):
+            self._wire(out.t, "out", out.robot, out.attribute, message)
+            return
         else:
             value = self._first(key, message)
         lines = self._lines
@@ -120,6 +127,20 @@ class TraceWriter:
                            option=_LINE))
         if lines.tell() >= BATCH:
             self._jsonl.hand_on()
+
+    def _wire(self, t: float, direction: str, robot: str, attribute: str, message: Any) -> None:
+        """A VDA 5050 message (docs/vda5050.md): written whole, as ``raw``, in the wire form of the version its
+        header names, so that each record is the message a master sends or receives (and validates against
+        that version's official schema); a replay hands inbound ones to the vehicle to decode as it would
+        a broker's. Visualization is not written: like OPIL's telemetry, the leg log determines it."""
+        if attribute == "visualization":
+            return
+        from vcran.core.vda5050.codec import to_plain  # only a VDA 5050 run loads its schemas
+        from vcran.core.vda5050.enums import Version
+
+        plain = to_plain(message, Version(message.header.version))
+        self._jsonl.write(_dumps({"t": t, "dir": direction, "robot": robot, "attr": attribute, "raw": plain},
+                                 option=_LINE))
 
     def _first(self, key: tuple[str, str, str], message: Any) -> dict[str, Any]:
         """The ``value`` of the first record of ``key`` with a message of this class, in full; the records
