@@ -115,3 +115,99 @@ def test_a_vda5050_scenario_with_a_master_is_refused_until_the_closed_loop_hosts
     with pytest.raises(vcran.ScenarioError, match="does not host VDA 5050 vehicles yet in a closed loop"):
         vcran.simulate("vda5050-warehouse", out=tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+LINE = """
+[simulation]
+protocol = "vda5050"
+until_idle = true
+duration = 100.0
+
+[[robots]]
+id = "agv"
+manufacturer = "acme"
+serial_number = "7"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+max_acceleration = 0.5
+
+[[script]]
+t = 1.0
+robot = "agv"
+kind = "order"
+message.orderId = "o1"
+message.orderUpdateId = 0
+message.nodes = [
+  { nodeId = "a", sequenceId = 0, released = true, nodePosition = { x = 0.0, y = 0.0, mapId = "map" }, actions = [] },
+  { nodeId = "b", sequenceId = 2, released = true, nodePosition = { x = 6.0, y = 0.0, mapId = "map" }, actions = [] },
+]
+message.edges = [{ edgeId = "a-b", sequenceId = 1, released = true, startNodeId = "a", endNodeId = "b", actions = [] }]
+
+[[script]]
+t = 3.0
+robot = "agv"
+kind = "instantActions"
+message = '{"actions": [{"actionType": "startPause", "actionId": "pause_1", "blockingType": "HARD"}]}'
+
+[[script]]
+t = 4.0
+robot = "agv"
+kind = "order"
+payload = '{"orderId": "bad"}'
+
+[[script]]
+t = 7.0
+robot = "agv"
+kind = "instantActions"
+message = '{"actions": [{"actionType": "stopPause", "actionId": "resume_1", "blockingType": "HARD"}]}'
+
+[[script]]
+t = 20.0
+robot = "agv"
+kind = "order"
+message.orderId = "o2"
+message.orderUpdateId = 0
+message.nodes = [
+  { nodeId = "b", sequenceId = 0, released = true, nodePosition = { x = 6.0, y = 0.0, mapId = "map" }, actions = [] },
+  { nodeId = "c", sequenceId = 2, released = true, nodePosition = { x = 12.0, y = 0.0, mapId = "map" }, actions = [] },
+  { nodeId = "d", sequenceId = 4, released = true, nodePosition = { x = 18.0, y = 0.0, mapId = "map" }, actions = [] },
+]
+message.edges = [
+  { edgeId = "b-c", sequenceId = 1, released = true, startNodeId = "b", endNodeId = "c", actions = [] },
+  { edgeId = "c-d", sequenceId = 3, released = true, startNodeId = "c", endNodeId = "d", actions = [] },
+]
+
+[[script]]
+t = 22.0
+robot = "agv"
+kind = "instantActions"
+message = '{"actions": [{"actionType": "cancelOrder", "actionId": "cancel_1", "blockingType": "NONE"}]}'
+"""
+
+
+def test_pause_a_refused_payload_and_a_cancel_reach_the_body(tmp_path):
+    """The glue carries the Vehicle's effects out on the shared body (docs/protocols.md's mapping table):
+    - startPause at 3 and stopPause at 7 hold the 6 m leg a to b (8 s from 1) for 4 s: b at 13 (Hold, Release);
+    - a payload that fails the schema at 4 is refused with a validationError in the state (§6.6.4.1), the
+      order going on;
+    - cancelOrder at 22 while driving b to c (8 s from 20) lets the leg end on c at 28 and drops d
+      (§6.6.3: "the AGV stops as soon as possible ... on the next node"; StopAfterLeg), the order cancelled."""
+    path = tmp_path / "line.toml"
+    path.write_text(LINE)
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    events = list(event_records(out / "events.jsonl.zst"))
+    ended = [(e["t"], e["order_id"], e["how"]) for e in events if e["event"] == "order_ended"]
+    assert [(o, h) for _, o, h in ended] == [("o1", "completed"), ("o2", "cancelled")]
+    assert [t for t, _, _ in ended] == pytest.approx([1.0 + 8.0 + 4.0, 28.0])
+    summary = json.loads((out / "summary.json").read_text())["robots"]["agv"]
+    assert summary["final_pose"]["x"] == pytest.approx(12.0) and summary["distance"] == pytest.approx(12.0)
+    assert summary["completed"] == ["o1"] and summary["cancelled"] == [{"task": "o2", "reason": "cancelled"}]
+    states = [r for r in trace_records(out) if r.get("attr") == "state"]
+    for s in states:
+        assert validation.first_problem(validation.outbound(Topic.STATE, Version.V2_1_0), s["raw"]) is None
+    paused = [s["raw"]["paused"] for s in states if 3.0 <= s["t"] < 7.0]
+    assert paused and all(paused)
+    refused = next(s["raw"] for s in states if s["t"] == 4.0)
+    assert [e["errorType"] for e in refused["errors"]] == ["validationError"] and refused["orderId"] == "o1"
+    assert main(["replay", str(out), "--verify", "--quiet"]) == 0
