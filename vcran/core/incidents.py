@@ -90,3 +90,49 @@ class Published(ErrorReport):
     """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
 
     NAME = ""
+
+
+# --- traffic (SPEC §12): safety fields, blocks, deadlocks ---------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Blocked(Event):
+    """Robot ``other`` entered this robot's empty protective field, this robot being at ``(x, y)``: it brakes."""
+
+    NAME = "blocked"
+    other: str
+    x: float
+    y: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"other": self.other, "x": self.x, "y": self.y}
+
+
+@dataclass(frozen=True, slots=True)
+class Unblocked(Event):
+    """The robot's field is clear again, or it was given new work or stopped from outside: it was blocked
+    for ``duration`` seconds (since its ``blocked``)."""
+
+    NAME = "unblocked"
+    duration: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"duration": self.duration}
+
+
+@dataclass(frozen=True, slots=True)
+class Deadlock(Event):
+    """Robots stopped on one another: ``kind`` "cycle" (``robots`` in wait order, each waiting for the next and
+    the last for the first), or "bound" (``robots`` is the one robot, blocked for ``duration`` seconds: the
+    scenario's bound; None for a cycle). Logged on the first robot of ``robots``."""
+
+    NAME = "deadlock"
+    kind: str
+    robots: tuple[str, ...]
+    duration: float | None = None
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"kind": self.kind, "robots": list(self.robots)}
+        if self.duration is not None:
+            out["duration"] = self.duration
+        return out
