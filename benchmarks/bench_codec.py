@@ -16,7 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from vcran.core.codec import (
+from vcran.core.opil.codec import (
     decode_attribute,
     encode_attribute,
     encode_attribute_json,
@@ -24,9 +24,9 @@ from vcran.core.codec import (
     encode_entity_json,
     split_batch,
 )
-from vcran.core.ids import id_for
-from vcran.core.messages import AssignmentStatus, RanStatus, TaskEnd, Time
-from vcran.core.schema import Message
+from vcran.core.opil.ids import id_for
+from vcran.core.opil.messages import AssignmentStatus, RanStatus, TaskEnd, Time
+from vcran.core.opil.schema import Message
 
 REFERENCE = Path(__file__).resolve().parent.parent / "tests" / "data" / "opil_robot_entity.json"
 

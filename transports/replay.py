@@ -13,8 +13,8 @@ from typing import Any
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.core.messages import INBOUND
-from vcran.core.plain import from_plain
+from vcran.core.opil.messages import INBOUND
+from vcran.core.opil.plain import from_plain
 from vcran.core.wire import Inbound, Outbound
 from vcran.io.trace import read_header, records
 from vcran.sim.timing import INBOUND as INBOUND_PRIORITY

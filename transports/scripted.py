@@ -15,7 +15,7 @@ from collections.abc import Iterable
 import simpy
 
 from transports.base import Deliver, Transport
-from vcran.core.messages import Message
+from vcran.core.opil.messages import Message
 from vcran.core.scenario import Script, ScriptEntry
 from vcran.core.wire import Frame, Outbound, Publish
 from vcran.sim.timing import INBOUND, at

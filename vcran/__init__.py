@@ -36,11 +36,11 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "parse_scenario": ("vcran.io.scenario_file", "parse"),
     "ScenarioError": ("vcran.io.scenario_file", "ScenarioError"),
     # messages of the OPIL RAN interface (SPEC §2) and ids
-    "Id": ("vcran.core.ids", "Id"),
-    "id_for": ("vcran.core.ids", "id_for"),
-    "MotionAssignment": ("vcran.core.messages", "MotionAssignment"),
-    "ActionAssignment": ("vcran.core.messages", "ActionAssignment"),
-    "CancelTask": ("vcran.core.messages", "CancelTask"),
+    "Id": ("vcran.core.opil.ids", "Id"),
+    "id_for": ("vcran.core.opil.ids", "id_for"),
+    "MotionAssignment": ("vcran.core.opil.messages", "MotionAssignment"),
+    "ActionAssignment": ("vcran.core.opil.messages", "ActionAssignment"),
+    "CancelTask": ("vcran.core.opil.messages", "CancelTask"),
     # the boundary between the simulation and a transport
     "Transport": ("vcran.core.wire", "Transport"),
     "Inbound": ("vcran.core.wire", "Inbound"),
@@ -103,12 +103,12 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; the same names as _EXPORTS
     from vcran.api import ManagerError, Result, simulate
-    from vcran.core.ids import Id, id_for
     from vcran.core.jobs import JobRecord
     from vcran.core.manager import Fleet, Timer
-    from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
+    from vcran.core.opil.ids import Id, id_for
     from vcran.core.opil.manager import FleetManager
     from vcran.core.opil.manager import OpilHandle as Handle
+    from vcran.core.opil.messages import ActionAssignment, CancelTask, MotionAssignment
     from vcran.core.scenario import (
         Job,
         JobStream,

@@ -243,7 +243,7 @@ def _check_attributes(manager: FleetManager) -> None:
     """``attributes`` names what the robots publish (SPEC §2), or is None. A misspelt name was never
     notified in simulated time, while ``vcran manage`` subscribed with an empty condition and was told
     of every change: one class, two behaviours, and no word of the mistake."""
-    from vcran.core.messages import OUTBOUND, RENAMED
+    from vcran.core.opil.messages import OUTBOUND, RENAMED
 
     wanted = manager.attributes
     if wanted is None:

@@ -93,7 +93,7 @@ def test_filip_reads_the_fleet_while_vcran_live_runs_through_the_broker(broker: 
     import time
 
     from tests.transports.test_live import DEMO, vcran, wait_until
-    from vcran.core.codec import decode_attribute
+    from vcran.core.opil.codec import decode_attribute
 
     live = vcran("live", str(DEMO), "--orion", broker.url, "--out", str(tmp_path / "live"), "--factor", "20", "--quiet")
     client = ContextBrokerClient(url=broker.url)

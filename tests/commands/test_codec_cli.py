@@ -16,9 +16,9 @@ from hypothesis import strategies as st
 
 from tests.conftest import DATA
 from vcran import cli
-from vcran.core.codec import decode_entity
-from vcran.core.messages import ATTRIBUTES
-from vcran.core.plain import from_plain, to_plain
+from vcran.core.opil.codec import decode_entity
+from vcran.core.opil.messages import ATTRIBUTES
+from vcran.core.opil.plain import from_plain, to_plain
 
 REFERENCE_FILE = DATA / "opil_robot_entity.json"
 REFERENCE: dict[str, Any] = json.loads(REFERENCE_FILE.read_text())

@@ -10,7 +10,7 @@ import pytest
 
 from tests.conftest import ROOT
 from vcran.cli import main
-from vcran.core.ranlogic import RanLogic
+from vcran.core.opil.ranlogic import RanLogic
 from vcran.testing.checks import run_variant
 from vcran.testing.scripts import load_text
 

@@ -17,7 +17,7 @@ import sys
 #: Modules (and their submodules) the demo's run must not load.
 NOT_NEEDED = (
     "numpy", "shapely", "httpx", "matplotlib", "hypothesis", "dask", "polars", "pandas",
-    "vcran.sim.loop", "vcran.sim.opil.loop", "vcran.sim.link", "vcran.core.manager", "vcran.core.opil.manager", "vcran.core.jobs", "vcran.core.codec",
+    "vcran.sim.loop", "vcran.sim.opil.loop", "vcran.sim.link", "vcran.core.manager", "vcran.core.opil.manager", "vcran.core.jobs", "vcran.core.opil.codec",
     "vcran.report", "vcran.broker", "vcran.sweep", "vcran.testing", "transports.orion",
     "vcran.core.sampling", "vcran.core.overlap", "vcran.sim.power",
 )

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import DATA
-from vcran.core.codec import CodecError, decode_attribute, decode_entity, encode_attribute
+from vcran.core.opil.codec import CodecError, decode_attribute, decode_entity, encode_attribute
 
 REFERENCE: dict[str, Any] = json.loads((DATA / "opil_robot_entity.json").read_text())
 ATTRIBUTES = [k for k in REFERENCE if k not in ("id", "type")]

@@ -14,17 +14,17 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tests.conftest import DATA
-from vcran.core.codec import (
+from vcran.core.opil.codec import (
     CodecError,
     encode_attribute,
     encode_entity,
     encode_entity_json,
     split_batch,
 )
-from vcran.core.ids import id_for
-from vcran.core.messages import ATTRIBUTES, Motion, RanError
+from vcran.core.opil.ids import id_for
+from vcran.core.opil.messages import ATTRIBUTES, Motion, RanError
+from vcran.core.opil.schema import Message
 from vcran.core.orion_rules import MAX_REQUEST_BYTES, has_forbidden_chars, identifier_error
-from vcran.core.schema import Message
 from vcran.testing.strategies import attribute_messages
 
 EXCHANGES = [json.loads(line) for line in (DATA / "orion-4.7-exchanges.jsonl").read_text().splitlines()]

@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 
 from tests.conftest import DATA
-from vcran.core.codec import (
+from vcran.core.opil.codec import (
     CodecError,
     decode_attribute,
     decode_entity,
@@ -23,8 +23,8 @@ from vcran.core.codec import (
     encode_entity,
     unknown_attributes,
 )
-from vcran.core.ids import Id
-from vcran.core.messages import (
+from vcran.core.opil.ids import Id
+from vcran.core.opil.messages import (
     ATTRIBUTES,
     ActionAssignment,
     ActionKind,

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.core.codec import (
+from vcran.core.opil.codec import (
     decode_attribute,
     decode_entity,
     encode_attribute,
@@ -19,9 +19,9 @@ from vcran.core.codec import (
     escape_string,
     unescape_string,
 )
-from vcran.core.messages import ATTRIBUTES, Header, Motion, PoseStamped, Time
-from vcran.core.plain import to_plain
-from vcran.core.schema import INT_RANGES, Message, MessageError
+from vcran.core.opil.messages import ATTRIBUTES, Header, Motion, PoseStamped, Time
+from vcran.core.opil.plain import to_plain
+from vcran.core.opil.schema import INT_RANGES, Message, MessageError
 from vcran.testing.strategies import (
     attribute_messages,
     messages_of,

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import pytest
 
-from vcran.core.ids import id_for
-from vcran.core.messages import RanStatus, TaskEnd
-from vcran.core.plain import from_plain, to_plain
-from vcran.core.schema import MessageError, check_primitive, short_repr, specs
+from vcran.core.opil.ids import id_for
+from vcran.core.opil.messages import RanStatus, TaskEnd
+from vcran.core.opil.plain import from_plain, to_plain
+from vcran.core.opil.schema import MessageError, check_primitive, short_repr, specs
 
 
 def _deep_list(depth: int) -> list:
@@ -71,8 +71,8 @@ def test_message_constructor_refuses_lone_surrogate_even_on_the_fast_path():
     """The constructor's fast path (schema._fast) must not skip the Unicode check (R12)."""
     import pytest
 
-    from vcran.core.messages import Tuple
-    from vcran.core.schema import MessageError
+    from vcran.core.opil.messages import Tuple
+    from vcran.core.opil.schema import MessageError
 
     with pytest.raises(MessageError, match="lone surrogate"):
         Tuple(name="a\udc80")

@@ -9,9 +9,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.core.ids import VCRAN_NAMESPACE, NamedId, fresh_id, id_for, uuid5_bytes
-from vcran.core.messages import Header, MotionAssignment, RanStatus, Sequence, Time
-from vcran.core.schema import MessageError, unchecked
+from vcran.core.opil.ids import VCRAN_NAMESPACE, NamedId, fresh_id, id_for, uuid5_bytes
+from vcran.core.opil.messages import Header, MotionAssignment, RanStatus, Sequence, Time
+from vcran.core.opil.schema import MessageError
+from vcran.core.slots import unchecked
 from vcran.testing.strategies import attribute_messages
 
 
@@ -74,8 +75,8 @@ def test_time_from_seconds_still_refuses_what_int32_cannot_hold():
     st.floats(0, 2, allow_subnormal=False), st.floats(0, 1e5),
 )
 def test_repeated_task_is_the_task_built_again_under_its_new_name_and_stamp(path, actions, speed, stamp):
-    from vcran.core import build
-    from vcran.core.messages import ActionAssignment
+    from vcran.core.opil import build
+    from vcran.core.opil.messages import ActionAssignment
 
     if not path and not actions:
         actions = ["dummy"]
@@ -90,7 +91,7 @@ def test_repeated_task_is_the_task_built_again_under_its_new_name_and_stamp(path
 
 
 def test_slot_init_keeps_the_dataclass_constructor_behaviour():  # issue 14 item 5: faster __init__, same record
-    from vcran.core.schema import slot_init
+    from vcran.core.slots import slot_init
 
     def record(fast):
         @dataclasses.dataclass(frozen=True, slots=True)
@@ -118,7 +119,7 @@ def test_slot_init_keeps_the_dataclass_constructor_behaviour():  # issue 14 item
 
 
 def test_repeated_tasks_are_built_again_under_their_names_with_one_header():  # issue 14 item 5
-    from vcran.core import build
+    from vcran.core.opil import build
 
     a = build.task("c_0_1", [(1.0, 2.0), (3.0, 4.0, 0.5)], ["load"], max_velocity=1.5, stamp=2.0)
     b = build.task("c_0_2", [(5.0, 6.0)], ["unload", "dummy"], stamp=2.0)
@@ -141,7 +142,7 @@ def test_shared_parts_keep_the_sign_of_zero_whatever_was_built_before(first):
     # same process, e.g. a sweep's) had built first.
     import math
 
-    from vcran.core import build
+    from vcran.core.opil import build
 
     second = -first
     for x in (first, second):

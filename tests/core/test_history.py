@@ -1,4 +1,4 @@
-"""R9's history (vcran.core.tasks.History): a byte log in age order with an open-addressing index.
+"""R9's history (vcran.core.opil.tasks.History): a byte log in age order with an open-addressing index.
 
 Expectations are derived by hand from R9/R10 (the latest ``limit`` ids, oldest evicted first, a cancel
 updating an entry without changing its age) and from the documented record size (25 bytes plus 8 per
@@ -14,11 +14,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vcran.core import tasks
-from vcran.core.build import cancel, motion
-from vcran.core.effects import Reason
-from vcran.core.ids import id_for
-from vcran.core.tasks import CANCEL_OVERHEAD, ENTRY_OVERHEAD, Ended, History, Task, fingerprint
+from vcran.core.opil import tasks
+from vcran.core.opil.build import cancel, motion
+from vcran.core.opil.effects import Reason
+from vcran.core.opil.ids import id_for
+from vcran.core.opil.tasks import CANCEL_OVERHEAD, ENTRY_OVERHEAD, Ended, History, Task, fingerprint
 
 
 def ended(n_assignments: int, reason: Reason | None = None, t: float = 1.5, name: str = "T") -> Ended:

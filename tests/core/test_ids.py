@@ -8,7 +8,7 @@ import dataclasses
 
 import pytest
 
-from vcran.core.ids import Id, IdError, NamedId, id_for
+from vcran.core.opil.ids import Id, IdError, NamedId, id_for
 
 
 @pytest.mark.parametrize("size", [15, 0, 17])

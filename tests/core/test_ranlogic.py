@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vcran.core.build import action, cancel, motion
-from vcran.core.codec import decode_attribute, encode_attribute
-from vcran.core.effects import (
+from vcran.core.opil.build import action, cancel, motion
+from vcran.core.opil.codec import decode_attribute, encode_attribute
+from vcran.core.opil.effects import (
     ClearTimer,
     DispatchAction,
     DispatchPath,
@@ -24,9 +24,9 @@ from vcran.core.effects import (
     TaskCompleted,
     TaskQueued,
 )
-from vcran.core.ids import Id, id_for
-from vcran.core.ranlogic import TRANSITIONS, LocalProtocolError, RanLogic
-from vcran.core.stations import motion_area_problem
+from vcran.core.opil.ids import Id, id_for
+from vcran.core.opil.motion_area import motion_area_problem
+from vcran.core.opil.ranlogic import TRANSITIONS, LocalProtocolError, RanLogic
 
 T = id_for
 
@@ -311,8 +311,8 @@ def test_r8_cancel_for_unknown_task_is_remembered_and_warned():
 
 
 def test_r8_nil_ids_in_cancel_mean_whole_task():
-    from vcran.core.ids import NIL
-    from vcran.core.messages import CancelTask
+    from vcran.core.opil.ids import NIL
+    from vcran.core.opil.messages import CancelTask
 
     logic = RanLogic("r")
     logic.on_motion(0, motion("A", "A_m1", 1, 2, 1, 0))
@@ -526,7 +526,7 @@ def test_r10_resend_with_new_header_stamp_is_a_duplicate():
 @given(st.data())
 def test_r10_fingerprint_agrees_with_identity(data):
     """Ended tasks keep fingerprints (R9 history): equal exactly when R10 calls two assignments identical."""
-    from vcran.core.tasks import fingerprint, same_content
+    from vcran.core.opil.tasks import fingerprint, same_content
     from vcran.testing.strategies import action_assignments, motion_assignments
 
     kind = data.draw(st.sampled_from([motion_assignments, action_assignments]))
@@ -541,8 +541,8 @@ def test_r10_fingerprint_does_not_depend_on_which_objects_hold_equal_values():
     equal ones in full, so R10-identical assignments got different fingerprints (a built motion, whose
     point_id and motion_id are one Id, against the same motion decoded from the wire). Found by
     test_r10_fingerprint_agrees_with_identity, which drew it once in a full suite run."""
-    from vcran.core.messages import ActionAssignment, RobotAction, Sequence
-    from vcran.core.tasks import fingerprint, same_content
+    from vcran.core.opil.messages import ActionAssignment, RobotAction, Sequence
+    from vcran.core.opil.tasks import fingerprint, same_content
 
     one, other = bytes.fromhex("11" * 16), bytes.fromhex("11" * 16)
     assert one == other and one is not other
@@ -585,7 +585,7 @@ def _zeros_flipped(a):
 def _restamped(a):
     from dataclasses import replace
 
-    from vcran.core.messages import Header, MotionAssignment, Time
+    from vcran.core.opil.messages import Header, MotionAssignment, Time
 
     return replace(a, header=Header((a.header.seq + 1) % 2**32, Time(7, 0), "x")) if isinstance(a, MotionAssignment) else a
 

@@ -7,8 +7,8 @@ what the rule says must happen next.
 from __future__ import annotations
 
 from tests.core.test_ranlogic import of
-from vcran.core.build import action, cancel, motion
-from vcran.core.effects import (
+from vcran.core.opil.build import action, cancel, motion
+from vcran.core.opil.effects import (
     Abandon,
     ActionFinished,
     AssignmentCancelled,
@@ -24,8 +24,8 @@ from vcran.core.effects import (
     TaskCancelled,
     TaskCompleted,
 )
-from vcran.core.ids import NIL, id_for
-from vcran.core.ranlogic import TOLERANCE, RanLogic
+from vcran.core.opil.ids import NIL, id_for
+from vcran.core.opil.ranlogic import TOLERANCE, RanLogic
 
 T = id_for
 

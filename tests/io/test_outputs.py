@@ -14,8 +14,8 @@ import pytest
 
 from tests.conftest import ROOT, read_lines
 from transports.scripted import ScriptedTransport
-from vcran.core import effects
-from vcran.core.ids import NIL, Id
+from vcran.core.opil import effects
+from vcran.core.opil.ids import NIL, Id
 from vcran.io.gen import generate
 from vcran.io.scenario_file import load, parse
 from vcran.io.trace import EVENT_KEYS, legs, samples

@@ -9,9 +9,9 @@ import pickle
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.core.ids import NIL, Id, NamedId, id_for
-from vcran.core.messages import ATTRIBUTES
-from vcran.core.plain import to_plain
+from vcran.core.opil.ids import NIL, Id, NamedId, id_for
+from vcran.core.opil.messages import ATTRIBUTES
+from vcran.core.opil.plain import to_plain
 from vcran.io.render import ID_STYLES, expand, from_compact_id, to_json_value
 from vcran.io.trace import json_line
 from vcran.testing.strategies import attribute_messages, messages_of
@@ -81,7 +81,7 @@ def test_delta_converter_writes_exactly_the_changed_fields(data):  # §6 v2: not
 
 
 def test_delta_of_a_rebuilt_array():  # §6 v2: an array rebuilt with the same ids is unchanged, a relabelled id is not
-    from vcran.core.messages import RanStatus
+    from vcran.core.opil.messages import RanStatus
     from vcran.io.render import converter, delta_converter
 
     a, b = id_for("task_1"), id_for("task_2")

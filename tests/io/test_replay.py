@@ -14,7 +14,7 @@ import pytest
 from tests.conftest import ROOT, read_lines, run_scenario, write_lines
 from tests.sim.test_scenarios import action, cancel, motion, script
 from vcran.cli import main
-from vcran.core.ids import id_for
+from vcran.core.opil.ids import id_for
 from vcran.io.scenario_file import load
 from vcran.io.trace import open_output, trace_records
 

@@ -177,9 +177,9 @@ def test_a_corner_between_two_ticks_is_not_cut(run_toml) -> None:  # type: ignor
 
 
 def test_raw_inbound_records_of_a_live_run_are_decoded(demo: Outputs, tmp_path: Path) -> None:
-    from vcran.core.codec import encode_attribute
-    from vcran.core.messages import MotionAssignment
-    from vcran.core.plain import from_plain
+    from vcran.core.opil.codec import encode_attribute
+    from vcran.core.opil.messages import MotionAssignment
+    from vcran.core.opil.plain import from_plain
 
     run_dir = tmp_path / "live"
     shutil.copytree(demo.dir, run_dir)

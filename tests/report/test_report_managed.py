@@ -16,8 +16,8 @@ from tests.transports.test_live import broker_process, free_port, live_time, sto
 from transports.orion.link import LinkOptions
 from transports.orion.manage import OrionLoop
 from vcran.cli import main
-from vcran.core.ids import id_for
-from vcran.core.messages import RanStatus, TaskEnd
+from vcran.core.opil.ids import id_for
+from vcran.core.opil.messages import RanStatus, TaskEnd
 from vcran.io.scenario_file import load
 from vcran.io.trace import EVENTS_FILE, event_records
 from vcran.managers import Dispatcher

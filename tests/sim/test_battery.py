@@ -10,9 +10,9 @@ import pytest
 
 from tests.conftest import ROOT, run_scenario
 from tests.sim.test_scenarios import FLEET, action, motion
-from vcran.core.codec import decode_attribute, encode_attribute
-from vcran.core.messages import BatteryState
-from vcran.core.plain import from_plain
+from vcran.core.opil.codec import decode_attribute, encode_attribute
+from vcran.core.opil.messages import BatteryState
+from vcran.core.opil.plain import from_plain
 from vcran.io.scenario_file import load
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import vcran
 from vcran.core.jobs import JobError
-from vcran.core.messages import AssignmentStatus
+from vcran.core.opil.messages import AssignmentStatus
 from vcran.io.scenario_file import parse
 
 FLEET = """

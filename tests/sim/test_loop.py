@@ -8,8 +8,8 @@ import tomllib
 import pytest
 
 import vcran
-from vcran.core.build import motion as build_motion
-from vcran.core.messages import AssignmentStatus, RanStatus
+from vcran.core.opil.build import motion as build_motion
+from vcran.core.opil.messages import AssignmentStatus, RanStatus
 from vcran.io.scenario_file import parse
 from vcran.io.sinks import MemorySinks
 from vcran.io.trace import records, trace_in

@@ -15,8 +15,8 @@ from dataclasses import replace
 import pytest
 
 from tests.conftest import run_scenario
-from vcran.core.build import motion as build_motion
-from vcran.core.messages import Twist, Vector3
+from vcran.core.opil.build import motion as build_motion
+from vcran.core.opil.messages import Twist, Vector3
 from vcran.core.scenario import ScriptEntry
 from vcran.io.scenario_file import parse
 

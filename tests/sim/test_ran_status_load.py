@@ -7,7 +7,7 @@ from __future__ import annotations
 import tomllib
 
 import vcran
-from vcran.core.messages import RanStatus
+from vcran.core.opil.messages import RanStatus
 from vcran.io.scenario_file import parse
 from vcran.io.sinks import MemorySinks
 from vcran.runner import execute

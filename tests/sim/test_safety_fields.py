@@ -48,7 +48,8 @@ def test_head_on_in_the_corridor_both_block_at_9_and_deadlock_at_11() -> None:
     blocked = events(log, "blocked")
     assert [(t, rid, d["other"]) for t, _, rid, d in blocked] == [(9.0, "A", "B"), (9.0, "B", "A")]
     assert [(round(d["x"], 6), round(d["y"], 6)) for *_, d in blocked] == [(8.0, 0.0), (12.0, 0.0)]
-    assert events(log, "deadlock") == [(11.0, "deadlock", "A", {"kind": "cycle", "robots": ["A", "B"]})]
+    # A, blocked since 9, waits for B, which waits for A
+    assert events(log, "deadlock") == [(11.0, "deadlock", "A", {"kind": "cycle", "other": "B", "duration": 2.0})]
     assert events(log, "unblocked", "arrived") == []
     assert [tuple(round(v, 6) for v in fleet.kinematics.rest[i][:2]) for i in (0, 1)] == [(9.0, 0.0), (11.0, 0.0)]
     fields = fleet.fields  # blocked from 9 to the end (120): 111 s each, 2 blocks, 1 deadlock
@@ -108,9 +109,9 @@ def test_a_robot_waits_for_one_parked_in_its_way_and_drives_on_when_it_leaves() 
 
 def test_a_robot_blocked_past_the_bound_is_a_deadlock_once() -> None:
     """With ``deadlock_bound = 10`` A, blocked from t = 12, is reported at t = 22 (kind bound, blocked 10 s),
-    once; it still drives on when B leaves (t = 32) and arrives at 42."""
+    once, naming B in its field; it still drives on when B leaves (t = 32) and arrives at 42."""
     log = parked(bound=10.0).run(120.0)
-    assert events(log, "deadlock") == [(22.0, "deadlock", "A", {"kind": "bound", "robots": ["A"], "duration": 10.0})]
+    assert events(log, "deadlock") == [(22.0, "deadlock", "A", {"kind": "bound", "other": "B", "duration": 10.0})]
     assert events(log, "arrived")[-1] == (42.0, "arrived", "A", (20.0, 0.0))
 
 

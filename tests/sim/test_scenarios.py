@@ -176,8 +176,8 @@ def raw(t, attribute, value):
 
 
 def test_r12_malformed_payloads_rejected_then_valid_tasks_run(run_toml):
-    from vcran.core.build import motion as build_motion
-    from vcran.core.codec import encode_attribute
+    from vcran.core.opil.build import motion as build_motion
+    from vcran.core.opil.codec import encode_attribute
 
     good = encode_attribute("motion_assignment", build_motion("A", "A_m1", 1, 2, 1, 0))
     no_seq = {**good, "value": {k: v for k, v in good["value"].items() if k != "sequence"}}
@@ -207,7 +207,7 @@ def test_r11_message_for_unknown_entity_is_reported_and_dropped(tmp_path):
     import tomllib
 
     from transports.base import Transport
-    from vcran.core.build import motion as build_motion
+    from vcran.core.opil.build import motion as build_motion
     from vcran.core.wire import Inbound
     from vcran.io.scenario_file import parse
     from vcran.runner import run_to
@@ -283,8 +283,8 @@ def test_r12_lone_surrogate_in_a_raw_value_is_rejected_recorded_and_replayed(run
     """JSON can carry a lone UTF-16 surrogate ("\\udc00"), which no UTF-8 file can hold: the RAN rejects
     it (R12), the trace records it (escaped) and a replay rejects it again (§6); nothing crashes."""
     from vcran.cli import main
-    from vcran.core.build import cancel as build_cancel
-    from vcran.core.codec import encode_attribute
+    from vcran.core.opil.build import cancel as build_cancel
+    from vcran.core.opil.codec import encode_attribute
 
     bad = encode_attribute("cancel_order", build_cancel("T"))
     bad["value"]["task_id"]["value"]["description"]["value"] = "\udc00"

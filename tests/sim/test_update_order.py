@@ -21,7 +21,7 @@ import tomllib
 import pytest
 
 import vcran
-from vcran.core.messages import Message
+from vcran.core.opil.messages import Message
 from vcran.io.scenario_file import parse
 
 SCENARIO = """

@@ -1,4 +1,4 @@
-"""scenarios/warehouse-traffic.toml (SPEC §12, issue 32 items 4 and 5, a draft not bundled yet): the warehouse on
+"""scenarios/warehouse-traffic.toml (SPEC §12, issue 32 items 4 and 5): the warehouse on
 a roadmap, where the reference Dispatcher routes and reserves so that every job completes with no contact
 between robots; driving straight, as in the warehouse, its robots run through one another."""
 

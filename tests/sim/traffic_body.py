@@ -16,7 +16,7 @@ from typing import Any
 
 import simpy
 
-from vcran.core.effects import Event
+from vcran.core.events import Event
 from vcran.core.motion import FleetKinematics, Leg, Limits
 from vcran.core.scenario import RobotConfig, Scenario, Settings, TrafficSettings
 from vcran.core.traffic.braking import Braking

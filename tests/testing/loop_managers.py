@@ -6,10 +6,10 @@ Importable as ``tests.testing.loop_managers:Class`` so that ``vcran fuzz --manag
 
 from __future__ import annotations
 
-from vcran.core import build
-from vcran.core.codec import encode_attribute
-from vcran.core.messages import ActionAssignment
+from vcran.core.opil import build
+from vcran.core.opil.codec import encode_attribute
 from vcran.core.opil.manager import FleetManager
+from vcran.core.opil.messages import ActionAssignment
 from vcran.core.scenario import Job
 from vcran.managers import Dispatcher
 from vcran.managers.dispatcher import Trip

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from vcran.core.effects import Reason
-from vcran.core.ids import id_for
+from vcran.core.opil.effects import Reason
+from vcran.core.opil.ids import id_for
 from vcran.testing.plans import TaskPlan
 from vcran.testing.stateful import RanLogicMachine
 

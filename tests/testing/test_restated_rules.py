@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from vcran.core.build import action, motion
-from vcran.core.effects import State
+from vcran.core.opil.build import action, motion
+from vcran.core.opil.effects import State
 from vcran.testing.checks import check_states
 from vcran.testing.model import TRANSITIONS, position_problem
 

@@ -20,8 +20,8 @@ from transports.orion.client import OrionClient
 from transports.orion.link import LinkOptions
 from transports.orion.transport import OrionTransport
 from vcran.broker import Broker, Request
-from vcran.core.codec import decode_attribute, encode_entity_json
-from vcran.core.messages import AssignmentStatus, PolygonStamped, RanStatus
+from vcran.core.opil.codec import decode_attribute, encode_entity_json
+from vcran.core.opil.messages import AssignmentStatus, PolygonStamped, RanStatus
 from vcran.core.scenario import RobotConfig
 from vcran.core.wire import Frame, Publish
 from vcran.sim.ran import description

@@ -20,8 +20,8 @@ from transports.orion.link import LinkOptions
 from transports.orion.listener import Listener
 from transports.orion.transport import OrionTransport
 from vcran.broker import start_broker
-from vcran.core.build import cancel
-from vcran.core.codec import encode_attribute
+from vcran.core.opil.build import cancel
+from vcran.core.opil.codec import encode_attribute
 from vcran.sim.live import LiveEnvironment
 
 

@@ -24,13 +24,13 @@ import pytest
 from tests.conftest import ROOT
 from vcran.cli import main
 
-pytest.importorskip("vcran.core.codec")
+pytest.importorskip("vcran.core.opil.codec")
 
 from transports.orion.client import OrionClient  # noqa: E402
 from transports.orion.link import LinkOptions  # noqa: E402
 from transports.orion.transport import OrionTransport  # noqa: E402
 from vcran.broker import start_broker  # noqa: E402
-from vcran.core.codec import decode_attribute, encode_attribute  # noqa: E402
+from vcran.core.opil.codec import decode_attribute, encode_attribute  # noqa: E402
 from vcran.io.scenario_file import parse  # noqa: E402
 from vcran.io.trace import event_records, records  # noqa: E402
 from vcran.runner import run_to  # noqa: E402
@@ -205,7 +205,7 @@ def write(url: str, attribute: str, message, robot: str = "robot_1") -> None:
 
 
 def task(name: str, n: int = 2):
-    from vcran.core.build import action, motion
+    from vcran.core.opil.build import action, motion
 
     return [motion(name, f"{name}_m{i}", i, n, i, 0) for i in range(1, n)] + [action(name, f"{name}_a", n, n)]
 
@@ -298,7 +298,7 @@ def test_listener_refuses_bad_notifications_and_ignores_unknown_subscriptions(tm
         assert big.status_code == 413
         assert httpx.post(base, content=b'{"subscriptionId": ', headers={"Content-Type": "application/json"}).status_code == 400
         assert httpx.post(base, json={"hello": "world"}).status_code == 400
-        from vcran.core.build import motion
+        from vcran.core.opil.build import motion
 
         stray = {"subscriptionId": "not-ours", "data": [
             {"id": "robot_1", "type": "ROBOT", "motion_assignment": encode_attribute("motion_assignment", motion("X", "X_m", 1, 2, 1, 0))}]}
@@ -366,7 +366,7 @@ def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
 def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tmp_path):
     """A notification whose cancel_order carries "\\udc00" (valid JSON, not valid Unicode) used to kill the
     live run in the trace writer; it is a malformed input like any other (R12), recorded and replayable."""
-    from vcran.core.build import cancel
+    from vcran.core.opil.build import cancel
 
     broker = start_broker(port=0)
     init(broker.url)

@@ -23,9 +23,9 @@ from transports.orion.link import LinkOptions
 from transports.orion.manage import OrionManagerLink
 from vcran.broker import start_broker
 from vcran.cli import main
-from vcran.core.build import motion_message
-from vcran.core.codec import encode_attribute
-from vcran.core.messages import RanStatus, Time
+from vcran.core.opil.build import motion_message
+from vcran.core.opil.codec import encode_attribute
+from vcran.core.opil.messages import RanStatus, Time
 from vcran.core.wire import Outbound, Publish
 from vcran.io.trace import EVENTS_FILE, event_records
 
@@ -351,7 +351,7 @@ def test_the_manager_is_told_of_each_forced_description_write_and_of_no_unchange
     forcedUpdate; the manager is told of each such write (as in simulated time,
     tests/sim/test_loop.py::test_every_periodic_robot_description_reaches_the_manager_as_live_mode_forces_it),
     and not of the unchanged description that every notification of the whole entity carries."""
-    from vcran.core.messages import PolygonStamped
+    from vcran.core.opil.messages import PolygonStamped
     from vcran.core.scenario import RobotConfig
     from vcran.sim.ran import description
 

@@ -25,9 +25,9 @@ from transports.orion.client import OrionClient
 from transports.orion.link import LinkOptions
 from transports.orion.manage import OrionManagerLink
 from vcran.broker import start_broker
-from vcran.core.build import cancel, motion
-from vcran.core.codec import decode_attribute
-from vcran.core.messages import RanStatus
+from vcran.core.opil.build import cancel, motion
+from vcran.core.opil.codec import decode_attribute
+from vcran.core.opil.messages import RanStatus
 from vcran.core.wire import Outbound
 
 

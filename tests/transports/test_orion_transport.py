@@ -24,9 +24,9 @@ from transports.orion.link import LinkOptions
 from transports.orion.transport import OrionTransport
 from transports.orion.workers import resilient
 from vcran.cli import main
-from vcran.core.build import motion
-from vcran.core.codec import encode_attribute
-from vcran.core.messages import AssignmentStatus, RanError, RanStatus
+from vcran.core.opil.build import motion
+from vcran.core.opil.codec import encode_attribute
+from vcran.core.opil.messages import AssignmentStatus, RanError, RanStatus
 from vcran.core.wire import Frame, Publish
 from vcran.sim.live import LiveEnvironment
 
@@ -432,7 +432,7 @@ def test_worker_loop_outlives_an_unexpected_error(caplog):
 
 
 def test_ran_status_lists_at_most_fifty_queued_tasks_and_counts_all():
-    from vcran.core.ranlogic import QUEUE_SHOWN, RanLogic
+    from vcran.core.opil.ranlogic import QUEUE_SHOWN, RanLogic
 
     logic = RanLogic("r")
     for i in range(120):
@@ -496,7 +496,7 @@ def test_battery_goes_to_orion_with_the_robots_other_state():
     # SPEC §4: battery is published at the telemetry cadence, and §9: a fleet manager reads it from Orion.
     # The live sender kept only the four RAN attributes of an entity's state, so a live fleet's battery
     # was recorded in the trace as sent and never reached Orion (found by the fifth fresh-user review).
-    from vcran.core.messages import BatteryState
+    from vcran.core.opil.messages import BatteryState
 
     orion = FakeOrion()
     t = transport(orion)

@@ -99,7 +99,7 @@ class OrionClient:
         return out
 
     def update(self, body: bytes, *, forced: bool = False) -> None:
-        """``POST /v2/op/update`` with a ready body (``vcran.core.codec.split_batch``); ``forced`` adds
+        """``POST /v2/op/update`` with a ready body (``vcran.core.opil.codec.split_batch``); ``forced`` adds
         ``options=forcedUpdate``: Orion then notifies every attribute of the body, changed or not."""
         params = {"options": "forcedUpdate"} if forced else None
         self._call("POST", "/v2/op/update", "batch update", content=body, params=params)

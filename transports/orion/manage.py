@@ -16,7 +16,7 @@ and writing the manager's commands:
   URL), or from polling them. The subscription's condition is the manager's
   :attr:`~vcran.core.opil.manager.FleetManager.attributes`; every notification carries all of them, so
   ``handle.latest`` and ``handle.pose`` are as fresh as the robot's last notified change.
-  ``robot_description`` (:data:`~vcran.core.messages.FORCED_UPDATES`) has a subscription of its own:
+  ``robot_description`` (:data:`~vcran.core.opil.messages.FORCED_UPDATES`) has a subscription of its own:
   ``vcran live`` writes it every period with Orion's forcedUpdate, unchanged, and a notification of the
   whole entity cannot tell such a write from a description that merely rides along; this subscription's
   notifications can, so the manager is told of each periodic write, as in simulated time (SPEC §2, §9).
@@ -37,10 +37,10 @@ import simpy
 
 from transports.orion.client import OrionClient
 from transports.orion.link import Change, LinkOptions, OrionLink, Subscription
-from vcran.core.codec import CodecError, decode_attribute, encode_attribute_json
 from vcran.core.jobs import Log
-from vcran.core.messages import FORCED_UPDATES, OUTBOUND, Message, RanStatus
+from vcran.core.opil.codec import CodecError, decode_attribute, encode_attribute_json
 from vcran.core.opil.manager import FleetManager
+from vcran.core.opil.messages import FORCED_UPDATES, OUTBOUND, Message, RanStatus
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Deliver, Outbound, Publish
 from vcran.sim.live import LiveEnvironment

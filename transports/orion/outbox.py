@@ -21,7 +21,7 @@ import threading
 from collections import deque
 from dataclasses import dataclass, field
 
-from vcran.core.messages import INBOUND, Message
+from vcran.core.opil.messages import INBOUND, Message
 from vcran.core.wire import Frame
 
 QUEUE_MAX = 10_000

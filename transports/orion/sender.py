@@ -12,7 +12,7 @@ the one request: the fleet's tick is one element per robot (its ``current_motion
 its oldest waiting ``ran_error``), then one element per further ``ran_error``; a task of several motions
 is several elements of its robot.
 
-``robot_description`` (:data:`~vcran.core.messages.FORCED_UPDATES`) goes in a request of its own, after
+``robot_description`` (:data:`~vcran.core.opil.messages.FORCED_UPDATES`) goes in a request of its own, after
 the tick's, with ``options=forcedUpdate``: its value never changes, and Orion notifies only changes, so
 without the option a planner that subscribed after the first write would never get it (SPEC §2). The
 option forces every attribute of its request, hence the separate request: nothing else is notified
@@ -44,8 +44,8 @@ from time import monotonic
 from transports.orion.client import OrionClient, OrionError, OrionRejected
 from transports.orion.health import Backoff, Health
 from transports.orion.outbox import Batch, Outbox, Queued, Value
-from vcran.core.build import motion_message
-from vcran.core.messages import FORCED_UPDATES, INBOUND, Time
+from vcran.core.opil.build import motion_message
+from vcran.core.opil.messages import FORCED_UPDATES, INBOUND, Time
 from vcran.core.wire import Frame
 
 log = logging.getLogger("vcran.orion")
@@ -142,7 +142,7 @@ class Sender:
     def deliver(self) -> float | None:
         """Send what the outbox holds; None when Orion took all of it, else the seconds to wait before
         trying again (what it did not take is back in the outbox)."""
-        from vcran.core.codec import split_batch_counted
+        from vcran.core.opil.codec import split_batch_counted
 
         batch = self.outbox.take()
         try:
@@ -258,7 +258,7 @@ class Sender:
     def _encoded(self, element: Element) -> bool:
         """Encode the element (``data``); an attribute that cannot be encoded is dropped with its queued
         value, which is counted undeliverable. False: nothing of it can be sent."""
-        from vcran.core.codec import CodecError, encode_attribute_json, encode_entity_json
+        from vcran.core.opil.codec import CodecError, encode_attribute_json, encode_entity_json
         from vcran.core.orion_rules import MAX_REQUEST_BYTES
 
         attrs = element.attrs

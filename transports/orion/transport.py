@@ -24,7 +24,7 @@ import simpy
 from transports.base import Deliver, Transport
 from transports.orion.client import OrionClient
 from transports.orion.link import Change, LinkOptions, OrionLink, Subscription
-from vcran.core.messages import INBOUND
+from vcran.core.opil.messages import INBOUND
 from vcran.core.wire import Frame, Inbound, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
 

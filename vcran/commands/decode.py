@@ -23,8 +23,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from vcran.commands import CommandError
-    from vcran.core.codec import decode_entity, unknown_attributes
-    from vcran.core.plain import to_plain
+    from vcran.core.opil.codec import decode_entity, unknown_attributes
+    from vcran.core.opil.plain import to_plain
 
     name = "stdin" if args.file == "-" else args.file
     try:

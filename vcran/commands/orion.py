@@ -18,9 +18,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from transports.orion.client import OrionError
-    from vcran.core.build import motion_message
-    from vcran.core.codec import encode_entity_json, split_batch
-    from vcran.core.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
+    from vcran.core.opil.build import motion_message
+    from vcran.core.opil.codec import encode_entity_json, split_batch
+    from vcran.core.opil.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
     from vcran.sim.ran import description
 
     setup_logging()

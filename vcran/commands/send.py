@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
 def _play(args: argparse.Namespace, scenario, client, signals: StopSignals) -> tuple[int, int]:  # type: ignore[no-untyped-def]
     """Send the script; returns (failures, sent). Stops early when a signal asks."""
     from transports.orion.client import OrionError, OrionRejected
-    from vcran.core.codec import encode_attribute
+    from vcran.core.opil.codec import encode_attribute
 
     entity_type = scenario.settings.entity_type
     start = time.monotonic()

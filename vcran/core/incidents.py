@@ -1,6 +1,7 @@
-"""What happens to a robot on its own (SPEC §4): battery, faults, collisions, as events for ``events.jsonl``.
+"""What happens to a robot on its own (SPEC §4, §12): battery, faults, collisions, blocks and deadlocks, as
+events for ``events.jsonl``.
 
-RanLogic's events (:mod:`vcran.core.effects`) say what the rules did; these say what the robot went
+RanLogic's events (:mod:`vcran.core.opil.effects`) say what the rules did; these say what the robot went
 through, and are logged by the SimPy model when it happens. Where the fleet manager would notice, the model
 also publishes a ``ran_error`` (docs/robots.md lists which).
 """
@@ -10,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from vcran.core.effects import ErrorReport, Event
+from vcran.core.events import Event
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,13 +86,6 @@ class Collision(Event):
         return {"other": self.other, "x": self.x, "y": self.y}
 
 
-@dataclass(frozen=True, slots=True)
-class Published(ErrorReport):
-    """A §4 ``ran_error`` that only goes on the wire: its incident has an event of its own."""
-
-    NAME = ""
-
-
 # --- traffic (SPEC §12): safety fields, blocks, deadlocks ---------------------------------------------------
 
 
@@ -122,17 +116,15 @@ class Unblocked(Event):
 
 @dataclass(frozen=True, slots=True)
 class Deadlock(Event):
-    """Robots stopped on one another: ``kind`` "cycle" (``robots`` in wait order, each waiting for the next and
-    the last for the first), or "bound" (``robots`` is the one robot, blocked for ``duration`` seconds: the
-    scenario's bound; None for a cycle). Logged on the first robot of ``robots``."""
+    """The robot is deadlocked (SPEC §12), blocked for ``duration`` seconds by now: ``kind`` "cycle", robots
+    stopped on one another (this robot, the first in fleet order, waits for the first of ``other``, each of
+    ``other`` for the next, the last for this robot), or "bound", blocked for the scenario's bound (``other``:
+    the robots in its field). ``other`` lists robot ids separated by ", " (ids hold no whitespace)."""
 
     NAME = "deadlock"
     kind: str
-    robots: tuple[str, ...]
-    duration: float | None = None
+    other: str
+    duration: float
 
     def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"kind": self.kind, "robots": list(self.robots)}
-        if self.duration is not None:
-            out["duration"] = self.duration
-        return out
+        return {"kind": self.kind, "other": self.other, "duration": self.duration}

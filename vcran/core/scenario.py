@@ -17,11 +17,11 @@ from dataclasses import dataclass, field
 from itertools import groupby
 from typing import Any
 
-from vcran.core import build
 from vcran.core.battery import BatteryConfig
 from vcran.core.faults import FaultSpec, RandomFaults
-from vcran.core.messages import ActionKind, Message, MotionAssignment
-from vcran.core.schema import slot_init, unchecked
+from vcran.core.opil import build
+from vcran.core.opil.messages import ActionKind, Message, MotionAssignment
+from vcran.core.slots import slot_init, unchecked
 from vcran.core.traffic.fields import FieldSpec
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.wire import Inbound
@@ -151,7 +151,7 @@ class _Repetitions:
     """One cycle's repetitions, each built when it is due.
 
     The first repetition is built and checked; the others differ from it only in names and times, so
-    they are its messages built again under new names (:class:`vcran.core.build.RepeatedTasks`), one
+    they are its messages built again under new names (:class:`vcran.core.opil.build.RepeatedTasks`), one
     header per repetition, not built field by field.
     """
 
@@ -439,7 +439,7 @@ def _drop_none(value: Any) -> Any:
 def task_entries(
     time: float, robot: str, task: str, spec: TaskSpec, every: float, speed: float
 ) -> Iterator[ScriptEntry]:
-    """The messages of one task (:func:`vcran.core.build.task`), the ``k``-th at ``time + (k - 1) * every``."""
+    """The messages of one task (:func:`vcran.core.opil.build.task`), the ``k``-th at ``time + (k - 1) * every``."""
     messages = build.task(task, spec.path, spec.actions, max_velocity=speed, stamp=time, every=every)
     for k, message in enumerate(messages):
         yield ScriptEntry(time + k * every, robot, _attribute(message), message)

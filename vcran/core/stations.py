@@ -12,7 +12,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from vcran.core.messages import ActionKind, MotionAssignment
+from vcran.core.actions import ActionKind
 
 
 @dataclass(slots=True)
@@ -159,11 +159,3 @@ def area_problem(points: list[tuple[float, float]], x: float, y: float) -> str |
     if not covers(shape, Point(x, y)):
         return f"target {x}, {y} is outside its motion_area"
     return None
-
-
-def motion_area_problem(motion: MotionAssignment) -> str | None:
-    """R12: why a motion's target lies outside its own non-empty motion_area, or None."""
-    if not motion.motion_area.polygon.points:  # no area, as nearly every motion: nothing to build or check
-        return None
-    points = motion.motion_area.xy()
-    return area_problem(points, motion.point.x, motion.point.y) if points else None

@@ -12,12 +12,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from vcran.core.messages import Message
-from vcran.core.schema import slot_init
+from vcran.core.slots import slot_init
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # a protocol's decoded message; typed as OPIL's, which every OPIL reader of these expects
     import numpy as np
     import simpy
+
+    from vcran.core.opil.messages import Message
 
 
 @slot_init

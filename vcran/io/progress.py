@@ -16,7 +16,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TextIO
 
-from vcran.core.effects import State
+from vcran.core.opil.effects import State
 
 Clock = Callable[[], float]
 

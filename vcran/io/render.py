@@ -2,13 +2,13 @@
 
 A trace writes millions of messages. Letting orjson walk each dataclass and call back into Python for
 every id costs several times more than handing it plain dicts; so each message class gets, once, a
-function generated from its schema (:func:`vcran.core.schema.specs`) that builds the dict directly,
+function generated from its schema (:func:`vcran.core.opil.schema.specs`) that builds the dict directly,
 field by field, nested messages through their own converters and ids through one memoised renderer.
 Any message class, including ones added later, goes through the same path: nothing here names a field.
 
 Two id styles share the machinery: ``plain`` (trace v1 and ``vcran decode``: ``{"uuid", "description"}``)
 and ``compact`` (trace v2, docs/outputs.md): the name when the id is the stable id of its description
-(:func:`vcran.core.ids.id_for`), ``null`` for the nil id without description, else
+(:func:`vcran.core.opil.ids.id_for`), ``null`` for the nil id without description, else
 ``[uuid, description]``.
 """
 
@@ -20,8 +20,8 @@ from typing import Any
 
 import orjson
 
-from vcran.core.ids import NIL, Id, NamedId, canonical_uuid, id_for
-from vcran.core.schema import FieldSpec, specs
+from vcran.core.opil.ids import NIL, Id, NamedId, canonical_uuid, id_for
+from vcran.core.opil.schema import FieldSpec, specs
 
 Convert = Callable[[Any], Any]
 
@@ -185,7 +185,7 @@ def from_compact_id(value: Any) -> Id:
 
 def expand(cls: type, value: Any) -> Any:
     """A compact (v2) JSON value of a ``cls`` message in the plain form, ids as ``{"uuid", "description"}``,
-    for :func:`vcran.core.plain.from_plain` to validate and build. Anything not shaped like ``cls`` is
+    for :func:`vcran.core.opil.plain.from_plain` to validate and build. Anything not shaped like ``cls`` is
     passed through unchanged, so that from_plain names the problem."""
     if not isinstance(value, dict):
         return value

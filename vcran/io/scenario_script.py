@@ -3,7 +3,7 @@ or as a task cycle (docs/scenarios.md).
 
 An entry names its time, its robot and its ``kind``: one message (``motion``, ``action``, ``cancel``, or a
 ``raw`` NGSI attribute as JSON), a whole ``task`` (its motions, then its actions), or a ``cycle`` of tasks
-sent again and again. The messages are built here (:mod:`vcran.core.build`, which checks them as it builds
+sent again and again. The messages are built here (:mod:`vcran.core.opil.build`, which checks them as it builds
 them); the model's rules for the entries (a robot of the fleet, a time a stamp can hold, nothing after the
 run's end) are :mod:`vcran.core.validity.workload`'s.
 """
@@ -14,11 +14,11 @@ import json
 import math
 from typing import Any
 
-from vcran.core import build
-from vcran.core.ids import IdError
-from vcran.core.messages import INBOUND
+from vcran.core.opil import build
+from vcran.core.opil.ids import IdError
+from vcran.core.opil.messages import INBOUND
+from vcran.core.opil.schema import MessageError
 from vcran.core.scenario import Cycle, ScriptEntry, TaskSpec, task_entries
-from vcran.core.schema import MessageError
 from vcran.core.validity.workload import CYCLE, SCRIPT_ACTIONS, TASK, after_end, task_problem
 from vcran.io.toml_table import Table
 

@@ -15,9 +15,9 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
-from vcran.core.build import CATEGORY_OF
-from vcran.core.ids import Id, id_for
-from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
+from vcran.core.opil.build import CATEGORY_OF
+from vcran.core.opil.ids import Id, id_for
+from vcran.core.opil.messages import ActionAssignment, CancelTask, MotionAssignment
 from vcran.core.scenario import Scenario, ScriptEntry
 
 

@@ -36,8 +36,8 @@ from typing import IO, TYPE_CHECKING, Any
 
 import orjson
 
-from vcran.core.messages import ATTRIBUTES, RENAMED
 from vcran.core.motion import Leg
+from vcran.core.opil.messages import ATTRIBUTES, RENAMED
 from vcran.core.wire import Frame, Inbound, Publish
 from vcran.io.render import converter, delta_converter, expand
 

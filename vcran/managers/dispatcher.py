@@ -44,9 +44,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from vcran.core.ids import Id
-from vcran.core.messages import BatteryState, Message, RanStatus
+from vcran.core.opil.ids import Id
 from vcran.core.opil.manager import FleetManager
+from vcran.core.opil.messages import BatteryState, Message, RanStatus
 from vcran.core.scenario import Job
 from vcran.managers.routing import BATTERY_EMPTY, COMPLETED, Router, task_outcome
 

@@ -40,10 +40,10 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from vcran.core.build import PathPoint
-from vcran.core.ids import Id, id_for
 from vcran.core.manager import Fleet, Handle
-from vcran.core.messages import AssignmentStatus, Message, RanError, RanStatus
+from vcran.core.opil.build import PathPoint
+from vcran.core.opil.ids import Id, id_for
+from vcran.core.opil.messages import AssignmentStatus, Message, RanError, RanStatus
 from vcran.core.scenario import POLLING, Job
 from vcran.core.traffic.paths import Graph
 from vcran.core.traffic.reservations import Reservations

@@ -262,8 +262,8 @@ def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, st
 
 
 def _decoded(raw: Any) -> dict[str, Any] | None:
-    from vcran.core.codec import decode_attribute
-    from vcran.core.plain import to_plain
+    from vcran.core.opil.codec import decode_attribute
+    from vcran.core.opil.plain import to_plain
 
     try:
         return to_plain(decode_attribute("motion_assignment", raw))

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from vcran.core.effects import Reason, State
+from vcran.core.opil.effects import Reason, State
 
 WAITING = State.WAITING.value
 STATES = tuple(s.value for s in State)

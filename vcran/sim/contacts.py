@@ -19,8 +19,8 @@ import math
 import simpy
 
 from vcran.core.collisions import Box, Footprint, Grid, Track, apart
-from vcran.core.effects import Reason
 from vcran.core.incidents import Collision
+from vcran.core.opil.effects import Reason
 from vcran.sim.robot import Halted, RobotNode
 from vcran.sim.timing import COMPLETION, at
 

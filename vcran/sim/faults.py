@@ -13,9 +13,9 @@ from typing import Any
 
 import simpy
 
-from vcran.core.effects import Reason
 from vcran.core.faults import FaultSpec
 from vcran.core.incidents import FaultEnded, FaultStarted
+from vcran.core.opil.effects import Reason
 from vcran.sim.robot import Halted, RobotNode
 from vcran.sim.timing import FAULT, at
 

@@ -16,12 +16,14 @@ from typing import Any, Protocol
 import simpy
 
 from vcran.core.battery import FleetBattery
-from vcran.core.effects import ErrorReport, Event, State, StateChanged, TaskCancelled, TaskCompleted
-from vcran.core.messages import Message
+from vcran.core.events import Event
 from vcran.core.motion import FleetKinematics
-from vcran.core.ranlogic import RanLogic
+from vcran.core.opil.effects import ErrorReport, State, StateChanged, TaskCancelled, TaskCompleted
+from vcran.core.opil.messages import Message
+from vcran.core.opil.motion_area import motion_area_problem
+from vcran.core.opil.ranlogic import RanLogic
 from vcran.core.scenario import Scenario
-from vcran.core.stations import Station, StationMap, motion_area_problem
+from vcran.core.stations import Station, StationMap
 from vcran.core.wire import Inbound, Transport
 from vcran.sim.contacts import Contacts
 from vcran.sim.faults import Faults
@@ -35,7 +37,7 @@ class EventSink(Protocol):
 
 
 def default_decode(attribute: str, raw: Any) -> Message:
-    from vcran.core.codec import decode_attribute  # imported on first raw payload only
+    from vcran.core.opil.codec import decode_attribute  # imported on first raw payload only
 
     return decode_attribute(attribute, raw)
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from vcran.core.battery import CHARGE, REST, FleetBattery
 from vcran.core.incidents import BatteryLow
-from vcran.core.messages import BatteryState, Header, Message, Time
+from vcran.core.opil.messages import BatteryState, Header, Message, Time
 from vcran.sim.robot import RobotNode
 
 

@@ -17,10 +17,10 @@ from typing import Any
 
 import simpy
 
-from vcran.core.build import CATEGORY_OF
-from vcran.core.effects import ErrorReport
-from vcran.core.ids import id_for
-from vcran.core.messages import (
+from vcran.core.opil.build import CATEGORY_OF
+from vcran.core.opil.effects import ErrorReport
+from vcran.core.opil.ids import id_for
+from vcran.core.opil.messages import (
     ActionKind,
     AssignmentStatus,
     Message,
@@ -31,7 +31,7 @@ from vcran.core.messages import (
     Time,
 )
 from vcran.core.scenario import RobotConfig
-from vcran.core.schema import unchecked
+from vcran.core.slots import unchecked
 from vcran.core.wire import Frame, Inbound, Publish, Transport
 from vcran.sim.robot import Decoded, Malformed, RobotNode
 from vcran.sim.timing import FAULT, TELEMETRY, at

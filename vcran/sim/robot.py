@@ -1,7 +1,7 @@
 """One robot's three processes: RanLogic, AGV and AgvAction, talking through mailboxes (seed §2).
 
 The processes decide nothing. RanLogic's process hands each arriving signal to the pure
-:class:`~vcran.core.ranlogic.RanLogic` and carries out the effects it returns; the AGV drives the legs it is
+:class:`~vcran.core.opil.ranlogic.RanLogic` and carries out the effects it returns; the AGV drives the legs it is
 given (analytically, one event per leg however long the leg); AgvAction waits out an action's duration
 and applies it to the stations.
 """
@@ -28,23 +28,24 @@ from vcran.core.battery import (
     linear_empty_after,
     linear_full_after,
 )
-from vcran.core.effects import (
+from vcran.core.incidents import BatteryEmpty, BatterySwapped
+from vcran.core.motion import FleetKinematics, Leg, Limits
+from vcran.core.opil.effects import (
     Abandon,
     ClearTimer,
     DispatchAction,
     DispatchPath,
     Effect,
     Event,
+    Published,
     Reason,
     SkipMotion,
     StartTimer,
     StopAfterLeg,
 )
-from vcran.core.ids import Id
-from vcran.core.incidents import BatteryEmpty, BatterySwapped, Published
-from vcran.core.messages import ActionAssignment, ActionKind, CancelTask, Message, MotionAssignment, PolygonStamped
-from vcran.core.motion import FleetKinematics, Leg, Limits
-from vcran.core.ranlogic import RanLogic
+from vcran.core.opil.ids import Id
+from vcran.core.opil.messages import ActionAssignment, ActionKind, CancelTask, Message, MotionAssignment, PolygonStamped
+from vcran.core.opil.ranlogic import RanLogic
 from vcran.core.scenario import RobotConfig
 from vcran.core.stations import Outcome, StationMap, attempt, transfer
 from vcran.sim.mailbox import Mailbox

@@ -12,8 +12,8 @@ the pure :class:`~vcran.core.traffic.control.Traffic` and carries out the effect
 - ``DriveOn``: :meth:`Body.drive_on` -- drive the rest of the motion from rest; its end completes it (the
   body does not report that leg with :meth:`drive`: Traffic gave it);
 - ``BlockedBy``, ``Unblocked``, ``Deadlocked``: the events ``blocked`` (naming the robot that entered, and
-  where the blocked one was), ``unblocked`` (with how long it was blocked) and ``deadlock`` (the robots and
-  the kind; logged on the first of them), and each protocol's way of showing them (:class:`Signals`: OPIL a
+  where the blocked one was), ``unblocked`` (with how long it was blocked) and ``deadlock`` (on the first
+  robot in fleet order, naming the others and the kind), and each protocol's way of showing them (:class:`Signals`: OPIL a
   ``ran_error`` warning, VDA 5050 ``safetyState.fieldViolation``). With ``on_deadlock = "cancel"`` every
   deadlocked robot is told to :meth:`Signals.cancel` its tasks (reason ``deadlock``); its body then rests.
 
@@ -32,7 +32,7 @@ from typing import Any, Protocol
 import simpy
 
 from vcran.core.collisions import Footprint
-from vcran.core.effects import Event
+from vcran.core.events import Event
 from vcran.core.incidents import Blocked, Deadlock, Unblocked
 from vcran.core.motion import Leg
 from vcran.core.scenario import Scenario
@@ -195,8 +195,9 @@ class SafetyFields:
         d = e.deadlock
         self.deadlocks += 1
         first = d.robots[0]
-        self._log(first, Deadlock(d.kind, tuple(self.ids[r] for r in d.robots),
-                                  d.t - d.since if d.kind == BOUND else None))
+        others = d.waiting_for if d.kind == BOUND else d.robots[1:]
+        spell = self.env.now - self._since.get(first, self.env.now)  # how long ``first`` has been blocked
+        self._log(first, Deadlock(d.kind, ", ".join(self.ids[r] for r in others), spell))
         if self.cancel and self.signals is not None:
             for r in d.robots:
                 self.signals.cancel(r, d.robots)

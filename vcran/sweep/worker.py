@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from vcran.api import manager_options, simulate
-from vcran.core.effects import Reason
+from vcran.core.opil.effects import Reason
 from vcran.core.scenario import ManagerSpec
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps

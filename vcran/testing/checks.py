@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from vcran.core.effects import Reason, State
+from vcran.core.opil.effects import Reason, State
 from vcran.core.scenario import Scenario
 from vcran.io.trace import (
     EVENTS_FILE,

@@ -1,6 +1,6 @@
 """A reference model of one robot's RanLogic (SPEC §3, R1–R14), small enough to be obviously right.
 
-:class:`vcran.core.ranlogic.RanLogic` is written for speed and for the SimPy model: it keeps incremental
+:class:`vcran.core.opil.ranlogic.RanLogic` is written for speed and for the SimPy model: it keeps incremental
 bookkeeping (a position map, ``m``, the next action, a running flag). This model is written for the
 reader instead: it stores every accepted assignment of a task as it arrived and recomputes everything
 else from that list each time it is asked (the current content of an assignment id is its latest
@@ -35,7 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from vcran.core.effects import (
+from vcran.core.opil.effects import (
     Abandon,
     ActionFinished,
     AssignmentCancelled,
@@ -53,8 +53,8 @@ from vcran.core.effects import (
     TaskCompleted,
     TaskQueued,
 )
-from vcran.core.ids import NIL, NOT_SUPPORTED, Id
-from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
+from vcran.core.opil.ids import NIL, NOT_SUPPORTED, Id
+from vcran.core.opil.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
 
 Obs = tuple[Any, ...]
 

@@ -19,8 +19,8 @@ require_hypothesis(__name__)
 
 from hypothesis import strategies as st
 
-from vcran.core import build
-from vcran.core.messages import Assignment
+from vcran.core.opil import build
+from vcran.core.opil.messages import Assignment
 
 #: How :meth:`TaskPlan.assignment` may deviate from the plan, and the rule each deviation exercises.
 VARIANTS: dict[str, str] = {

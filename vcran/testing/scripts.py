@@ -35,8 +35,8 @@ require_hypothesis(__name__)
 
 from hypothesis import strategies as st
 
-from vcran.core import build
-from vcran.core.messages import ActionAssignment, CancelTask, MotionAssignment
+from vcran.core.opil import build
+from vcran.core.opil.messages import ActionAssignment, CancelTask, MotionAssignment
 from vcran.core.scenario import Scenario, ScriptEntry
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps, name_of, scenario_dict
@@ -109,7 +109,7 @@ def _nested(depth: int) -> Any:
 
 def _near_valid() -> tuple[Any, ...]:
     """Real encodings of valid messages with one field broken: what a buggy fleet manager sends."""
-    from vcran.core.codec import encode_attribute
+    from vcran.core.opil.codec import encode_attribute
 
     def motion(mutate: Any) -> Any:
         attr = encode_attribute("motion_assignment", build.motion("M", "M_m1", 1, 2, 1.0, 2.0))

@@ -1,6 +1,6 @@
 """A hypothesis state machine that drives RanLogic and the reference model side by side (SPEC §3).
 
-Every rule applies one input to the real :class:`~vcran.core.ranlogic.RanLogic` and to the
+Every rule applies one input to the real :class:`~vcran.core.opil.ranlogic.RanLogic` and to the
 :class:`~vcran.testing.model.ReferenceRan` and compares what each says must happen. The machine also
 plays the driver, as the SimPy model does: it keeps the R7 timers that StartTimer/ClearTimer effects ask
 for and fires them in order when time advances, drives the dispatched path leg by leg (dropping the rest
@@ -30,8 +30,8 @@ from hypothesis import strategies as st
 from hypothesis.control import currently_in_test_context
 from hypothesis.stateful import Bundle, RuleBasedStateMachine, initialize, invariant, precondition, rule
 
-from vcran.core import build
-from vcran.core.effects import (
+from vcran.core.opil import build
+from vcran.core.opil.effects import (
     Abandon,
     ActionFinished,
     ClearTimer,
@@ -49,10 +49,10 @@ from vcran.core.effects import (
     TaskCompleted,
     TaskQueued,
 )
-from vcran.core.ids import NIL, Id
-from vcran.core.messages import ActionAssignment, Assignment, MotionAssignment
-from vcran.core.ranlogic import RanLogic
-from vcran.core.stations import motion_area_problem
+from vcran.core.opil.ids import NIL, Id
+from vcran.core.opil.messages import ActionAssignment, Assignment, MotionAssignment
+from vcran.core.opil.motion_area import motion_area_problem
+from vcran.core.opil.ranlogic import RanLogic
 from vcran.testing.model import TOLERANCE, TRANSITIONS, ReferenceRan, observe
 from vcran.testing.plans import AREA, TaskPlan, task_plans, variants
 

@@ -1,6 +1,6 @@
 """Hypothesis strategies for vcran's messages, for vcran's tests and for users fuzzing a fleet manager.
 
-:func:`messages_of` walks :func:`vcran.core.schema.specs`, so every message type gets a strategy and a new
+:func:`messages_of` walks :func:`vcran.core.opil.schema.specs`, so every message type gets a strategy and a new
 field is generated as soon as it is declared. Values cover each ROS type's whole range (int32 limits,
 float32 limits, empty and non-ASCII strings, Orion's forbidden characters and ``%`` sequences), because
 the codec must carry every valid message. Cross-field rules are respected where a message enforces them
@@ -19,8 +19,8 @@ require_hypothesis(__name__)
 
 from hypothesis import strategies as st
 
-from vcran.core.ids import Id
-from vcran.core.messages import (
+from vcran.core.opil.ids import Id
+from vcran.core.opil.messages import (
     ACTION_CODES,
     ATTRIBUTES,
     CATEGORY_CODES,
@@ -37,7 +37,7 @@ from vcran.core.messages import (
     Sequence,
     Time,
 )
-from vcran.core.schema import FLOAT32_MAX, INT_RANGES, FieldSpec, Message, specs
+from vcran.core.opil.schema import FLOAT32_MAX, INT_RANGES, FieldSpec, Message, specs
 
 M = TypeVar("M", bound=Message)
 

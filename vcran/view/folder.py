@@ -210,8 +210,8 @@ def _assignments(trace: Path, files: RunFiles) -> None:
 
 
 def _decoded(attr: str, raw: Any) -> dict[str, Any] | None:
-    from vcran.core.codec import decode_attribute
-    from vcran.core.plain import to_plain
+    from vcran.core.opil.codec import decode_attribute
+    from vcran.core.opil.plain import to_plain
 
     try:
         return to_plain(decode_attribute(attr, raw))
@@ -230,7 +230,7 @@ def _action_kind(value: dict[str, Any]) -> str | None:
 
 @cache
 def _kind(category: int, code: int) -> str | None:
-    from vcran.core.messages import RobotAction
+    from vcran.core.opil.messages import RobotAction
 
     try:
         return RobotAction(category=category, action=code).kind.value

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from vcran.core.effects import State
+from vcran.core.opil.effects import State
 from vcran.view.model import Steps, Tasks
 
 #: What a task's life ended with: completed, a cancel reason, or still open when the run ended.

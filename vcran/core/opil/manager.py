@@ -19,11 +19,11 @@ import random
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
-from vcran.core import build
-from vcran.core.ids import Id
 from vcran.core.jobs import JobBook
 from vcran.core.manager import Fleet, Handle, Manager
-from vcran.core.messages import INBOUND, ActionKind, Message, Motion
+from vcran.core.opil import build
+from vcran.core.opil.ids import Id
+from vcran.core.opil.messages import INBOUND, ActionKind, Message, Motion
 from vcran.core.scenario import Job
 
 #: Inbound message type -> the attribute it is written to.
@@ -92,7 +92,7 @@ class OpilHandle(Handle):
         ``path`` is a list of ``(x, y)`` or ``(x, y, theta)`` points (a theta on the last one: end facing
         it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``, ``"charge"`` (SPEC §4). The task is named ``task``, or
         ``task_1``, ``task_2``, ... in the order sent; its motions ``{task}_m1``, ... and actions
-        ``{task}_a1``, ... carry sequence numbers ``1..length`` (:func:`vcran.core.build.task`). With
+        ``{task}_a1``, ... carry sequence numbers ``1..length`` (:func:`vcran.core.opil.build.task`). With
         ``every`` > 0 the messages go out that many seconds apart (under polling, a write overwritten
         before the RAN reads it is lost). ``job`` records the task as work for that job (a
         ``job_assigned`` event; the job's robot becomes ``robot``).

@@ -4,7 +4,7 @@ link and manager (SPEC §9), and the message script with its cycles (issue 30 it
 Each part has its fields' rules (keyed as a file names the fields, in the order a file's reader reads them)
 and a function for its problems: its own fields (``fields_too``), then what relates it to the rest of the
 scenario (a fault's robot is one of the fleet, a job's stations are stations, nothing happens after the run
-has ended). A message a script sends is checked as it is built (:mod:`vcran.core.build`), not here.
+has ended). A message a script sends is checked as it is built (:mod:`vcran.core.opil.build`), not here.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """What the VDA 5050 vehicle is told about its body, what it asks the body and the world to do, and what
-it reports: frozen, slotted values (the house style of :mod:`vcran.core.effects`).
+it reports: frozen, slotted values (the house style of :mod:`vcran.core.opil.effects`).
 
 Every input of :class:`~vcran.core.vda5050.vehicle.Vehicle` returns a list of effects in the order they
 happen. Commands map one to one onto the robot body's commands (the shared AGV and AgvAction processes):

@@ -14,10 +14,10 @@ from typing import Any
 
 import simpy
 
-from vcran.core.build import motion_message
 from vcran.core.jobs import Log
-from vcran.core.messages import FORCED_UPDATES, OUTBOUND, Message, Time
+from vcran.core.opil.build import motion_message
 from vcran.core.opil.manager import FleetManager, OpilHandle
+from vcran.core.opil.messages import FORCED_UPDATES, OUTBOUND, Message, Time
 from vcran.core.scenario import Scenario
 from vcran.core.wire import Frame, Outbound
 from vcran.sim.loop import InSimTime, Loop

@@ -2,19 +2,19 @@
 
 Field names and order follow the ROS messages of OPIL (``mars_agent_physical_robot_msgs``,
 ``mars_common_msgs``, ``geometry_msgs``, ``std_msgs``) so that the NGSI codec is a mechanical walk over
-:func:`vcran.core.schema.specs`. ``RanStatus``, ``TaskEnd`` and ``RanError`` are vcran's own extensions
-(``vcran_msgs``). Every message validates itself on construction (:class:`vcran.core.schema.Message`).
+:func:`vcran.core.opil.schema.specs`. ``RanStatus``, ``TaskEnd`` and ``RanError`` are vcran's own extensions
+(``vcran_msgs``). Every message validates itself on construction (:class:`vcran.core.opil.schema.Message`).
 """
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from vcran.core.ids import NIL, Id
-from vcran.core.schema import (
+from vcran.core.actions import ActionKind
+from vcran.core.opil.ids import NIL, Id
+from vcran.core.opil.schema import (
     Bool,
     Float32,
     Float64,
@@ -24,8 +24,8 @@ from vcran.core.schema import (
     String,
     UInt8,
     UInt32,
-    unchecked,
 )
+from vcran.core.slots import unchecked
 
 # --- std_msgs / geometry_msgs -------------------------------------------------------------------------
 
@@ -213,16 +213,6 @@ class Sequence(Message):
             raise MessageError(
                 "sequence_number", f"must be 1..length={self.length}, got {self.sequence_number}"
             )
-
-
-class ActionKind(enum.Enum):
-    """What AgvAction does. The seed's codes 0/1/2 and OPIL's categories 5/10/20 both map here."""
-
-    DUMMY = "dummy"
-    LOAD = "load"
-    UNLOAD = "unload"
-    #: vcran extension (SPEC §4 Battery): refill the battery at a charger station.
-    CHARGE = "charge"
 
 
 #: OPIL ``RobotAction.category`` constants (category first, SPEC §2).

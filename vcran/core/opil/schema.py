@@ -3,8 +3,8 @@
 Messages are frozen dataclasses whose annotations name ROS field types (``Float64``, ``UInt8``, nested
 messages, tuples of messages). From those annotations this module derives, once per class, a tuple of
 :class:`FieldSpec`. Three consumers read it: :meth:`Message.__post_init__` (a message validates itself,
-h11-style, so no invalid message exists anywhere in vcran), :mod:`vcran.core.plain` (trace and ``vcran decode``
-JSON) and :mod:`vcran.core.codec` (the OPIL/FIROS NGSI encoding, which needs the ROS type names for its
+h11-style, so no invalid message exists anywhere in vcran), :mod:`vcran.core.opil.plain` (trace and ``vcran decode``
+JSON) and :mod:`vcran.core.opil.codec` (the OPIL/FIROS NGSI encoding, which needs the ROS type names for its
 ``dataType`` metadata). Keeping the field list in one place means a new field cannot be validated but
 forgotten on the wire, or the other way round.
 """
@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import math
 import typing
-from collections.abc import Callable
-from dataclasses import MISSING, dataclass, fields
+from dataclasses import dataclass, fields
 from typing import Annotated, Any, ClassVar, TypeVar
 
-from vcran.core.ids import Id, IdError
+from vcran.core.opil.ids import Id, IdError
 
 # ROS primitive types. The metadata string is the ROS name used in OPIL's dataType metadata.
 Float64 = Annotated[float, "float64"]
@@ -89,81 +88,6 @@ class Message:
 
     def _check_semantics(self) -> None:
         """Cross-field rules of one message type; raise MessageError naming the field."""
-
-
-_UNCHECKED: dict[type, Any] = {}
-
-
-def unchecked(cls: type[M]) -> Callable[..., M]:
-    """The constructor of ``cls`` without validation, for messages vcran builds itself from values it
-    already holds as valid (statuses, errors, stamps, script expansions of a checked scenario).
-
-    Validation stays where outside input is decoded (the codec, ``from_plain``, the public builders);
-    re-checking every field of every status vcran publishes was a tenth of a large run's time. Same
-    signature and defaults as the dataclass constructor; generated once per class.
-    """
-    found = _UNCHECKED.get(cls)
-    if found is None:
-        found = _UNCHECKED[cls] = _constructor(cls, init=False)
-    return found  # type: ignore[no-any-return]
-
-
-def slot_init(cls: type[M]) -> type[M]:
-    """Class decorator (above ``@dataclass(frozen=True, slots=True)``): the same ``__init__``, setting
-    the fields through the slots' descriptors (:func:`_setter`) rather than ``object.__setattr__``.
-
-    For the small frozen records built by the thousand per simulated hour (script entries, inbound and
-    outbound wire records): the frozen dataclass ``__init__`` was 4.6% of a 1000-robot run's self time.
-    Equality, hashing, repr, immutability and ``__post_init__`` are unchanged.
-    """
-    if any(not f.init for f in fields(cls)):  # type: ignore[arg-type]
-        raise TypeError(f"slot_init: {cls.__name__} has fields outside __init__")
-    init = _constructor(cls, init=True)
-    init.__qualname__ = f"{cls.__qualname__}.__init__"
-    cls.__init__ = init  # type: ignore[method-assign]
-    return cls
-
-
-def _constructor(cls: type, *, init: bool) -> Callable[..., Any]:
-    """Generated once per class: ``make(fields...)`` returning a new instance (``init=False``), or an
-    ``__init__(o, fields...)`` that ends with ``__post_init__`` when the class has one."""
-    helpers: dict[str, Any] = {"_new": object.__new__, "_cls": cls, "_NONE": _NONE}
-    params, body = ["o"] if init else [], []
-    for f in fields(cls):
-        helpers[f"_s_{f.name}"] = _setter(cls, f.name)
-        if f.default is not MISSING:
-            helpers[f"_d_{f.name}"] = f.default
-            params.append(f"{f.name}=_d_{f.name}")
-        elif f.default_factory is not MISSING:
-            helpers[f"_f_{f.name}"] = f.default_factory
-            params.append(f"{f.name}=_NONE")
-            body.append(f" if {f.name} is _NONE: {f.name} = _f_{f.name}()")
-        else:
-            params.append(f.name)
-        body.append(f" _s_{f.name}(o, {f.name})")
-    if init:
-        source = f"def make({', '.join(params)}):\n" + "\n".join(body) + "\n"
-        if hasattr(cls, "__post_init__"):
-            source += " o.__post_init__()\n"
-        source += " return None\n"
-    else:
-        source = f"def make({', '.join(params)}):\n o = _new(_cls)\n" + "\n".join(body) + "\n return o\n"
-    exec(source, helpers)  # noqa: S102 - source built from the dataclass fields only
-    return helpers["make"]  # type: ignore[no-any-return]
-
-
-_NONE = object()
-
-
-def _setter(cls: type, name: str) -> Callable[[Any, Any], None]:
-    """The fastest way to set field ``name`` of a new frozen instance of ``cls``: the slot's own
-    descriptor (a third cheaper than ``object.__setattr__``, which looks the descriptor up on every call;
-    measured 0.22 -> 0.16 s for 500k four-field objects), or ``object.__setattr__`` for a class without
-    slots. Either way the class's frozen ``__setattr__`` is bypassed, as the dataclass ``__init__`` does."""
-    slot = next((c.__dict__[name] for c in cls.__mro__ if name in c.__dict__.get("__slots__", ())), None)
-    if slot is not None:
-        return slot.__set__  # type: ignore[no-any-return]
-    return lambda o, value: object.__setattr__(o, name, value)
 
 
 def _fast(spec: FieldSpec) -> Any:
@@ -320,5 +244,4 @@ __all__ = [
     "check_primitive",
     "short_repr",
     "specs",
-    "unchecked",
 ]

@@ -1,7 +1,7 @@
 """RanLogic: one robot's task queue and state machine (SPEC §3, R1–R10), as a pure object.
 
 Inputs are method calls carrying the simulated time ``now``; outputs are the returned effects
-(:mod:`vcran.core.effects`), in order. Nothing here knows SimPy, HTTP or a clock, so the rules can be tested by
+(:mod:`vcran.core.opil.effects`), in order. Nothing here knows SimPy, HTTP or a clock, so the rules can be tested by
 calling methods and reading lists, and the same object runs under the scripted, replay and live
 transports. The driver's one obligation: deliver :meth:`on_timer` at every :class:`StartTimer` instant
 before any input with a later ``now``, and report each dispatched leg and action exactly once.
@@ -10,7 +10,7 @@ Tie order inside one instant is the driver's business (docs/determinism.md); Ran
 ``now`` never to decrease. Times are compared with a tolerance of :data:`TOLERANCE` (R14): the R7 timer
 asks to fire that long after ``first_seen + task_timeout``, so an input at the deadline as a scenario
 writes it is on time whatever binary rounding made of the sum, and a cancel or timeout within that
-tolerance of the instant a leg or action began abandons it (:class:`~vcran.core.effects.Abandon`).
+tolerance of the instant a leg or action began abandons it (:class:`~vcran.core.opil.effects.Abandon`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from collections import OrderedDict, deque
 from collections.abc import Callable
 from itertools import islice
 
-from vcran.core.effects import (
+from vcran.core.opil.effects import (
     Abandon,
     ActionFinished,
     AssignmentCancelled,
@@ -42,10 +42,18 @@ from vcran.core.effects import (
     TaskCompleted,
     TaskQueued,
 )
-from vcran.core.ids import NIL, Id
-from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment, RanStatus, TaskEnd, Time
-from vcran.core.schema import unchecked
-from vcran.core.tasks import Ended, History, Task, assignment_id, fingerprint, kind_of, same_content
+from vcran.core.opil.ids import NIL, Id
+from vcran.core.opil.messages import (
+    ActionAssignment,
+    Assignment,
+    CancelTask,
+    MotionAssignment,
+    RanStatus,
+    TaskEnd,
+    Time,
+)
+from vcran.core.opil.tasks import Ended, History, Task, assignment_id, fingerprint, kind_of, same_content
+from vcran.core.slots import unchecked
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.
 TRANSITIONS: frozenset[tuple[State, State]] = frozenset(
@@ -77,7 +85,7 @@ RECENT = 10
 QUEUE_SHOWN = 50
 
 
-# Statuses are built from RanLogic's own, already valid state: no re-validation (vcran.core.schema.unchecked).
+# Statuses are built from RanLogic's own, already valid state: no re-validation (vcran.core.opil.schema.unchecked).
 _ran_status = unchecked(RanStatus)
 _task_end = unchecked(TaskEnd)
 

@@ -7,7 +7,7 @@ e.g. ``uint8[16]``, ``geometry_msgs/Point32[]``, or a tree of them for a message
 Each attribute type gets generated functions, the way :mod:`dataclasses` generates ``__init__``: one
 walk over the field specs writes a single expression with nested messages inlined, arrays as
 comprehensions and constant metadata as literals. Two targets share the walk: Python dicts
-(:class:`_Dicts`, for :func:`vcran.core.codec.encode_attribute`; every call builds fresh dicts) and the
+(:class:`_Dicts`, for :func:`vcran.core.opil.codec.encode_attribute`; every call builds fresh dicts) and the
 compact JSON text of the same dicts (:class:`_Text`, for the wire). The live transport publishes
 ``current_motion``, ``assignment_state`` and ``ran_status`` for every robot every second; writing the
 text directly is several times faster than building dicts and then ``json.dumps``. The generated
@@ -21,10 +21,10 @@ from collections.abc import Callable
 from json.encoder import encode_basestring_ascii
 from typing import Any, cast
 
-from vcran.core.codec.decoding import ID_TYPE, UUID_DATATYPE, item_spec
-from vcran.core.codec.strings import escape_string
-from vcran.core.ids import Id
-from vcran.core.schema import FieldSpec, Message, specs
+from vcran.core.opil.codec.decoding import ID_TYPE, UUID_DATATYPE, item_spec
+from vcran.core.opil.codec.strings import escape_string
+from vcran.core.opil.ids import Id
+from vcran.core.opil.schema import FieldSpec, Message, specs
 
 PRIMITIVE_TYPES = {"float64": "number", "float32": "number", "int32": "number", "uint32": "number",
                    "uint8": "number", "string": "string", "bool": "boolean"}  # fmt: skip

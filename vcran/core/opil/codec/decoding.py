@@ -17,9 +17,9 @@ import sys
 from collections.abc import Callable
 from typing import Any, cast
 
-from vcran.core.codec.strings import unescape_string
-from vcran.core.ids import Id
-from vcran.core.schema import (
+from vcran.core.opil.codec.strings import unescape_string
+from vcran.core.opil.ids import Id
+from vcran.core.opil.schema import (
     FLOAT32_MAX,
     INT_RANGES,
     FieldSpec,

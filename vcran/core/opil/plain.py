@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from vcran.core.ids import Id, IdError
-from vcran.core.schema import FieldSpec, Message, MessageError, check_primitive, specs
+from vcran.core.opil.ids import Id, IdError
+from vcran.core.opil.schema import FieldSpec, Message, MessageError, check_primitive, specs
 
 
 def to_plain(message: Message) -> dict[str, Any]:

@@ -1,6 +1,6 @@
 """Build inbound messages from names and numbers: what scenario scripts, tests and users write.
 
-Ids come from names through the stable mapping of :func:`vcran.core.ids.id_for`. Actions are named by kind
+Ids come from names through the stable mapping of :func:`vcran.core.opil.ids.id_for`. Actions are named by kind
 (``"load"``, ``"unload"``, ``"dummy"``), encoded with OPIL's categories (10, 20, 5), which is what OPIL's
 task planner sends, and ``"charge"``, vcran's extension (category 0, action 3; SPEC §4); a raw
 ``(category, action)`` pair can be given instead.
@@ -14,8 +14,8 @@ from dataclasses import fields
 from functools import lru_cache
 from typing import Any, TypeVar
 
-from vcran.core.ids import NIL, NOT_SUPPORTED, Id, fresh_id, id_for
-from vcran.core.messages import (
+from vcran.core.opil.ids import NIL, NOT_SUPPORTED, Id, fresh_id, id_for
+from vcran.core.opil.messages import (
     Accel,
     ActionAssignment,
     ActionKind,
@@ -36,7 +36,7 @@ from vcran.core.messages import (
     Twist,
     Vector3,
 )
-from vcran.core.schema import unchecked
+from vcran.core.slots import unchecked
 
 _header = unchecked(Header)  # seq 0, a valid stamp and "" need no check
 _motion_assignment = unchecked(MotionAssignment)

@@ -13,9 +13,10 @@ import enum
 from dataclasses import dataclass
 from typing import Any
 
-from vcran.core.ids import NIL, Id
-from vcran.core.messages import ActionAssignment, MotionAssignment
-from vcran.core.schema import slot_init
+from vcran.core.events import Event
+from vcran.core.opil.ids import NIL, Id
+from vcran.core.opil.messages import ActionAssignment, MotionAssignment
+from vcran.core.slots import slot_init
 
 
 class State(enum.Enum):
@@ -104,20 +105,6 @@ class ClearTimer:
 Command = DispatchPath | StopAfterLeg | SkipMotion | Abandon | DispatchAction | StartTimer | ClearTimer
 
 # --- events ---------------------------------------------------------------------------------------------
-
-
-class Event:
-    """Something to log. ``fields()`` is the event-specific part of its ``events.jsonl`` line.
-
-    The events of every task name their ids as ``ident.description or ident.label``: the label (SPEC §8) is
-    the description when there is one, and ``label`` is a property, a Python call per id that nine events a
-    task paid for nothing (issue 30)."""
-
-    __slots__ = ()
-    NAME = ""
-
-    def fields(self) -> dict[str, Any]:
-        raise NotImplementedError
 
 
 @dataclass(frozen=True, slots=True)
@@ -237,9 +224,17 @@ class Failed(ErrorReport):
     NAME = "failed"
 
 
+@dataclass(frozen=True, slots=True)
+class Published(ErrorReport):
+    """A ``ran_error`` of the robot's own (SPEC §4: battery, faults, collisions) that only goes on the wire:
+    its incident has an event of its own (:mod:`vcran.core.incidents`)."""
+
+    NAME = ""
+
+
 Effect = Command | Event
 
 
 class LocalProtocolError(RuntimeError):
     """The driver misused RanLogic (time going backwards, a completion nobody dispatched); a misuse of the
-    driver's, never the peer's (h11's LocalProtocolError). :mod:`vcran.core.ranlogic` re-exports it."""
+    driver's, never the peer's (h11's LocalProtocolError). :mod:`vcran.core.opil.ranlogic` re-exports it."""

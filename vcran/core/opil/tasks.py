@@ -18,10 +18,10 @@ from dataclasses import dataclass, field, replace
 from hashlib import blake2b
 from typing import Any
 
-from vcran.core.effects import Reason
-from vcran.core.ids import Id
-from vcran.core.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
-from vcran.core.schema import specs
+from vcran.core.opil.effects import Reason
+from vcran.core.opil.ids import Id
+from vcran.core.opil.messages import ActionAssignment, Assignment, CancelTask, MotionAssignment
+from vcran.core.opil.schema import specs
 
 
 def same_content(a: Assignment, b: Assignment) -> bool:

@@ -3,7 +3,7 @@
 On the wire every attribute is ``{"type": "<pkg>.<Msg>", "value": {...}, "metadata": {"dataType": ...}}``
 and every field inside ``value`` is again a ``{"type", "value"}`` wrapper, down to single uuid bytes
 (docs/wire-format.md). The walk is mechanical, so it is derived once per attribute type from
-:func:`vcran.core.schema.specs` (:mod:`.decoding`, :mod:`.encoding`): the live transport encodes
+:func:`vcran.core.opil.schema.specs` (:mod:`.decoding`, :mod:`.encoding`): the live transport encodes
 ``current_motion`` for a thousand robots every second and must not re-derive field lists per call.
 
 A decode accepts both renderings a client meets (normalized, and ``options=keyValues``, which is just
@@ -20,12 +20,12 @@ from dataclasses import dataclass
 from json.encoder import encode_basestring_ascii
 from typing import Any, cast
 
-from vcran.core.codec.decoding import Decoder, Fault, message_decoder, step_into, unwrap
-from vcran.core.codec.encoding import DICTS, TEXT, attribute_encoder
-from vcran.core.codec.strings import escape_string, unescape_string
-from vcran.core.messages import ATTRIBUTES
+from vcran.core.opil.codec.decoding import Decoder, Fault, message_decoder, step_into, unwrap
+from vcran.core.opil.codec.encoding import DICTS, TEXT, attribute_encoder
+from vcran.core.opil.codec.strings import escape_string, unescape_string
+from vcran.core.opil.messages import ATTRIBUTES
+from vcran.core.opil.schema import Message, short_repr, specs
 from vcran.core.orion_rules import MAX_REQUEST_BYTES, identifier_error
-from vcran.core.schema import Message, short_repr, specs
 
 
 class CodecError(ValueError):
