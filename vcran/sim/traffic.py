@@ -68,9 +68,10 @@ class Signals(Protocol):
     def unblocked(self, robot: int) -> None:
         """``robot`` is no longer blocked (VDA 5050: ``fieldViolation`` false)."""
 
-    def cancel(self, robot: int, robots: Sequence[int]) -> None:
-        """``on_deadlock = "cancel"``: end ``robot``'s tasks with reason ``deadlock`` (``robots``: the deadlock's);
-        its body stops and rests (:meth:`SafetyFields.rest`)."""
+    def cancel(self, robot: int, others: Sequence[int]) -> None:
+        """``on_deadlock = "cancel"``: end ``robot``'s task with reason ``deadlock`` (``others``: the robots it is
+        deadlocked with: the rest of its cycle, or those in its field); its body stops and rests
+        (:meth:`SafetyFields.rest`)."""
 
 
 class SafetyFields:
@@ -137,6 +138,15 @@ class SafetyFields:
         return {"blocks": sum(self.blocks), "blocked_time": sum(self.blocked_time(i) for i in range(len(self.ids))),
                 "deadlocks": self.deadlocks}
 
+    def summarise(self, summary: dict[str, Any]) -> None:
+        """Add SPEC §12's figures to ``summary`` (summary.json, docs/outputs.md): each robot's ``blocks`` and
+        ``blocked_time``, and the fleet's ``traffic`` section (:meth:`figures`)."""
+        robots = summary["robots"]
+        for i, rid in enumerate(self.ids):
+            robots[rid]["blocks"] = self.blocks[i]
+            robots[rid]["blocked_time"] = self.blocked_time(i)
+        summary["traffic"] = self.figures()
+
     # --- effects --------------------------------------------------------------------------------------------
 
     def _apply(self, effects: list[Effect]) -> None:
@@ -200,7 +210,7 @@ class SafetyFields:
         self._log(first, Deadlock(d.kind, ", ".join(self.ids[r] for r in others), spell))
         if self.cancel and self.signals is not None:
             for r in d.robots:
-                self.signals.cancel(r, d.robots)
+                self.signals.cancel(r, [o for o in (*d.robots, *d.waiting_for) if o != r])
 
     def _body(self, robot: int) -> Body:
         body = self.bodies[robot]
