@@ -668,7 +668,7 @@ def samples(trace: Path) -> np.ndarray:
 
 def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarray:
     """Drive a :class:`FleetKinematics` through the logged legs and sample it at every tick, exactly as
-    the telemetry process did (:meth:`vcran.sim.ran.Ran.telemetry`: tick k at ``k * period``, up to and
+    the telemetry process did (:meth:`vcran.sim.opil.ran.Ran.telemetry`: tick k at ``k * period``, up to and
     including the end)."""
     import numpy as np
 
