@@ -3,35 +3,43 @@ every protocol (docs/protocols.md).
 
 The body decides nothing a protocol decides. A protocol's pure vehicle logic (OPIL: RanLogic; VDA 5050: the
 Vehicle) runs in a process of its protocol's glue (:mod:`vcran.sim.opil.node`), which turns the logic's effects
-into the body's commands and feeds the body's reports back to the logic. The AGV drives the legs it is given
-(analytically, one event per leg however long the leg); AgvAction waits out an action's duration and applies
-it to the stations; :mod:`vcran.sim.holds` holds and halts them, :mod:`vcran.sim.energy` runs their battery.
+into the body's commands and feeds the body's reports back to the logic. The AGV (here) drives the legs it is
+given, analytically, one event per leg however long the leg; AgvAction (:mod:`vcran.sim.agvaction`) performs
+actions at stations and chargers; :mod:`vcran.sim.holds` holds and halts them, :mod:`vcran.sim.energy` runs
+their battery. Each is a mixin of :class:`Body`.
 
 Commands (what a logic's effects become):
 
 * ``route``: the waypoints still to drive, a deque the glue edits; :meth:`Body.drive` replaces it (OPIL's
-  DispatchPath), :meth:`Body.extend` appends to it, also while driving (VDA 5050's Drive),
-  :meth:`Body.stop_after_leg` empties it (R8), :meth:`Body.skip` drops a waypoint not yet driven (R13);
-  ``wake(token)`` tells the AGV a route is there;
-* ``act((token, kind, tag))``: queue one action (an :class:`~vcran.core.actions.ActionKind`); AgvAction
-  performs them one at a time, in order, and reports :class:`Acted` with ``tag``. A failed load or unload
-  moves nothing;
-* :meth:`~vcran.sim.holds.Holds.abandon` (R14), :meth:`~vcran.sim.holds.Holds.hold` /
-  :meth:`~vcran.sim.holds.Holds.release` (resume exactly where it stopped), :meth:`~vcran.sim.holds.Holds.halt`.
+  DispatchPath), :meth:`Body.extend` appends to it, also while a leg runs (VDA 5050's Drive),
+  :meth:`Body.stop_after_leg` empties it (R8), :meth:`Body.skip` drops waypoints not driven yet (R13),
+  :meth:`Body.stop_now` stops where the robot is and drops the route; ``wake(token)`` tells the AGV a route
+  is there (what ``drive`` and ``extend`` do after editing it);
+* ``act((token, kind, tag))`` queues an action (an :class:`~vcran.core.actions.ActionKind`), performed one at
+  a time, in order, as the robot's work; :meth:`~vcran.sim.agvaction.AgvAction.perform` starts one at once
+  beside everything else (several at once, also while driving), and
+  :meth:`~vcran.sim.agvaction.AgvAction.interrupt` stops such a one, nothing of it happening;
+* :meth:`~vcran.sim.holds.Holds.abandon` (R14: the leg or action that began at this instant does not
+  happen), :meth:`~vcran.sim.holds.Holds.hold` / :meth:`~vcran.sim.holds.Holds.release` (pause, breakdown:
+  resume exactly where it stopped), :meth:`~vcran.sim.holds.Holds.halt` (stop for good, reported);
+  :meth:`Body.place` sets the pose of a body at rest.
 
-``token`` names the work a route or an action belongs to: when the AGV or AgvAction gets to it, it runs only
-if ``token == current()`` (the work may have ended while it waited, e.g. when the body halted meanwhile).
+``token`` names the work a route or a queued action belongs to: when the AGV or AgvAction gets to it, it runs
+only if ``token == current()`` (the work may have ended while it waited, e.g. when the body halted meanwhile).
 
 Reports, handed to the glue's ``tell`` hook in the order they happen: :class:`Reached` (a waypoint),
-:class:`Acted`, :class:`~vcran.sim.holds.Halted` (why, message, out of service),
-:class:`~vcran.sim.holds.InService`. Read-only state: ``pose`` (at rest), :meth:`~vcran.sim.energy.Energy.position`,
-``driving``, ``working``, ``holds``, ``carrying``, ``parts_moved``, ``empty`` and the battery's level.
+:class:`~vcran.sim.agvaction.Acted` (an action's tag, ok, code, message), :class:`~vcran.sim.holds.Halted`
+(why, message, out of service), :class:`~vcran.sim.holds.InService`. Read-only state: ``pose`` (at rest),
+:meth:`~vcran.sim.energy.Energy.position`, :meth:`Body.motion` (pose and speeds now), :meth:`Body.odometer`,
+``driving``, ``working``, ``holds``, ``beside``, ``carrying``, ``parts_moved``, ``empty``, and the battery's
+:meth:`~vcran.sim.energy.Energy.charge`.
 
 Hooks the glue sets before :meth:`Body.start`: ``tell(report)``, ``current()``, ``plan(waypoint) -> Leg``
 (how its waypoints become legs; the default, :meth:`Body.leg_to`, takes a :class:`Waypoint`),
-``changed(body)`` (what the body shows changed: the load), ``log(body, event)`` (an incident for the run's
-log) and ``report(code, message, severity)`` (an incident the logic does not see itself, for the protocol to
-publish).
+``changed(body)`` (what the body shows changed: the load), ``log(body, event)`` (every incident for the run's
+log: faults starting and ending, battery low, empty, swapped, collisions; a protocol whose logic takes some
+of them as inputs takes them there) and ``report(code, message, severity)`` (an incident the fleet manager
+would notice, for the protocol to publish; OPIL: a ``ran_error``).
 """
 
 from __future__ import annotations
@@ -45,13 +53,14 @@ from typing import TYPE_CHECKING, Any
 import simpy
 
 from vcran.core.actions import ActionKind
-from vcran.core.battery import ACT, CHARGE, DRIVE, REST, FleetBattery, charge_refusal, leg_cut, linear_empty_after
+from vcran.core.battery import DRIVE, REST, FleetBattery, leg_cut, linear_empty_after
 from vcran.core.motion import FleetKinematics, Leg, Limits
 from vcran.core.scenario import RobotConfig
-from vcran.core.stations import Outcome, StationMap, attempt, transfer
+from vcran.core.stations import StationMap
 from vcran.core.traffic.braking import Braking
+from vcran.sim.agvaction import AgvAction
 from vcran.sim.energy import Energy
-from vcran.sim.holds import ABANDON, HOLD, RELEASE, Cause, Halted, Holds
+from vcran.sim.holds import ABANDON, HOLD, RELEASE, STOP, Cause, Halted, Holds
 from vcran.sim.mailbox import Mailbox
 from vcran.sim.timing import COMPLETION, after, at
 
@@ -72,16 +81,6 @@ class Reached:
     waypoint: Any
 
 
-@dataclass(slots=True)
-class Acted:
-    """The action ``tag`` finished, well or not."""
-
-    tag: Any
-    ok: bool
-    code: str = ""
-    message: str = ""
-
-
 @dataclass(frozen=True, slots=True)
 class Waypoint:
     """A waypoint of the default plan (:meth:`Body.leg_to`): drive to ``(x, y)``, turn to ``theta`` there if
@@ -100,7 +99,7 @@ def _unreported(code: str, message: str, severity: str = "warning") -> None:
     """The ``report`` hook of a body without a protocol: nobody to tell."""
 
 
-class Body(Holds, Energy):
+class Body(Holds, Energy, AgvAction):
     """One robot's AGV and AgvAction (module docstring)."""
 
     def __init__(
@@ -130,6 +129,8 @@ class Body(Holds, Energy):
         self.act: Callable[[tuple[Any, ActionKind, Any]], None] = self._orders.put
         self._init_holds()
         self._init_energy(battery)
+        self._init_actions()
+        self._agv_process: simpy.Process | None = None
         if self.battery is not None:
             self._capable |= {ActionKind.CHARGE}
         self.fail_next_action = False
@@ -147,7 +148,7 @@ class Body(Holds, Energy):
 
     def start(self) -> None:
         """Start the AGV and AgvAction (after the glue's own process, if it has one)."""
-        self.env.process(self._agv())
+        self._agv_process = self.env.process(self._agv())
         self.env.process(self._agv_action())
 
     @property
@@ -165,6 +166,15 @@ class Body(Holds, Energy):
     @property
     def driving(self) -> bool:
         return self.index in self.fleet.current
+
+    def motion(self) -> tuple[float, float, float, float, float]:
+        """``(x, y, theta, linear speed, angular speed)`` now: on the running leg, or at rest."""
+        leg = self.fleet.current.get(self.index)
+        return leg.pose_at(self.env.now) if leg is not None else (*self.pose, 0.0, 0.0)
+
+    def odometer(self) -> float:
+        """Metres driven since the run began, the running leg's so far included."""
+        return self.fleet.distance(self.index, self.env.now)
 
     def log_incident(self, event: Any) -> None:
         self.log(self, event)
@@ -188,6 +198,21 @@ class Body(Holds, Energy):
     def skip(self, dropped: Callable[[Any], bool]) -> None:
         """Drop the waypoints not driven yet for which ``dropped`` holds (R13)."""
         self.route = deque(w for w in self.route if not dropped(w))
+
+    def stop_now(self) -> None:
+        """Stop where the robot is, mid-leg if need be, and drop the route (VDA 5050's StopNow): the running
+        leg ends there, unreported; a held one ends where it was held. Actions are not affected."""
+        self.route.clear()
+        if self._worker is not None and self._worker is self._agv_process:  # driving, or held before or on a leg
+            self._worker.interrupt(STOP)
+
+    def place(self, x: float, y: float, theta: float) -> None:
+        """Set the pose of a body at rest (VDA 5050's initPosition: in simulation, belief is truth)."""
+        if self.driving or self.index in self.fleet.held:
+            raise RuntimeError(f"{self.id}: a body is placed at rest, not during a leg")
+        self.pose = (x, y, theta)
+        self.fleet.place(self.index, self.env.now, self.pose)
+        self._rested()
 
     # --- AGV --------------------------------------------------------------------------------------------
 
@@ -217,16 +242,16 @@ class Body(Holds, Energy):
 
     def _drive(self, leg: Leg) -> Generator[simpy.events.Event, Any, Cause]:
         """Drive ``leg`` to its end (None), until the robot stops on its own (the :class:`Halted`), or
-        :data:`ABANDON` (R14: the robot stays where the leg began).
+        :data:`ABANDON` (R14: the robot stays where the leg began), or :data:`STOP` (stop_now).
 
         A hold stops the robot where it is and later resumes the same leg shifted in time by the hold's
         length, so the rest of the leg (and the task) ends exactly that much later (SPEC §4 breakdown).
 
         With safety fields (SPEC §12, :class:`vcran.sim.traffic.SafetyFields`) a robot blocked brakes: the
         running stretch stops where it is and the braked stretch is driven (:meth:`brake`), then the robot
-        waits at rest, its motion not done, until it drives the rest of it (:meth:`drive_on`), whose end is
-        the leg's. A hold or a stop ends a block (the fields are told the robot rests); a hold released then
-        drives the rest of the motion from where the robot stands, as a new leg.
+        waits at rest, its leg not done, until it drives the rest of it (:meth:`drive_on`), whose end is the
+        leg's. A hold or a stop ends a block (the fields are told the robot rests); a hold released then
+        drives the rest of the leg from where the robot stands, as a new leg.
         """
         i, env, fields = self.index, self.env, self.fields
         self.fleet.start(i, leg)
@@ -238,8 +263,8 @@ class Body(Holds, Energy):
         braked = False  # the stretch is a braked one, or the robot waits after one: its end is not the leg's
         while True:
             if stretch is None:
-                cut = linear_empty_after(self._level(), self._rate()) if self.battery is not None and not self.empty \
-                    else float("inf")
+                cut = (linear_empty_after(self._level(), self._rate()) if self.battery is not None and not self.empty
+                       else float("inf"))
                 reaches = False
                 end = after(env, cut, COMPLETION) if cut != float("inf") else env.event()
             else:
@@ -263,7 +288,7 @@ class Body(Holds, Energy):
                 self._segment(REST if stretch is None else DRIVE)
                 self._moved()
                 continue
-            if type(cause) is Leg:  # SPEC §12: drive the rest of the motion
+            if type(cause) is Leg:  # SPEC §12: drive the rest of the leg
                 if i in self.fleet.current:  # the braked stretch ends at this very instant
                     self.fleet.finish(i)
                 stretch, braked = cause, False
@@ -295,7 +320,7 @@ class Body(Holds, Energy):
                 self._rested()
                 cause = yield from self._held()
                 if cause is None:
-                    if braked:  # the hold ended the block: the rest of the motion from here, as a new leg
+                    if braked:  # the hold ended the block: the rest of the leg from here, as a new leg
                         if stretch is not None:
                             self.fleet.drop_held(i)
                         stretch, braked = Leg(env.now, *self.pose, leg.x1, leg.y1, leg.theta_goal, leg.limits), False
@@ -312,7 +337,7 @@ class Body(Holds, Energy):
                 if i in self.fleet.held:
                     self.fleet.drop_held(i)
                 return cause
-            assert isinstance(cause, Halted)
+            assert cause is STOP or isinstance(cause, Halted)  # stop_now ends the leg here, as a halt, unreported
             if i in self.fleet.current:
                 self.pose = self.fleet.stop(i, env.now)
             self._segment(REST)
@@ -321,16 +346,17 @@ class Body(Holds, Energy):
 
     def brake(self, braking: Braking) -> None:
         """SPEC §12 (:class:`vcran.sim.traffic.Body`): the robot's field was entered; brake now."""
-        assert self._worker is not None, "braking a robot that is not driving"
-        self._worker.interrupt(braking)
+        assert self._agv_process is not None and self._worker is self._agv_process, "braking a robot not driving"
+        self._agv_process.interrupt(braking)
 
     def drive_on(self, leg: Leg) -> None:
-        """SPEC §12 (:class:`vcran.sim.traffic.Body`): the field is clear; drive ``leg``, the rest of the motion."""
-        assert self._worker is not None, "driving on a robot that is not waiting"
-        self._worker.interrupt(leg)
+        """SPEC §12 (:class:`vcran.sim.traffic.Body`): the field is clear; drive ``leg``, the rest of the leg."""
+        assert self._agv_process is not None and self._worker is self._agv_process, "driving on a robot not waiting"
+        self._agv_process.interrupt(leg)
 
     def _rested(self) -> None:
-        """The robot rests and does not drive on (a leg's end, a hold, a stop): observers and fields are told."""
+        """The robot rests and does not drive on (a leg's end, a hold, a stop, a new pose): observers and
+        fields are told."""
         self._moved()
         if self.fields is not None:
             self.fields.rest(self.index, self.pose)
@@ -357,99 +383,6 @@ class Body(Holds, Energy):
         limits = Limits(top, up, down, min(rates) if rates else 0.0)
         self._last_limits = (key, limits)
         return limits
-
-    # --- AgvAction --------------------------------------------------------------------------------------
-
-    def _agv_action(self) -> Process:
-        while True:
-            token, kind, tag = yield self._orders.get()
-            if token != self.current():
-                continue  # its work ended while it waited (the robot stopped on its own)
-            if self._holds:
-                halt = yield from self._held()
-                if halt is not None:
-                    self._stopped(halt)
-                    continue
-            outcome = self._precheck(kind)
-            if outcome is not None:
-                # R14: it fails at once, yet as a completion of this instant like any action's end
-                # (docs/determinism.md), so that a cancel of the same instant finds it running and abandons
-                # it; reported straight away, the failure would reach the logic after that cancel had ended
-                # the task. (No hold can come first: faults follow completions.)
-                halt = yield from self._work(after(self.env, 0.0, COMPLETION))
-                if halt is not None:
-                    assert halt is ABANDON or isinstance(halt, Halted)
-                    self._stopped(halt)
-                    continue
-                self.watch_idle()  # a resting battery that ran out meanwhile found the robot working
-            else:
-                duration = self._charge_time() if kind is ActionKind.CHARGE else self.durations[kind.value]
-                halt = yield from self._act(kind, duration)
-                if halt is not None:
-                    self._stopped(halt)
-                    continue
-                outcome = self._finish(kind)
-            self.tell(Acted(tag, outcome.ok, outcome.code, outcome.message))
-
-    def _finish(self, kind: ActionKind) -> Outcome:
-        """An action's duration has passed: its outcome, and its effect on parts and battery. An armed
-        action failure fails an action that would have succeeded, and then moves nothing (SPEC §4): the
-        part stays where it was, the robot carries what it carried before."""
-        x, y, _ = self.pose
-        outcome, station = attempt(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)
-        if outcome.ok and kind is ActionKind.CHARGE:
-            self._charged()  # the energy went in during the action (its battery segment), whatever it reports
-        if outcome.ok and self.fail_next_action:
-            self.fail_next_action = False
-            return Outcome(False, "action_fault", f"{kind.value}: injected action failure (§4)")
-        if station is not None:
-            self.carrying = transfer(kind, station, self.carrying)
-            if kind is ActionKind.UNLOAD:
-                self.parts_moved += 1
-        return outcome
-
-    def _precheck(self, kind: ActionKind) -> Outcome | None:
-        """An action that cannot start fails at once, not after its duration (R14): one this robot is not
-        capable of, a charge the battery rules refuse (:func:`vcran.core.battery.charge_refusal`); else None."""
-        if kind is not ActionKind.CHARGE:
-            return None if kind in self._capable else Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}")
-        x, y, _ = self.pose
-        if self.battery is None:
-            refusal = charge_refusal(False, False, 0.0, x, y)
-        else:
-            charger = self.stations.nearest_in_reach(x, y, chargers=True) is not None
-            refusal = charge_refusal(True, charger, self._charge_time() if charger else 0.0, x, y)
-        return Outcome(False, *refusal) if refusal is not None else None
-
-    def _act(self, kind: ActionKind, duration: float) -> Generator[simpy.events.Event, Any, Cause]:
-        """Wait out an action of ``duration``: held by pause/breakdown, cut short by an empty battery, or
-        :data:`ABANDON` as it begins (R14: nothing is performed)."""
-        env = self.env
-        end = env.now + duration
-        segment = CHARGE if kind is ActionKind.CHARGE else ACT
-        self._segment(segment)
-        while True:
-            cut = linear_empty_after(self._level(), self._rate()) if self.battery is not None and not self.empty else float("inf")
-            finishes = cut >= end - env.now
-            cause = yield from self._work(at(env, end, COMPLETION) if finishes else after(env, cut, COMPLETION))
-            if cause is RELEASE:
-                continue
-            if cause is None:
-                if finishes:
-                    self._segment(REST)
-                    return None
-                cause = self._battery_empty_halt()
-            elif cause is HOLD:
-                t_hold = env.now
-                self._segment(REST)
-                cause = yield from self._held()
-                if cause is None:
-                    end += env.now - t_hold
-                    self._segment(segment)
-                    continue
-            assert cause is ABANDON or isinstance(cause, Halted)
-            self._segment(REST)
-            return cause
 
     def _moved(self) -> None:
         if self.on_move is not None:

@@ -38,6 +38,8 @@ class Energy:
     tell: Callable[[object], None]
     log: Callable[[Any, Any], None]
     _worker: Any
+    beside: dict[Any, Any]
+    _beside_all: Callable[[object], None]
 
     def _init_energy(self, battery: FleetBattery | None) -> None:
         self.battery = battery if battery is not None and self.config.battery is not None else None
@@ -55,6 +57,10 @@ class Energy:
         if kind == REST and level <= self.battery.idle[self.index] * self.idle_horizon:
             self.watch_idle()  # may run out before the power tick would notice
         return level
+
+    def charge(self) -> float | None:
+        """The battery's charge now, in Ah (None: this robot has no battery)."""
+        return None if self.battery is None else self._level()
 
     def _level(self) -> float:
         b = self.battery
@@ -87,7 +93,10 @@ class Energy:
         message, swap_after = empty_stop(c, x, y)
         if swap_after is not None:
             at(self.env, self.env.now + swap_after, FAULT).callbacks.append(lambda _: self._swap())
-        return Halted(BATTERY_EMPTY, message, True)
+        halted = Halted(BATTERY_EMPTY, message, True)
+        if self.beside:
+            self._beside_all(halted)
+        return halted
 
     def position(self) -> tuple[float, float]:
         """Where the robot is now (on its running leg, or at rest)."""

@@ -8,8 +8,8 @@ nothing until used) cuts the wait short with a cause:
   resumes exactly where it stopped, its remaining time unchanged (:meth:`Holds.hold`, :meth:`Holds.release`);
 * a :class:`Halted`: the robot stops for good (battery empty, motion failure, collision; :meth:`Holds.halt`),
   and the protocol's logic is told through the body's ``tell`` hook;
-* :data:`ABANDON`: the work that began at this very instant does not happen (R14); the logic asked for it, so
-  nothing is reported.
+* :data:`ABANDON`: the work that began at this very instant does not happen (R14); :data:`STOP`: the leg ends
+  where the robot is (VDA 5050's StopNow). The logic asked for either, so nothing is reported.
 
 A mixin of :class:`vcran.sim.body.Body` (one concept per module; a method of a mixin costs what a method of the
 class does, and the AGV's hot path calls these once a leg).
@@ -28,8 +28,9 @@ from vcran.core.battery import linear_empty_after
 from vcran.sim.timing import COMPLETION, after
 
 #: Interrupt causes for a working process (besides a :class:`Halted`): stop in place / go on / the work
-#: that began at this instant does not happen (R14: a cancel or timeout at the instant the previous ended).
-HOLD, RELEASE, ABANDON = "hold", "release", "abandon"
+#: that began at this instant does not happen (R14: a cancel or timeout at the instant the previous ended) /
+#: the leg ends where the robot is (:meth:`vcran.sim.body.Body.stop_now`).
+HOLD, RELEASE, ABANDON, STOP = "hold", "release", "abandon", "stop"
 
 #: Why a body stops for good (:attr:`Halted.why`; SPEC §4). A protocol maps them onto its own words (OPIL: the
 #: cancel reason and ran_error code of the same name; VDA 5050: the vehicle's ``on_halted``).
@@ -62,10 +63,13 @@ class Holds:
 
     env: simpy.Environment
     tell: Callable[[object], None]
+    route: Any
     battery: Any
     _level: Callable[[], float]
     _rate: Callable[[], float]
     _battery_empty_halt: Callable[[], Halted]
+    beside: dict[Any, Any]
+    _beside_all: Callable[[object], None]
 
     def _init_holds(self) -> None:
         self._worker: SimProcess | None = None
@@ -92,7 +96,7 @@ class Holds:
             cause = yield from self._work(event)
             if cause is None:
                 return self._battery_empty_halt()
-            if cause is ABANDON or isinstance(cause, Halted):
+            if cause is ABANDON or cause is STOP or isinstance(cause, Halted):
                 return cause
         return None
 
@@ -100,16 +104,22 @@ class Holds:
         """Stop in place until :meth:`release` of the same kind (pause, breakdown; VDA 5050's pause or a
         blocking instant action)."""
         self._holds.append(kind)
-        if len(self._holds) == 1 and self._worker is not None:
-            self._worker.interrupt(HOLD)
+        if len(self._holds) == 1:
+            if self._worker is not None:
+                self._worker.interrupt(HOLD)
+            if self.beside:
+                self._beside_all(HOLD)
 
     def release(self, kind: str) -> bool:
         """End a hold of ``kind``; False when none was in force (a resume without a pause)."""
         if kind not in self._holds:
             return False
         self._holds.remove(kind)
-        if not self._holds and self._worker is not None:
-            self._worker.interrupt(RELEASE)
+        if not self._holds:
+            if self._worker is not None:
+                self._worker.interrupt(RELEASE)
+            if self.beside:
+                self._beside_all(RELEASE)
         return True
 
     @property
@@ -122,7 +132,10 @@ class Holds:
         return self._worker is not None
 
     def halt(self, halted: Halted) -> None:
-        """Stop for good now: the running work ends where it is, and the logic is told."""
+        """Stop for good now: the running work ends where it is (actions beside it too), and the logic is told
+        once."""
+        if self.beside:
+            self._beside_all(halted)
         if self._worker is not None:
             self._worker.interrupt(halted)
         else:
@@ -135,10 +148,8 @@ class Holds:
         if self._worker is not None:
             self._worker.interrupt(ABANDON)
 
-    route: Any
-
     def _stopped(self, cause: Halted | str) -> None:
-        """A work ended early: tell the logic when the robot stopped on its own; an abandoned one (R14) was
-        the logic's own doing."""
+        """A work ended early: tell the logic when the robot stopped on its own; an abandoned (R14) or
+        stopped one was the logic's own doing."""
         if isinstance(cause, Halted):
             self.tell(cause)

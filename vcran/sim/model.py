@@ -2,7 +2,9 @@
 
 This is the one place where scenario, environment and transport meet inside the simulation (the CLI
 chooses which ones). The same code runs on ``simpy.Environment`` (scripted, replay: as fast as possible)
-and on ``simpy.rt.RealtimeEnvironment`` (live).
+and on ``simpy.rt.RealtimeEnvironment`` (live). It is shared by every protocol (docs/protocols.md): it builds
+the robots' bodies, stations, batteries, faults and collisions, and takes the rest from the protocol's glue
+(:mod:`vcran.sim.protocols`): each body's vehicle logic, routing and publishing, the logics' books.
 """
 
 from __future__ import annotations

@@ -45,12 +45,13 @@ class Opil:
         self._completed, self._cancelled = model.completed, model.cancelled
         self.nodes: list[RanNode] = []
         self.ran: Ran | None = None
-        s = model.scenario.settings
-        self._logic = dict(task_timeout=s.task_timeout, history_limit=s.history_limit, area_check=motion_area_problem)
+        self._settings = model.scenario.settings
 
     def attach(self, body: Body) -> None:
         """RanLogic and its process for ``body``, before the body's own processes start."""
-        logic = RanLogic(body.id, **self._logic)  # type: ignore[arg-type]
+        s = self._settings
+        logic = RanLogic(body.id, task_timeout=s.task_timeout, history_limit=s.history_limit,
+                         area_check=motion_area_problem)
         self.nodes.append(RanNode(body, logic, self.log, self.changed))
 
     def connect(self, transport: Transport) -> None:

@@ -34,7 +34,8 @@ from vcran.core.opil.effects import (
 from vcran.core.opil.ids import Id
 from vcran.core.opil.messages import ActionAssignment, CancelTask, Message, MotionAssignment, PolygonStamped
 from vcran.core.opil.ranlogic import RanLogic
-from vcran.sim.body import Acted, Body, Reached
+from vcran.sim.agvaction import Acted
+from vcran.sim.body import Body, Reached
 from vcran.sim.holds import Halted, InService
 from vcran.sim.mailbox import Mailbox
 from vcran.sim.timing import DEADLINE, at
