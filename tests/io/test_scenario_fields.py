@@ -82,8 +82,10 @@ def test_the_writer_round_trips_them() -> None:
     ("[traffic]\nfield = { margin = 1.0, lenght = 2.0 }", "traffic.field: field 'lenght': unknown key (a typo?)"),
     ('[traffic]\nfield = { margin = 1.0 }\non_deadlock = "stop"',
      "traffic: field 'on_deadlock': unknown on_deadlock 'stop'; known: continue, cancel"),
-    ("[traffic]\nfield = { margin = 1.0 }\ndeadlock_bound = 0", "traffic: field 'deadlock_bound': must be positive, got 0"),
-    ('[robots.field]\nmargin = 1.0\nbraking = "yes"', "robots[1].field: field 'braking': expected true or false, got 'yes'"),
+    ("[traffic]\nfield = { margin = 1.0 }\ndeadlock_bound = 0",
+     "traffic: field 'deadlock_bound': must be positive, got 0"),
+    ('[robots.field]\nmargin = 1.0\nbraking = "yes"',
+     "robots[1].field: field 'braking': expected true or false, got 'yes'"),
     ("[robots.field]\nmargin = 1.0\nside = -0.5", "robots[1].field: field 'side': must be at least 0.0, got -0.5"),
     # settings for blocking without a field to block: a mistake, not a run that silently never blocks
     ("[traffic]\ndeadlock_bound = 60.0", "traffic: field 'deadlock_bound': no robot has a protective field"),

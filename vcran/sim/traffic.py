@@ -13,9 +13,14 @@ the pure :class:`~vcran.core.traffic.control.Traffic` and carries out the effect
   body does not report that leg with :meth:`drive`: Traffic gave it);
 - ``BlockedBy``, ``Unblocked``, ``Deadlocked``: the events ``blocked`` (naming the robot that entered, and
   where the blocked one was), ``unblocked`` (with how long it was blocked) and ``deadlock`` (on the first
-  robot in fleet order, naming the others and the kind), and each protocol's way of showing them (:class:`Signals`: OPIL a
-  ``ran_error`` warning, VDA 5050 ``safetyState.fieldViolation``). With ``on_deadlock = "cancel"`` every
-  deadlocked robot is told to :meth:`Signals.cancel` its tasks (reason ``deadlock``); its body then rests.
+  robot in fleet order, naming the others and the kind), and each protocol's way of showing them
+  (:class:`Signals`: OPIL a ``ran_error`` warning, VDA 5050 ``safetyState.fieldViolation``). With
+  ``on_deadlock = "cancel"`` every deadlocked robot is told to :meth:`Signals.cancel` its work (reason
+  ``deadlock``); its body then rests.
+
+The body (:class:`vcran.sim.body.Body`) calls :meth:`drive` as it starts a leg and when a held leg resumes,
+:meth:`rest` when a leg ends with nothing after it, on a hold, a halt or an abandon; ``brake`` and
+``drive_on`` interrupt its driving process (docs/robots.md, "Traffic", says what a hold does to a block).
 
 It also keeps the figures the summary gives (:meth:`figures`): each robot's blocks and blocked time (a spell
 still open at the end counts up to it) and the fleet's deadlocks. A body's calls may come while effects are
@@ -162,34 +167,33 @@ class SafetyFields:
 
     def _effect(self, e: Effect) -> None:
         now = self.env.now
-        kind = type(e)
-        if kind is control.Predicted:
-            change = e.change  # type: ignore[union-attr]
-            at(self.env, change.t, COMPLETION).callbacks.append(lambda _: self._apply(self.traffic.due(change, self.env.now)))
-        elif kind is control.Wake:
-            self._wake(e)  # type: ignore[arg-type]
-        elif kind is control.Brake:
-            self._body(e.robot).brake(e.braking)  # type: ignore[union-attr]
-        elif kind is control.DriveOn:
-            self._body(e.robot).drive_on(e.leg)  # type: ignore[union-attr]
-        elif kind is control.BlockedBy:
-            i, other = e.robot, e.other  # type: ignore[union-attr]
+        if isinstance(e, control.Predicted):
+            change = e.change
+            at(self.env, change.t, COMPLETION).callbacks.append(
+                lambda _: self._apply(self.traffic.due(change, self.env.now)))
+        elif isinstance(e, control.Wake):
+            self._wake(e)
+        elif isinstance(e, control.Brake):
+            self._body(e.robot).brake(e.braking)
+        elif isinstance(e, control.DriveOn):
+            self._body(e.robot).drive_on(e.leg)
+        elif isinstance(e, control.BlockedBy):
+            i, other = e.robot, e.other
             self.blocks[i] += 1
             self._since.setdefault(i, now)
             x, y = self._where(i, now)
             self._log(i, Blocked(self.ids[other], x, y))
             if self.signals is not None:
                 self.signals.blocked(i, other)
-        elif kind is control.Unblocked:
-            i = e.robot  # type: ignore[union-attr]
+        elif isinstance(e, control.Unblocked):
+            i = e.robot
             since = self._since.pop(i, now)
             self._blocked_time[i] += now - since
             self._log(i, Unblocked(now - since))
             if self.signals is not None:
                 self.signals.unblocked(i)
         else:
-            assert kind is control.Deadlocked, e
-            self._deadlock(e)  # type: ignore[arg-type]
+            self._deadlock(e)
 
     def _wake(self, w: control.Wake) -> None:
         robot, spell = w.robot, w.spell
