@@ -51,7 +51,7 @@ def read(text: str):
 def test_fields_are_off_by_default() -> None:
     s = read(FLEET)
     assert s.traffic == TrafficSettings(field=None, deadlock_bound=None, on_deadlock="continue")
-    assert [s.field_of(r) for r in s.robots] == [None, None] and not s.has_fields
+    assert [s.traffic.field_of(r) for r in s.robots] == [None, None] and not s.traffic.any_field(s.robots)
     # the trace header (fleet_dict) of a scenario without them is what it was before SPEC §12's fields
     header = s.fleet_dict()
     assert "traffic" not in header and all("field" not in r for r in header["robots"])
@@ -61,13 +61,14 @@ def test_the_fleet_field_is_every_robots_unless_it_has_its_own() -> None:
     s = read(FLEET + OWN + TRAFFIC)  # [robots.field] after robot_2's [[robots]]: robot_2's own
     assert s.traffic == TrafficSettings(FieldSpec(2.0), 120.0, "cancel")
     assert s.robots[0].field is None and s.robots[1].field == FieldSpec(0.5, 0.3, False, 0.1)
-    assert [s.field_of(r) for r in s.robots] == [FieldSpec(2.0), FieldSpec(0.5, 0.3, False, 0.1)]
-    assert s.has_fields
+    assert [s.traffic.field_of(r) for r in s.robots] == [FieldSpec(2.0), FieldSpec(0.5, 0.3, False, 0.1)]
+    assert s.traffic.any_field(s.robots)
 
 
 def test_a_robots_own_field_alone_turns_traffic_on() -> None:
     s = read(FLEET + OWN)
-    assert s.has_fields and [s.field_of(r) for r in s.robots] == [None, FieldSpec(0.5, 0.3, False, 0.1)]
+    assert s.traffic.any_field(s.robots)
+    assert [s.traffic.field_of(r) for r in s.robots] == [None, FieldSpec(0.5, 0.3, False, 0.1)]
 
 
 def test_the_writer_round_trips_them() -> None:
@@ -119,4 +120,5 @@ def test_the_schema_knows_them() -> None:
 
 def test_bundled_scenarios_without_fields_load_as_before() -> None:
     for name in ("demo", "warehouse", "crossing"):
-        assert not load(name).has_fields
+        sc = load(name)
+        assert not sc.traffic.any_field(sc.robots)

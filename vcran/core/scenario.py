@@ -24,6 +24,7 @@ from vcran.core.opil.messages import ActionKind, Message, MotionAssignment
 from vcran.core.slots import slot_init, unchecked
 from vcran.core.traffic.fields import FieldSpec
 from vcran.core.traffic.roadmap import Roadmap
+from vcran.core.traffic.settings import TrafficSettings
 from vcran.core.wire import Inbound
 
 #: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
@@ -64,7 +65,7 @@ class RobotConfig:
     carrying: int = 0
     vendor: str = "vcran"
     battery: BatteryConfig | None = None
-    #: The robot's protective field (SPEC §12, ``[robots.field]``); None: the fleet's (:attr:`TrafficSettings.field`).
+    #: The robot's protective field (SPEC §12, ``[robots.field]``); None: the fleet's (``[traffic] field``).
     field: FieldSpec | None = None
 
     @property
@@ -91,21 +92,6 @@ class StationConfig:
     dock: tuple[float, float, float | None] | None = None
     #: The roadmap node the dock is (SPEC §12: ``dock = "id"`` in a file); ``dock`` then holds its position.
     dock_node: str | None = None
-
-
-#: ``on_deadlock =`` (SPEC §12): the run goes on, or the deadlocked robots' tasks are cancelled.
-DEADLOCK_ACTIONS = ("continue", "cancel")
-
-
-@dataclass(frozen=True, slots=True)
-class TrafficSettings:
-    """``[traffic]`` (SPEC §12, docs/robots.md "Traffic"): the fleet's protective field, for every robot without
-    a ``[robots.field]`` of its own (None: no field, and robots drive through each other as before); how long
-    a robot may stay blocked before it counts as deadlocked (None: only cycles do); and what a deadlock does."""
-
-    field: FieldSpec | None = None
-    deadlock_bound: float | None = None
-    on_deadlock: str = "continue"
 
 
 @slot_init
@@ -336,15 +322,6 @@ class Scenario:
     #: Safety fields and deadlocks (SPEC §12); the default has none.
     traffic: TrafficSettings = field(default_factory=TrafficSettings)
 
-    def field_of(self, robot: RobotConfig) -> FieldSpec | None:
-        """``robot``'s protective field: its own, else the fleet's (None: it has none)."""
-        return robot.field if robot.field is not None else self.traffic.field
-
-    @property
-    def has_fields(self) -> bool:
-        """Some robot has a protective field: robots brake for one another (SPEC §12)."""
-        return self.traffic.field is not None or any(r.field is not None for r in self.robots)
-
     def messages(self) -> Script:
         """The whole script in time order, cycles expanded lazily; equal times keep file order."""
         return Script(_merged(self.script, self.cycles))
@@ -379,7 +356,7 @@ class Scenario:
                     "max_acceleration": r.max_acceleration, "max_deceleration": r.max_deceleration,
                     "max_angular_velocity": r.max_angular_velocity, "footprint": [list(p) for p in r.footprint],
                     "actions": list(r.actions), "capacity": r.capacity, "carrying": r.carrying, "vendor": r.vendor,
-                    "battery": _battery_dict(r.battery), "field": _field_dict(r.field),
+                    "battery": _battery_dict(r.battery), "field": r.field.as_dict() if r.field else None,
                 }
                 for r in self.robots
             ],
@@ -396,7 +373,7 @@ class Scenario:
             "faults": [f.as_dict() for f in self.faults] or None,
             "random_faults": [r.as_dict() for r in self.random_faults] or None,
             "roadmap": self.roadmap.as_dict() if self.roadmap is not None else None,
-            "traffic": _traffic_dict(self.traffic),
+            "traffic": self.traffic.as_dict(),
         })
 
 
@@ -404,22 +381,6 @@ def _battery_dict(b: BatteryConfig | None) -> dict[str, Any] | None:
     if b is None:
         return None
     return {name: getattr(b, name) for name in BatteryConfig.__dataclass_fields__}
-
-
-def _field_dict(f: FieldSpec | None) -> dict[str, Any] | None:
-    if f is None:
-        return None
-    return {"margin": f.margin, "reaction": f.reaction, "braking": f.braking, "side": f.side}
-
-
-def _traffic_dict(t: TrafficSettings) -> dict[str, Any] | None:
-    """``[traffic]`` as a file writes it; None for the default (no table: older headers stay as they were)."""
-    if t == TrafficSettings():
-        return None
-    out = {"field": _field_dict(t.field), "deadlock_bound": t.deadlock_bound}
-    if t.on_deadlock != "continue":
-        out["on_deadlock"] = t.on_deadlock
-    return out
 
 
 def _point(p: tuple[float, float, float | None] | None) -> list[float] | None:

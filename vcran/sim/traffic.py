@@ -101,12 +101,12 @@ class SafetyFields:
     def of(cls, env: simpy.Environment, scenario: Scenario, log: Callable[[int, Event], None]) -> SafetyFields | None:
         """The scenario's fields (None when no robot has one: nothing to do, nothing scheduled). A robot
         brakes at its ``max_deceleration`` (0: it stops at once) and its field's braking term uses it."""
-        if not scenario.has_fields:
+        if not scenario.traffic.any_field(scenario.robots):
             return None
         robots = scenario.robots
         fields: list[Field | None] = []
         for r in robots:
-            spec = scenario.field_of(r)
+            spec = scenario.traffic.field_of(r)
             fields.append(None if spec is None else Field.of(spec, r.footprint, r.max_deceleration))
         traffic = Traffic([Footprint(r.footprint) for r in robots], [r.pose for r in robots], fields,
                           [r.max_deceleration for r in robots], scenario.settings.collision_resolution,

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from vcran.core.scenario import DEADLOCK_ACTIONS, RobotConfig, Scenario, TrafficSettings
+from vcran.core.scenario import RobotConfig, Scenario
+from vcran.core.traffic.settings import DEADLOCK_ACTIONS, TrafficSettings
 from vcran.core.traffic.fields import FieldSpec
 from vcran.core.validity.fields import Flag, Number, OneOf, Problem, Rule, fields
 
