@@ -14,6 +14,7 @@ import vcran
 from vcran.core.faults import FaultSpec
 from vcran.core.opil.messages import MotionAssignment
 from vcran.core.scenario import Scenario, ScriptEntry, TrafficSettings
+from vcran.core.traffic.fields import FieldSpec
 from vcran.io.scenario_file import load
 
 
@@ -116,3 +117,22 @@ def test_s12_the_same_corridor_twice_is_the_same_run(corridor: Scenario, tmp_pat
     vcran.simulate(corridor, out=tmp_path / "b")
     for name in ("summary.json", "events.jsonl.zst", "legs.npy", "trace.jsonl.zst"):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+
+
+def test_s12_with_jobs_the_reference_dispatcher_passes_and_straight_routing_deadlocks() -> None:
+    """The corridor with a part to carry each way (tests/sim/test_dispatcher_routing.py: both drop-off legs
+    land at 3.10) and fields on. The reference Dispatcher sends A to the bay: no block, both jobs done with the
+    lead times derived there (64.05, 47.05). Straight routing drives both head-on from 3.10: blocked at
+    3.10 + 9 = 12.10, deadlocked at 3.10 + 11 = 14.10, as the script's corridor shifted by 3.10."""
+    from tests.sim.test_dispatcher_routing import HEAD_ON
+    from tests.sim.test_dispatcher_routing import corridor as with_jobs
+    from vcran.managers import Dispatcher
+
+    sc = dataclasses.replace(with_jobs(HEAD_ON), traffic=TrafficSettings(FieldSpec(2.0)))
+    routed = vcran.simulate(sc, manager=Dispatcher())
+    assert routed.summary["traffic"] == {"blocks": 0, "blocked_time": 0.0, "deadlocks": 0}
+    assert {r.id: r.lead_time for r in routed.jobs} == {"j1": pytest.approx(64.05), "j2": pytest.approx(47.05)}
+    straight = vcran.simulate(sc, manager=Dispatcher(routing="straight"))
+    assert brief(of(straight, "blocked", "deadlock")) == [
+        (12.1, "A", "blocked", "B"), (12.1, "B", "blocked", "A"), (14.1, "A", "deadlock", "B", "cycle", 2.0)]
+    assert straight.summary["jobs"]["completed"] == 0
