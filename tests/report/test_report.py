@@ -90,7 +90,8 @@ def test_demo_kpis_from_first_principles(demo: Outputs) -> None:
     robot, fleet = kpis(run, histories(run))
     assert robot.robot == "robot_1" and fleet.robot == "fleet"
     assert robot.completed == 3
-    assert robot.cancelled == {"timeout": 0, "cancelled": 0, "action_failed": 0, "battery_empty": 0, "motion_failed": 0, "collision": 0}
+    assert robot.cancelled == {"timeout": 0, "cancelled": 0, "action_failed": 0, "battery_empty": 0, "motion_failed": 0, "collision": 0,
+                               "deadlock": 0}
     assert robot.distance == pytest.approx(DEMO_DISTANCE, abs=1e-9)
     assert robot.parts_moved == 1 and robot.errors == 0
     # The script sends the tasks at 1, 4 and 7 s; latency runs from there to each completion.
@@ -123,9 +124,12 @@ def test_busy_share_is_the_time_outside_waiting_in_the_state_events(mixed: Outpu
 def test_cancellations_are_counted_by_reason(mixed: Outputs) -> None:
     run = read_run(mixed.dir)
     rows = {k.robot: k for k in kpis(run, histories(run))}
-    assert rows["robot_1"].cancelled == {"timeout": 1, "cancelled": 1, "action_failed": 1, "battery_empty": 0, "motion_failed": 0, "collision": 0}
-    assert rows["robot_2"].cancelled == {"timeout": 0, "cancelled": 0, "action_failed": 1, "battery_empty": 0, "motion_failed": 0, "collision": 0}
-    assert rows["fleet"].cancelled == {"timeout": 1, "cancelled": 1, "action_failed": 2, "battery_empty": 0, "motion_failed": 0, "collision": 0}
+    assert rows["robot_1"].cancelled == {"timeout": 1, "cancelled": 1, "action_failed": 1, "battery_empty": 0, "motion_failed": 0, "collision": 0,
+                                          "deadlock": 0}
+    assert rows["robot_2"].cancelled == {"timeout": 0, "cancelled": 0, "action_failed": 1, "battery_empty": 0, "motion_failed": 0, "collision": 0,
+                                          "deadlock": 0}
+    assert rows["fleet"].cancelled == {"timeout": 1, "cancelled": 1, "action_failed": 2, "battery_empty": 0, "motion_failed": 0, "collision": 0,
+                                          "deadlock": 0}
     assert rows["robot_1"].latency == pytest.approx(at(mixed, "task_completed", "B") - 2.0)
     assert rows["robot_2"].completed == 0 and rows["robot_2"].latency is None
     assert rows["fleet"].errors == mixed.summary["errors"] == 2

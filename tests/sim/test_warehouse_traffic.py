@@ -1,6 +1,7 @@
 """scenarios/warehouse-traffic.toml (SPEC §12, issue 32 items 4 and 5): the warehouse on
-a roadmap, where the reference Dispatcher routes and reserves so that every job completes with no contact
-between robots; driving straight, as in the warehouse, its robots run through one another."""
+a roadmap with safety fields on, where the reference Dispatcher routes and reserves so that every job
+completes with no contact between robots and no deadlock; driving straight, as in the warehouse, its robots
+brake for one another and deadlock, and without fields they run through one another."""
 
 from __future__ import annotations
 
@@ -76,9 +77,22 @@ def test_s12_every_job_completes_and_no_robot_touches_another(run):
     # before its task goes out, so the idle bound must cover traffic (docs/fuzzing.md): five minutes
     assert loop_problems(run, bound=300.0) == []
     assert check_no_deadlock(run) == []
+    # safety fields on (SPEC §12): the reservations keep every robot out of the others' fields
+    assert SCENARIO.traffic.any_field(SCENARIO.robots)
+    assert run.summary["traffic"] == {"blocks": 0, "blocked_time": 0.0, "deadlocks": 0}
 
 
-def test_s12_straight_routing_runs_robots_through_one_another():
+def test_s12_straight_routing_with_fields_deadlocks():
+    """Straight lines through shared lanes: robots brake for one another and some end up stopped on one
+    another for good; their jobs stay open (no collision: the fields stop them first)."""
     straight = vcran.simulate(SCENARIO, manager=Dispatcher(max_tries=3, routing="straight"))
+    assert straight.summary["traffic"]["deadlocks"] > 0 and check_no_deadlock(straight) != []
+    assert straight.summary["jobs"]["completed"] < straight.summary["jobs"]["arrived"]
+    assert collisions(straight) == 0
+
+
+def test_s12_straight_routing_without_fields_runs_robots_through_one_another():
+    off = replace(SCENARIO, traffic=replace(SCENARIO.traffic, field=None, deadlock_bound=None))
+    straight = vcran.simulate(off, manager=Dispatcher(max_tries=3, routing="straight"))
     assert straight.summary["jobs"]["completed"] == straight.summary["jobs"]["arrived"]
     assert collisions(straight) > 0

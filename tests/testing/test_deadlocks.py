@@ -37,10 +37,12 @@ def state(t: float, robot: str, old: str, new: str) -> dict[str, Any]:
 
 
 def test_s12_every_deadlock_event_is_a_violation():
-    # the event safety fields will raise (SPEC §12): robots blocked on one another in a cycle, or one past a bound
-    run = Run([e(11.0, "deadlock", "A", kind="cycle", robots=["A", "B"]),
-               e(300.0, "deadlock", "C", kind="bound", robots=["C"])])
-    assert check_no_deadlock(run) == ["t=11: deadlock (cycle) of A, B", "t=300: deadlock (bound) of C"]
+    # the event safety fields raise (SPEC §12, vcran.core.incidents.Deadlock): robots blocked on one another in a
+    # cycle (A waits for B, B for C, C for A), or one past a bound (C, by A and B in its field)
+    run = Run([e(11.0, "deadlock", "A", kind="cycle", other="B, C", duration=2.0),
+               e(300.0, "deadlock", "C", kind="bound", other="A, B", duration=120.0)])
+    assert check_no_deadlock(run) == ["t=11: deadlock (cycle) of A, B, C",
+                                      "t=300: deadlock (bound) of C, blocked 120 s by A, B"]
     assert applies(run)
 
 

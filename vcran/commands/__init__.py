@@ -11,8 +11,8 @@ if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
 
 #: The scenarios shipped in the package (vcran/scenarios; a test keeps this list in step with it).
-BUNDLED = ("battery", "crossing", "demo", "faults", "vda5050-warehouse", "vda5050", "warehouse-faults", "warehouse-traffic",
-           "warehouse")
+BUNDLED = ("battery", "corridor", "crossing", "demo", "faults", "vda5050-warehouse", "vda5050", "warehouse-faults",
+           "warehouse-traffic", "warehouse")
 
 
 #: What ``--manager`` adds to each command's help: which options the class gets (vcran.api.manager_options).

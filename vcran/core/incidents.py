@@ -1,4 +1,5 @@
-"""What happens to a robot on its own (SPEC §4): battery, faults, collisions, as events for ``events.jsonl``.
+"""What happens to a robot on its own (SPEC §4, §12): battery, faults, collisions, blocks and deadlocks, as
+events for ``events.jsonl``.
 
 RanLogic's events (:mod:`vcran.core.opil.effects`) say what the rules did; these say what the robot went
 through, and are logged by the SimPy model when it happens. Where the fleet manager would notice, the model
@@ -83,3 +84,47 @@ class Collision(Event):
 
     def fields(self) -> dict[str, Any]:
         return {"other": self.other, "x": self.x, "y": self.y}
+
+
+# --- traffic (SPEC §12): safety fields, blocks, deadlocks ---------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Blocked(Event):
+    """Robot ``other`` entered this robot's empty protective field, this robot being at ``(x, y)``: it brakes."""
+
+    NAME = "blocked"
+    other: str
+    x: float
+    y: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"other": self.other, "x": self.x, "y": self.y}
+
+
+@dataclass(frozen=True, slots=True)
+class Unblocked(Event):
+    """The robot's field is clear again, or it was given new work or stopped from outside: it was blocked
+    for ``duration`` seconds (since its ``blocked``)."""
+
+    NAME = "unblocked"
+    duration: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"duration": self.duration}
+
+
+@dataclass(frozen=True, slots=True)
+class Deadlock(Event):
+    """The robot is deadlocked (SPEC §12), blocked for ``duration`` seconds by now: ``kind`` "cycle", robots
+    stopped on one another (this robot, the first in fleet order, waits for the first of ``other``, each of
+    ``other`` for the next, the last for this robot), or "bound", blocked for the scenario's bound (``other``:
+    the robots in its field). ``other`` lists robot ids separated by ", " (ids hold no whitespace)."""
+
+    NAME = "deadlock"
+    kind: str
+    other: str
+    duration: float
+
+    def fields(self) -> dict[str, Any]:
+        return {"kind": self.kind, "other": self.other, "duration": self.duration}

@@ -21,10 +21,10 @@ COMPLETED, FAILED, OPEN = "completed", "failed", "open"
 
 #: Why a job failed, as a manager reports it: a task's cancellation reason (SPEC §8: ``timeout``,
 #: ``cancelled``, ``action_failed``; reserved for the realism issue: ``battery_empty``,
-#: ``motion_failed``, ``collision``) or ``unassignable`` (no robot can take it). A manager may report
-#: a reason of its own; these are the ones vcran's dispatcher and report use.
+#: ``motion_failed``, ``collision``; SPEC §12: ``deadlock``) or ``unassignable`` (no robot can take it). A
+#: manager may report a reason of its own; these are the ones vcran's dispatcher and report use.
 FAILURE_REASONS = ("timeout", "cancelled", "action_failed", "battery_empty", "motion_failed", "collision",
-                   "unassignable")
+                   "deadlock", "unassignable")
 
 #: ``log(t, robot, event, fields)``: one line of ``events.jsonl``.
 Log = Callable[[float, str, str, dict[str, Any]], None]

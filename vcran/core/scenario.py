@@ -27,7 +27,9 @@ from vcran.core.faults import FaultSpec, RandomFaults
 from vcran.core.opil import build
 from vcran.core.opil.messages import ActionKind, Message, MotionAssignment
 from vcran.core.slots import slot_init, unchecked
+from vcran.core.traffic.fields import FieldSpec
 from vcran.core.traffic.roadmap import Roadmap
+from vcran.core.traffic.settings import TrafficSettings
 from vcran.core.wire import Inbound
 
 if TYPE_CHECKING:  # types only: the shared model imports no protocol package
@@ -85,6 +87,8 @@ class RobotConfig:
     carrying: int = 0
     vendor: str = "vcran"
     battery: BatteryConfig | None = None
+    #: The robot's protective field (SPEC §12, ``[robots.field]``); None: the fleet's (``[traffic] field``).
+    field: FieldSpec | None = None
     #: A VDA 5050 vehicle's identity (SPEC §11; §6.3's topic levels and headers): required in a VDA 5050
     #: scenario, refused in an OPIL one. None: not given; ``interface_name`` then is :data:`INTERFACE_NAME`,
     #: ``version`` the first of :data:`VDA5050_VERSIONS` (:meth:`vda5050_identity`).
@@ -356,6 +360,8 @@ class Scenario:
     manager: ManagerSpec | None = None
     #: The lanes robots may drive (SPEC §12); None: robots drive anywhere.
     roadmap: Roadmap | None = None
+    #: Safety fields and deadlocks (SPEC §12); the default has none.
+    traffic: TrafficSettings = field(default_factory=TrafficSettings)
 
     def messages(self) -> Script:
         """The whole script in time order, cycles expanded lazily; equal times keep file order."""
@@ -392,8 +398,9 @@ class Scenario:
                     "max_acceleration": r.max_acceleration, "max_deceleration": r.max_deceleration,
                     "max_angular_velocity": r.max_angular_velocity, "footprint": [list(p) for p in r.footprint],
                     "actions": list(r.actions), "capacity": r.capacity, "carrying": r.carrying, "vendor": r.vendor,
-                    "battery": _battery_dict(r.battery), "manufacturer": r.manufacturer,
-                    "serial_number": r.serial_number, "interface_name": r.interface_name, "version": r.version,
+                    "battery": _battery_dict(r.battery), "field": r.field.as_dict() if r.field else None,
+                    "manufacturer": r.manufacturer, "serial_number": r.serial_number,
+                    "interface_name": r.interface_name, "version": r.version,
                 }
                 for r in self.robots
             ],
@@ -410,6 +417,7 @@ class Scenario:
             "faults": [f.as_dict() for f in self.faults] or None,
             "random_faults": [r.as_dict() for r in self.random_faults] or None,
             "roadmap": self.roadmap.as_dict() if self.roadmap is not None else None,
+            "traffic": self.traffic.as_dict(),
         })
 
 

@@ -43,10 +43,13 @@ from vcran.core.scenario import (
     ScriptEntry,
     Settings,
     StationConfig,
+    TrafficSettings,
 )
+from vcran.core.traffic.fields import FieldSpec
 from vcran.core.traffic.roadmap import Edge, Node, Roadmap
 from vcran.core.validity import Problem, validate
 from vcran.core.validity.fleet import ACTION_DURATIONS, BATTERY, ROBOT, SETTINGS, STATION
+from vcran.core.validity.safety import FIELD, TRAFFIC
 from vcran.core.validity.workload import (
     FAULT,
     JOB,
@@ -108,6 +111,7 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     roadmap_table = top.optional_table("roadmap")
     roadmap = None if roadmap_table is None else _roadmap(roadmap_table)
     stations = tuple(_station(t, roadmap) for t in top.tables("stations", STATION))
+    traffic = _traffic(top.table("traffic", TRAFFIC))
     script_tables = top.tables("script", SCRIPT)
     job_tables, stream_table = top.tables("jobs", JOB), top.optional_table("job_stream", JOB_STREAM)
     link = _link(top.table("link", LINK))
@@ -145,7 +149,7 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     scenario = Scenario(settings, robots, stations, tuple(script), top.source, tuple(cycles),
                         faults=tuple(sorted(faults, key=_time)), random_faults=random_faults,
                         jobs=tuple(sorted(jobs, key=_time)), job_stream=stream, link=link, manager=manager,
-                        roadmap=roadmap)
+                        roadmap=roadmap, traffic=traffic)
     problems = validate(scenario, fields_checked=True)
     if problems:
         _report(top, problems[0], {
@@ -232,6 +236,7 @@ def _robot(t: Table) -> RobotConfig:
         carrying=t.integer("carrying", 0),
         vendor=t.text("vendor", "vcran"),
         battery=None if (battery := t.optional_table("battery", BATTERY)) is None else _battery(battery),
+        field=None if (field := t.optional_table("field", FIELD)) is None else _field(field),
         manufacturer=t.string("manufacturer", None),  # a VDA 5050 vehicle's (SPEC §11)
         serial_number=t.string("serial_number", None),
         interface_name=t.string("interface_name", None),
@@ -278,6 +283,24 @@ def _roadmap(t: Table) -> Roadmap:
         e.done()
     t.done()
     return Roadmap(tuple(nodes), tuple(edges))
+
+
+def _field(t: Table) -> FieldSpec:
+    f = FieldSpec(margin=t.number("margin"), reaction=t.number("reaction", 0.0), braking=t.boolean("braking", True),
+                  side=t.number("side", 0.0))
+    t.done()
+    return f
+
+
+def _traffic(t: Table) -> TrafficSettings:
+    field = t.optional_table("field", FIELD)
+    traffic = TrafficSettings(
+        field=None if field is None else _field(field),
+        deadlock_bound=t.number("deadlock_bound", None),
+        on_deadlock=t.choice("on_deadlock", default="continue"),
+    )
+    t.done()
+    return traffic
 
 
 def _battery(t: Table) -> BatteryConfig:

@@ -40,6 +40,9 @@ EVENT_FIELDS = {
     "task_completed": ("task",),
     "task_cancelled": ("task", "reason"),
     "motion_finished": ("motion",),
+    # SPEC §12 (vcran.core.incidents): the robot that entered the field; a deadlock's kind
+    "blocked": ("other",),
+    "deadlock": ("kind",),
 }
 
 Point = tuple[float, float]
@@ -111,6 +114,8 @@ class Run:
     batteries: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: A closed-loop run's job KPIs (summary.json's ``jobs``, and the fleet's utilisation); else None.
     jobs: JobFigures | None = None
+    #: SPEC §12: some robot had a protective field (the scenario's ``[traffic]`` or a ``[robots.field]``).
+    fields: bool = False
 
     @property
     def robot_ids(self) -> tuple[str, ...]:
@@ -139,6 +144,7 @@ def read_run(path: Path) -> Run:
         configs = {r["id"]: r for r in header["fleet"]["robots"]}
         robots = tuple(_robot(configs[rid]) for rid in ids)
         stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
+        fields = "traffic" in header["fleet"] or any("field" in r for r in header["fleet"]["robots"])
     with reading(path / "summary.json"):
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
         results = {rid: _result(summary["robots"][rid]) for rid in ids}
@@ -150,7 +156,7 @@ def read_run(path: Path) -> Run:
     events = list(checked_events(events_beside(trace)))
     areas, targets, batteries = _assignments(trace)
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
-               sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs)
+               sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs, fields)
 
 
 @dataclass(frozen=True, slots=True)

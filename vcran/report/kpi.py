@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from vcran.report.folder import Run
 from vcran.report.incidents import downtime
 from vcran.report.spans import REASONS, History
+from vcran.report.traffic import blocking, fleet_deadlocks
 
 FLEET = "fleet"
 
@@ -33,6 +34,10 @@ class Kpi:
     energy_per_job: float | None = None
     downtime: float = 0.0
     collisions: int = 0
+    #: SPEC §12, with safety fields (else None): blocks, seconds blocked, deadlocks (vcran.report.traffic).
+    blocks: int | None = None
+    blocked_time: float | None = None
+    deadlocks: int | None = None
 
     @property
     def idle_share(self) -> float:
@@ -45,12 +50,15 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
     Busy share is time not WAITING over the run's simulated time. The fleet's busy share is the fleet's
     busy robot-seconds over all robot-seconds (the mean of the robots' shares), and its latency the mean
     over every completed task, so a robot with many tasks weighs more than one with few. The fleet's
-    errors are the run's total, which includes inputs for entities no robot owns (R11).
+    errors are the run's total, which includes inputs for entities no robot owns (R11). With safety fields
+    (SPEC §12) the fleet's blocks and blocked time are the robots' sums, its deadlocks the ``deadlock``
+    events (a cycle of robots counts once).
     """
     rows = []
     all_latencies: list[float] = []
     busy_total = 0.0
     down = downtime(run)
+    traffic = blocking(run) if run.fields else None
     for rid, history in histories.items():
         latencies = [s.end - s.queued for s in history.tasks if s.completed]
         all_latencies += latencies
@@ -68,6 +76,8 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
             energy_per_job=_per(result.energy_used, len(latencies)),
             downtime=down[rid],
             collisions=result.collisions,
+            **({} if traffic is None else {"blocks": traffic[rid].blocks, "blocked_time": traffic[rid].blocked_time,
+                                           "deadlocks": traffic[rid].deadlocks}),
         ))
     used = [run.results[rid].energy_used for rid in histories]
     rows.append(Kpi(
@@ -83,6 +93,9 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
                             sum(r.completed for r in rows)),
         downtime=sum(r.downtime for r in rows),
         collisions=sum(r.collisions for r in rows) // 2,  # each collision involves two robots
+        **({} if traffic is None else {"blocks": sum(b.blocks for b in traffic.values()),
+                                       "blocked_time": sum(b.blocked_time for b in traffic.values()),
+                                       "deadlocks": fleet_deadlocks(run)}),
     ))
     return rows
 

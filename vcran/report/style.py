@@ -31,17 +31,22 @@ REASON_STYLE = {
     "battery_empty": ("v", "#b7950b"),
     "motion_failed": ("s", "#a04000"),
     "collision": ("*", "#e74c3c"),
+    # SPEC §12: the scenario cancels deadlocked robots' tasks (on_deadlock = "cancel")
+    "deadlock": ("h", "#1a5276"),
 }
 #: Reasons the legend always lists; the §4 ones are listed when they occur.
 CORE_REASONS = ("timeout", "cancelled", "action_failed")
 
-#: SPEC §4 incidents -> (marker, colour, legend label), on the timeline's state lane and, where the event
+#: SPEC §4 and §12 incidents -> (marker, colour, legend label), on the timeline's state lane and, where the event
 #: has a place, on the layout.
 INCIDENT_STYLE = {
     "fault": ("P", "#6e2c00", "fault injected"),
     "battery_low": ("d", "#b7950b", "battery low"),
     "battery_empty": ("v", "#b7950b", "battery empty (robot stopped)"),
     "collision": ("*", "#e74c3c", "collision"),
+    # SPEC §12: a robot's protective field entered (where it began to brake), robots stopped on one another
+    "blocked": ("o", "#f39c12", "blocked (field entered)"),
+    "deadlock": ("h", "#1a5276", "deadlock"),
 }
 
 #: matplotlib's tab10 without its grey, which the states and "no task" use.

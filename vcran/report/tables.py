@@ -58,12 +58,22 @@ S4_COLUMNS = (
     Column("collisions", "collisions", lambda k: k.collisions),
 )
 
+#: SPEC §12 columns, shown when the run's robots had safety fields (docs/report.md).
+S12_COLUMNS = (
+    Column("deadlock", "cancelled_deadlock", lambda k: k.cancelled["deadlock"]),
+    Column("blocks", "blocks", lambda k: k.blocks),
+    Column("blocked (s)", "blocked_s", lambda k: k.blocked_time, _fixed(1)),
+    Column("deadlocks", "deadlocks", lambda k: k.deadlocks),
+)
+
 
 def columns(rows: list[Kpi]) -> tuple[Column, ...]:
-    """The table's columns: the §4 ones only when the run has something to show in them."""
+    """The table's columns: the §4 ones only when the run has something to show in them, the §12 ones when
+    its robots had safety fields."""
     s4 = any(k.energy_per_job is not None or k.downtime or k.collisions or any(c.value(k) for c in S4_COLUMNS[:3])
              for k in rows)
-    return COLUMNS + S4_COLUMNS if s4 else COLUMNS
+    s12 = any(k.blocks is not None for k in rows)
+    return COLUMNS + (S4_COLUMNS if s4 else ()) + (S12_COLUMNS if s12 else ())
 
 
 def markdown(rows: list[Kpi]) -> str:

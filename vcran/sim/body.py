@@ -48,20 +48,24 @@ import dataclasses
 from collections import deque
 from collections.abc import Callable, Generator, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import simpy
 
 from vcran.core.actions import ActionKind
-from vcran.core.battery import DRIVE, REST, FleetBattery, leg_cut
+from vcran.core.battery import DRIVE, REST, FleetBattery, leg_cut, linear_empty_after
 from vcran.core.motion import FleetKinematics, Leg, Limits
 from vcran.core.scenario import RobotConfig
 from vcran.core.stations import StationMap
+from vcran.core.traffic.braking import Braking
 from vcran.sim.agvaction import AgvAction
 from vcran.sim.energy import Energy
 from vcran.sim.holds import ABANDON, HOLD, RELEASE, STOP, Cause, Halted, Holds
 from vcran.sim.mailbox import Mailbox
 from vcran.sim.timing import COMPLETION, after, at
+
+if TYPE_CHECKING:
+    from vcran.sim.traffic import SafetyFields
 
 Process = Generator[simpy.events.Event, Any, None]
 
@@ -132,6 +136,8 @@ class Body(Holds, Energy, AgvAction):
         self.fail_next_action = False
         #: Observers of "this robot's occupancy changed" (collision detection), called with the body.
         self.on_move: Callable[[Body], None] | None = None
+        #: The fleet's safety fields (SPEC §12; None: none), told of every leg and rest (vcran.sim.traffic).
+        self.fields: SafetyFields | None = None
         # The glue's hooks (module docstring); these defaults serve a body driven without a protocol.
         self.tell: Callable[[object], None] = lambda report: None
         self.current: Callable[[], Any] = lambda: None
@@ -206,7 +212,7 @@ class Body(Holds, Energy, AgvAction):
             raise RuntimeError(f"{self.id}: a body is placed at rest, not during a leg")
         self.pose = (x, y, theta)
         self.fleet.place(self.index, self.env.now, self.pose)
-        self._moved()
+        self._rested()
 
     # --- AGV --------------------------------------------------------------------------------------------
 
@@ -228,68 +234,132 @@ class Body(Holds, Energy, AgvAction):
                     self._stopped(halt)
                     break
                 self.fleet.finish(self.index)
-                self.pose = (leg.x1, leg.y1, leg.end_theta)
+                self.pose = self.fleet.rest[self.index]  # the leg's end (or, braked on it, the rest's: SPEC §12)
                 self.tell(Reached(waypoint))
                 if not self.route or self._holds:  # else the next leg starts now, from this pose
                     self._segment(REST)
-                    self._moved()
+                    self._rested()
 
     def _drive(self, leg: Leg) -> Generator[simpy.events.Event, Any, Cause]:
         """Drive ``leg`` to its end (None), until the robot stops on its own (the :class:`Halted`), or
-        :data:`ABANDON` (R14: the robot stays where the leg began).
+        :data:`ABANDON` (R14: the robot stays where the leg began), or :data:`STOP` (stop_now).
 
         A hold stops the robot where it is and later resumes the same leg shifted in time by the hold's
         length, so the rest of the leg (and the task) ends exactly that much later (SPEC §4 breakdown).
+
+        With safety fields (SPEC §12, :class:`vcran.sim.traffic.SafetyFields`) a robot blocked brakes: the
+        running stretch stops where it is and the braked stretch is driven (:meth:`brake`), then the robot
+        waits at rest, its leg not done, until it drives the rest of it (:meth:`drive_on`), whose end is the
+        leg's. A hold or a stop ends a block (the fields are told the robot rests); a hold released then
+        drives the rest of the leg from where the robot stands, as a new leg.
         """
-        i, env = self.index, self.env
+        i, env, fields = self.index, self.env, self.fields
         self.fleet.start(i, leg)
+        if fields is not None:
+            fields.drive(i, leg)
         level = self._segment(DRIVE)
         self._moved()
+        stretch: Leg | None = leg  # what the robot drives now; None: stopped after braking, waiting
+        braked = False  # the stretch is a braked one, or the robot waits after one: its end is not the leg's
         while True:
-            if self.battery is None or self.empty:
-                cut = float("inf")
+            if stretch is None:
+                cut = (linear_empty_after(self._level(), self._rate()) if self.battery is not None and not self.empty
+                       else float("inf"))
+                reaches = False
+                end = after(env, cut, COMPLETION) if cut != float("inf") else env.event()
             else:
-                c = self.config.battery
-                assert c is not None
-                cut = leg_cut(c, leg, self._level() if level is None else level, env.now)
+                if self.battery is None or self.empty:
+                    cut = float("inf")
+                else:
+                    c = self.config.battery
+                    assert c is not None
+                    cut = leg_cut(c, stretch, self._level() if level is None else level, env.now)
+                reaches = cut >= stretch.t_end - env.now
+                end = at(env, stretch.t_end, COMPLETION) if reaches else after(env, cut, COMPLETION)
             level = None
-            reaches = cut >= leg.t_end - env.now
-            cause = yield from self._work(at(env, leg.t_end, COMPLETION) if reaches else after(env, cut, COMPLETION))
+            cause = yield from self._work(end)
             if cause is RELEASE:
+                continue
+            if type(cause) is Braking:  # SPEC §12: stop this stretch where it is, drive the braked one
+                self.pose = self.fleet.stop(i, env.now)
+                stretch, braked = cause.stop, True
+                if stretch is not None:
+                    self.fleet.start(i, stretch)
+                self._segment(REST if stretch is None else DRIVE)
+                self._moved()
+                continue
+            if type(cause) is Leg:  # SPEC §12: drive the rest of the leg
+                if i in self.fleet.current:  # the braked stretch ends at this very instant
+                    self.fleet.finish(i)
+                stretch, braked = cause, False
+                self.fleet.start(i, stretch)
+                level = self._segment(DRIVE)
+                self._moved()
                 continue
             if cause is None:
                 if reaches:
-                    return None
+                    if not braked:
+                        return None
+                    self.fleet.finish(i)  # stopped after braking: wait to drive on
+                    self.pose, stretch = self.fleet.rest[i], None
+                    self._segment(REST)
+                    self._moved()
+                    continue
                 cause = self._battery_empty_halt()
             elif cause is ABANDON:
-                self.fleet.abandon(i, env.now)
+                if i in self.fleet.current:
+                    self.fleet.abandon(i, env.now)
                 self._segment(REST)
-                self._moved()
-                return cause
-            elif cause is STOP:  # stop_now: the leg ends here, as a halt's, unreported
-                self.pose = self.fleet.stop(i, env.now)
-                self._segment(REST)
-                self._moved()
+                self._rested()
                 return cause
             elif cause is HOLD:
                 t_hold = env.now
-                self.pose = self.fleet.hold(i, t_hold)
+                if stretch is not None:
+                    self.pose = self.fleet.hold(i, t_hold)
                 self._segment(REST)
-                self._moved()
+                self._rested()
                 cause = yield from self._held()
                 if cause is None:
-                    leg = dataclasses.replace(leg, t0=leg.t0 + (env.now - t_hold))
-                    self.fleet.resume(i, leg, env.now)
+                    if braked:  # the hold ended the block: the rest of the leg from here, as a new leg
+                        if stretch is not None:
+                            self.fleet.drop_held(i)
+                        stretch, braked = Leg(env.now, *self.pose, leg.x1, leg.y1, leg.theta_goal, leg.limits), False
+                        self.fleet.start(i, stretch)
+                    else:
+                        assert stretch is not None
+                        stretch = dataclasses.replace(stretch, t0=stretch.t0 + (env.now - t_hold))
+                        self.fleet.resume(i, stretch, env.now)
+                    if fields is not None:
+                        fields.drive(i, stretch)
                     self._segment(DRIVE)
                     self._moved()
                     continue
-                self.fleet.drop_held(i)
+                if i in self.fleet.held:
+                    self.fleet.drop_held(i)
                 return cause
-            assert isinstance(cause, Halted)
-            self.pose = self.fleet.stop(i, env.now)
+            assert cause is STOP or isinstance(cause, Halted)  # stop_now ends the leg here, as a halt, unreported
+            if i in self.fleet.current:
+                self.pose = self.fleet.stop(i, env.now)
             self._segment(REST)
-            self._moved()
+            self._rested()
             return cause
+
+    def brake(self, braking: Braking) -> None:
+        """SPEC §12 (:class:`vcran.sim.traffic.Body`): the robot's field was entered; brake now."""
+        assert self._agv_process is not None and self._worker is self._agv_process, "braking a robot not driving"
+        self._agv_process.interrupt(braking)
+
+    def drive_on(self, leg: Leg) -> None:
+        """SPEC §12 (:class:`vcran.sim.traffic.Body`): the field is clear; drive ``leg``, the rest of the leg."""
+        assert self._agv_process is not None and self._worker is self._agv_process, "driving on a robot not waiting"
+        self._agv_process.interrupt(leg)
+
+    def _rested(self) -> None:
+        """The robot rests and does not drive on (a leg's end, a hold, a stop, a new pose): observers and
+        fields are told."""
+        self._moved()
+        if self.fields is not None:
+            self.fields.rest(self.index, self.pose)
 
     def leg_to(self, w: Waypoint) -> Leg:
         """The default plan: a straight leg from the pose to a :class:`Waypoint`."""

@@ -35,6 +35,8 @@ HOLD, RELEASE, ABANDON, STOP = "hold", "release", "abandon", "stop"
 #: Why a body stops for good (:attr:`Halted.why`; SPEC §4). A protocol maps them onto its own words (OPIL: the
 #: cancel reason and ran_error code of the same name; VDA 5050: the vehicle's ``on_halted``).
 BATTERY_EMPTY, MOTION_FAILED, COLLISION = "battery_empty", "motion_failed", "collision"
+#: SPEC §12: the robot was deadlocked and the scenario cancels its work (``on_deadlock = "cancel"``).
+DEADLOCK = "deadlock"
 
 
 @dataclass(frozen=True, slots=True)

@@ -17,6 +17,7 @@ from typing import Any, Protocol
 import simpy
 
 from vcran.core.battery import FleetBattery
+from vcran.core.events import Event
 from vcran.core.motion import FleetKinematics
 from vcran.core.scenario import Scenario
 from vcran.core.stations import Station, StationMap
@@ -27,6 +28,7 @@ from vcran.sim.faults import Faults
 from vcran.sim.labels import Labels
 from vcran.sim.protocols import glue
 from vcran.sim.timing import END, PRODUCTION, Environment, at
+from vcran.sim.traffic import SafetyFields
 
 
 class EventSink(Protocol):
@@ -86,6 +88,12 @@ class Model:
         self._start_faults()
         self.contacts = (Contacts(self.env, self.robots, s.collisions, s.collision_resolution)
                          if s.collisions != "off" and len(self.robots) > 1 else None)
+        self.fields = SafetyFields.of(self.env, scenario, self._incident)
+        if self.fields is not None:  # SPEC §12: robots brake for what enters their protective field
+            for body in self.robots:
+                self.fields.attach(body.index, body)
+                body.fields = self.fields
+            self.fields.signals = self.protocol.traffic()
         self.finished = self.env.event()
         after_tick = self._idle_stop if progress is None else self._reporting(progress)
         self.protocol.start(s.telemetry_period, s.description_period, after_tick)
@@ -120,6 +128,10 @@ class Model:
                     n = earlier.get((source.kind, r.id), 0)
                     earlier[source.kind, r.id] = n + 1
                     self.env.process(faults.play(limited.stream(sc.settings.seed, r.id, n)))
+
+    def _incident(self, index: int, event: Event) -> None:
+        """An event of robot ``index`` for the run's log (the protocol's ``log`` hook on its body)."""
+        self.robots[index].log_incident(event)
 
     def _idle_stop(self) -> bool:
         if not self.scenario.settings.until_idle or self.finished.triggered:
@@ -186,7 +198,7 @@ class Model:
                 robots[r.id]["battery"] = self._battery_summary(r, t)
             if self.contacts is not None and self.contacts.count[r.index]:
                 robots[r.id]["collisions"] = self.contacts.count[r.index]
-        return {
+        summary = {
             "scenario": self.scenario.settings.name,
             "seed": self.scenario.settings.seed,
             "sim_time": t,
@@ -194,5 +206,8 @@ class Model:
             "stations": {s.name: {"parts": s.parts, "produced": s.produced} for s in self.stations},
             "errors": sum(self.protocol.errors(r.index) for r in self.robots) + self.fleet_errors,
         }
+        if self.fields is not None:
+            self.fields.summarise(summary)
+        return summary
 
 

@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from vcran.sim.body import Body
     from vcran.sim.model import Model
     from vcran.sim.power import Level
+    from vcran.sim.traffic import Signals
 
 #: Protocol name -> the module of its glue, which has ``glue(model) -> Glue``.
 PROTOCOLS: dict[str, str] = {
@@ -61,6 +62,10 @@ class Glue(Protocol):
 
     def errors(self, index: int) -> int:
         """The errors robot ``index``'s logic reported (summary.json)."""
+
+    def traffic(self) -> Signals:
+        """How the protocol shows safety fields' blocks and deadlocks (SPEC §12; asked only when some robot
+        has a field)."""
 
 
 def glue(name: str) -> Callable[[Model], Glue]:

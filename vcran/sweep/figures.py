@@ -22,7 +22,7 @@ from vcran.sweep.worker import Row
 
 #: KPIs drawn, when the runs have them (closed-loop figures only for closed-loop runs).
 DRAWN = ("sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors", "collisions", "battery_used",
-         "jobs_done_per_hour", "jobs_lead_time_mean", "utilisation")
+         "blocked_time", "deadlocks", "jobs_done_per_hour", "jobs_lead_time_mean", "utilisation")
 #: Drawn only when some run has any: most fleets never collide, and a panel of zeros says nothing new.
 UNLESS_ALL_ZERO = frozenset({"collisions"})
 

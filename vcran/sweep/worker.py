@@ -75,28 +75,37 @@ def error_text(exc: BaseException) -> str:
 
 
 #: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``, a
-#: fleet with batteries ``battery_used``.
-KPIS = ("sim_time", "tasks_completed", "tasks_cancelled", *(f"cancelled_{r.value}" for r in Reason),
-        "distance", "parts_moved", "errors", "collisions")
+#: fleet with batteries ``battery_used``, one with safety fields (SPEC §12) :data:`TRAFFIC`.
+KPIS = ("sim_time", "tasks_completed", "tasks_cancelled",
+        *(f"cancelled_{r.value}" for r in Reason if r is not Reason.DEADLOCK), "distance", "parts_moved", "errors",
+        "collisions")
+#: SPEC §12's columns, for runs whose robots had safety fields (summary.json's ``traffic``).
+TRAFFIC = ("cancelled_deadlock", "blocks", "blocked_time", "deadlocks")
 
 
 def kpis(summary: dict[str, Any]) -> dict[str, Any]:
     """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
     distance, parts moved, errors and collisions (SPEC §4: each involves two robots, and each robot's
     summary counts it); with batteries the charge drawn (Ah); with a closed loop (SPEC §9) every figure
-    of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``."""
+    of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``; with safety fields
+    (SPEC §12) tasks cancelled for a deadlock and the summary's ``traffic``: blocks, blocked time (s),
+    deadlocks."""
     robots = summary["robots"].values()
     reasons = [c["reason"] for r in robots for c in r["cancelled"]]
     row: dict[str, Any] = {
         "sim_time": summary["sim_time"],
         "tasks_completed": sum(len(r["completed"]) for r in robots),
         "tasks_cancelled": len(reasons),
-        **{f"cancelled_{r.value}": reasons.count(r.value) for r in Reason},
+        **{f"cancelled_{r.value}": reasons.count(r.value) for r in Reason if r is not Reason.DEADLOCK},
         "distance": sum(r["distance"] for r in robots),
         "parts_moved": sum(r["parts_moved"] for r in robots),
         "errors": summary["errors"],
         "collisions": sum(r.get("collisions", 0) for r in robots) // 2,
     }
+    traffic = summary.get("traffic")
+    if isinstance(traffic, dict):
+        row["cancelled_deadlock"] = reasons.count(Reason.DEADLOCK.value)
+        row.update({k: traffic[k] for k in TRAFFIC[1:]})
     batteries = [r["battery"] for r in robots if "battery" in r]
     if batteries:
         row["battery_used"] = sum(b["used"] for b in batteries)

@@ -66,9 +66,13 @@ def check_no_deadlock(result: Any, bound: float = STUCK_BOUND) -> list[str]:
 
 
 def _deadlock(e: dict[str, Any]) -> str:
-    robots = e.get("robots") or [e.get("robot", "")]
+    """A ``deadlock`` event (:class:`vcran.core.incidents.Deadlock`) in one line: a cycle names its robots,
+    a robot blocked past the bound the robots it waited for."""
+    robot, other = str(e.get("robot", "")), e.get("other") or ""
+    if e.get("kind") == "bound":
+        return f"t={e['t']:g}: deadlock (bound) of {robot}, blocked {e.get('duration', 0):g} s by {other}"
     kind = f" ({e['kind']})" if e.get("kind") else ""
-    return f"t={e['t']:g}: deadlock{kind} of {', '.join(str(r) for r in robots)}"
+    return f"t={e['t']:g}: deadlock{kind} of {', '.join([robot, *other.split(', ')] if other else [robot])}"
 
 
 def _held(events: list[dict[str, Any]], end: float) -> dict[str, list[tuple[str, float, float]]]:

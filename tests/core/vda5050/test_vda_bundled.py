@@ -12,20 +12,11 @@ import tomllib
 import pytest
 
 import vcran
+from tests.io.test_scenario_vda5050 import FLEET
 from vcran.io.scenario_file import parse
 from vcran.managers.vda5050 import MasterControl
 from vcran.testing.vda5050.scripted import ScriptedMaster, produce
 from vcran.testing.vda5050.yard import Yard
-
-FLEET = """
-[simulation]
-duration = 100.0
-protocol = "vda5050"
-[[robots]]
-id = "r1"
-manufacturer = "acme"
-serial_number = "0001"
-"""
 
 
 def test_the_vda5050_script_moves_the_part_in_three_orders_and_comes_home() -> None:
@@ -59,28 +50,9 @@ def test_production_in_the_yard_is_the_simulations() -> None:
     """SPEC §4 (docs/scenarios.md): a part every produce_every from produce_start (default: produce_every), a
     full station skipping its turn, at most produce_limit parts. Up to t = 24: ticks at 10 and 20 (a, b, c),
     at 5 and 15 (d)."""
-    text = FLEET + """
-[[stations]]
-id = "a"
-position = [10.0, 0.0]
-produce_every = 10.0
-capacity = 1
-[[stations]]
-id = "b"
-position = [20.0, 0.0]
-produce_every = 10.0
-produce_limit = 1
-[[stations]]
-id = "c"
-position = [30.0, 0.0]
-produce_every = 10.0
-parts = 3
-[[stations]]
-id = "d"
-position = [40.0, 0.0]
-produce_every = 10.0
-produce_start = 5.0
-"""
+    stations = {"a": "capacity = 1", "b": "produce_limit = 1", "c": "parts = 3", "d": "produce_start = 5.0"}
+    text = FLEET + "".join(f'[[stations]]\nid = "{name}"\nposition = [{10.0 * k}, 0.0]\nproduce_every = 10.0\n{extra}\n'
+                           for k, (name, extra) in enumerate(stations.items(), start=1))
     yard = Yard(parse(tomllib.loads(text)), ScriptedMaster(parse(tomllib.loads(text))))
     produce(yard, 24.0)
     yard.run(100.0)

@@ -38,6 +38,9 @@ class Reason(enum.Enum):
     BATTERY_EMPTY = "battery_empty"
     MOTION_FAILED = "motion_failed"
     COLLISION = "collision"
+    #: SPEC §12: the robot was deadlocked and the scenario cancels its task (``on_deadlock = "cancel"``).
+    #: (The last reason a history record's three bits hold: :data:`vcran.core.opil.history._REASONS`.)
+    DEADLOCK = "deadlock"
 
 
 # --- commands -------------------------------------------------------------------------------------------

@@ -126,6 +126,7 @@ def _pickled(content: tuple[Any, ...]) -> bytes:
 
 
 _REASONS: tuple[Reason | None, ...] = (None, *Reason)
+assert len(_REASONS) <= 8, "a history record holds the reason in three bits (_record_head)"
 _NO_CANCEL = b""
 #: A history record's fixed part: task uuid, end time, and one byte holding the reason (0: completed) in its
 #: low three bits and the number of fingerprints in its high five; ``_MANY`` there says a 4-byte count

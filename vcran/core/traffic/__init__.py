@@ -9,6 +9,8 @@ module:
   limits), with a documented order between routes of equal cost;
 - :mod:`~vcran.core.traffic.fields`: a robot's protective field (its length at a speed, its rectangle
   ahead of the footprint) and the field's track along a leg;
+- :mod:`~vcran.core.traffic.settings`: a scenario's ``[traffic]``: the fleet's field, the deadlock bound, what a
+  deadlock does;
 - :mod:`~vcran.core.traffic.braking`: braking to a stop from any instant of a leg, and the rest of the leg
   driven on from rest;
 - :mod:`~vcran.core.traffic.intrusion`: the first instant another robot's footprint enters a field, or

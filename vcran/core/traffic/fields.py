@@ -55,6 +55,10 @@ class FieldSpec:
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"a field's {name} must be a finite number >= 0, got {v!r}")
 
+    def as_dict(self) -> dict[str, float | bool]:
+        """The field as a scenario file writes it (``[robots.field]``, ``[traffic] field``)."""
+        return {"margin": self.margin, "reaction": self.reaction, "braking": self.braking, "side": self.side}
+
 
 @dataclass(frozen=True, slots=True)
 class Field:

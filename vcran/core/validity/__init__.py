@@ -9,9 +9,9 @@ into the model, calls :func:`validate` and says where in the file each problem l
 The rules, by part: settings, robots and stations in :mod:`.fleet`; faults, the closed loop (jobs, job
 stream, link, manager) and the script in :mod:`.workload`; what the scenario's protocol allows (VDA 5050
 vehicles, and the script's messages) in :mod:`.protocol`; a roadmap's in
-:func:`vcran.core.traffic.roadmap.validate`; the rules between parts and of the whole scenario here. Each
-field's own rule (kind and bounds) is declared once in those modules, and the file's reader applies it to
-the value as the file writes it (:mod:`.fields`).
+:func:`vcran.core.traffic.roadmap.validate`; safety fields and deadlock settings in :mod:`.safety`; the
+rules between parts and of the whole scenario here. Each field's own rule (kind and bounds) is declared once
+in those modules, and the file's reader applies it to the value as the file writes it (:mod:`.fields`).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from vcran.core.validity.fleet import robot_problems, settings_problems, station
 from vcran.core.validity.protocol import link_problems as protocol_link_problems
 from vcran.core.validity.protocol import script_problems as protocol_script_problems
 from vcran.core.validity.protocol import vehicle_problems
+from vcran.core.validity.safety import traffic_problems
 from vcran.core.validity.workload import (
     fault_problems,
     in_time_order,
@@ -44,8 +45,8 @@ __all__ = ["Problem", "validate"]
 
 def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Problem]:
     """Every problem of ``scenario``, part by part in the order of a file (settings, robots, stations, the
-    roadmap, link and manager, faults, jobs, the job stream, the script, then the whole); empty when it can
-    run. A part whose own fields are broken is not related to the others (its relations would be about
+    roadmap, safety fields, link and manager, faults, jobs, the job stream, the script, then the whole);
+    empty when it can run. A part whose own fields are broken is not related to the others (its relations would be about
     values it does not hold). ``fields_checked``: each field's own rule was applied already (by a file's
     reader, to the value as written); only what relates fields and parts is left.
     """
@@ -70,6 +71,7 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
         out.append(Problem("roadmap", f"expected a Roadmap or None, got {type(sc.roadmap).__name__}"))
     elif not stations:  # the roadmap's rules read the stations' docks
         out += [Problem(*p) for p in traffic.validate(sc.roadmap, sc.stations)]
+    out += traffic_problems(sc, own)
     link = link_problems(sc.link, own)
     out += link or (protocol_link_problems(sc.link, protocol) if protocol is not None else [])
     if sc.manager is not None:

@@ -21,6 +21,7 @@ from vcran.core.wire import Inbound, Transport
 from vcran.sim.body import Body
 from vcran.sim.opil.node import RanNode
 from vcran.sim.opil.ran import Ran
+from vcran.sim.opil.traffic import OpilTraffic
 
 if TYPE_CHECKING:
     from vcran.sim.model import Model
@@ -89,6 +90,10 @@ class Opil:
 
     def errors(self, index: int) -> int:
         return self.nodes[index].logic.error_count
+
+    def traffic(self) -> OpilTraffic:
+        """SPEC §12: a blocked robot publishes a ``ran_error`` warning; a deadlock cancel halts it."""
+        return OpilTraffic(self.model.robots)
 
     def battery_states(self, t: float, levels: list[Level]) -> None:
         """``battery_state`` (a ``sensor_msgs.BatteryState``) of each robot whose level changed (SPEC §4)."""
