@@ -211,3 +211,62 @@ def test_pause_a_refused_payload_and_a_cancel_reach_the_body(tmp_path):
     refused = next(s["raw"] for s in states if s["t"] == 4.0)
     assert [e["errorType"] for e in refused["errors"]] == ["validationError"] and refused["orderId"] == "o1"
     assert main(["replay", str(out), "--verify", "--quiet"]) == 0
+
+
+CORRIDOR = """
+[simulation]
+protocol = "vda5050"
+duration = 60.0
+
+[traffic]
+field = { margin = 2.0 }
+deadlock_bound = 30.0
+on_deadlock = "cancel"
+""" + "".join(f"""
+[[robots]]
+id = "{name}"
+manufacturer = "acme"
+serial_number = "{name}"
+pose = [{x0}, 0.0, {theta}]
+max_velocity = 1.0
+max_acceleration = 0.5
+footprint = [[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]]
+
+[[script]]
+t = 0.0
+robot = "{name}"
+kind = "order"
+message.orderId = "{name}_go"
+message.orderUpdateId = 0
+message.nodes = [
+  {{ nodeId = "{name}0", sequenceId = 0, released = true, nodePosition = {{ x = {x0}, y = 0.0, mapId = "map" }}, actions = [] }},
+  {{ nodeId = "{name}1", sequenceId = 2, released = true, nodePosition = {{ x = {x1}, y = 0.0, mapId = "map" }}, actions = [] }},
+]
+message.edges = [{{ edgeId = "{name}-go", sequenceId = 1, released = true, startNodeId = "{name}0", endNodeId = "{name}1", actions = [] }}]
+""" for name, x0, x1, theta in (("A", 0.0, 20.0, 0.0), ("B", 20.0, 0.0, math.pi)))
+
+
+def test_safety_fields_show_as_field_violation_and_a_deadlock_cancel_gives_the_orders_up(tmp_path):
+    """SPEC §12 on VDA 5050 vehicles (vcran/sim/vda5050/traffic.py): the bundled corridor, derived by hand in
+    its file, as orders sent at t = 0: the fields touch the other vehicle at t = 9 (A at 8, B at 12), both
+    report ``safetyState.fieldViolation`` (§6.10.6) and brake 1 m in 2 s, to 9 and 11; at t = 11 they are
+    deadlocked and, with ``on_deadlock = "cancel"``, stop for good: each order given up (``deadlock``), a
+    deadlock warning in each state."""
+    path = tmp_path / "corridor.toml"
+    path.write_text(CORRIDOR)
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    states = [r for r in trace_records(out) if r.get("attr") == "state"]
+    for robot in ("A", "B"):
+        mine = [(s["t"], s["raw"]) for s in states if s["robot"] == robot]
+        violated = [t for t, s in mine if s["safetyState"]["fieldViolation"]]
+        assert violated and violated[0] == pytest.approx(9.0)
+        last = mine[-1][1]
+        assert [e["errorType"] for e in last["errors"]] == ["deadlock"] and last["nodeStates"] == []
+        for _, s in mine:
+            assert validation.first_problem(validation.outbound(Topic.STATE, Version.V2_1_0), s) is None
+    events = list(event_records(out / "events.jsonl.zst"))
+    ended = {e["robot"]: (e["t"], e["how"]) for e in events if e["event"] == "order_ended"}
+    assert ended == {"A": (pytest.approx(11.0), "deadlock"), "B": (pytest.approx(11.0), "deadlock")}
+    poses = {r: p["final_pose"]["x"] for r, p in json.loads((out / "summary.json").read_text())["robots"].items()}
+    assert poses == pytest.approx({"A": 9.0, "B": 11.0})

@@ -29,6 +29,7 @@ from vcran.core.wire import Inbound, Publish, Transport
 from vcran.sim.body import Body
 from vcran.sim.timing import FAULT, TELEMETRY, at
 from vcran.sim.vda5050.node import Received, VehicleNode
+from vcran.sim.vda5050.traffic import VdaTraffic
 
 if TYPE_CHECKING:
     from vcran.sim.model import Model
@@ -172,6 +173,10 @@ class Vda5050:
 
     def errors(self, index: int) -> int:
         return self.nodes[index].errors
+
+    def traffic(self) -> VdaTraffic:
+        """SPEC §12: a blocked vehicle reports ``safetyState.fieldViolation``; a deadlock cancel halts it."""
+        return VdaTraffic(self.nodes)
 
     # --- the Vehicle's events ---------------------------------------------------------------------------------
 

@@ -66,10 +66,14 @@ class Incident:
 
 
 @dataclass(frozen=True, slots=True)
-class ChargeEnded:
-    """The body's charge (started by startCharging) ended: full, or refused (``ok`` False)."""
+class FieldViolation:
+    """Safety fields -> Vehicle: another robot is in (out of) this one's protective field (SPEC §12)."""
 
-    ok: bool
+    violated: bool
+
+
+#: The tag of the body's charge a startCharging began: its end (full, or refused) ends the vehicle's charging.
+CHARGE_TAG = "vda5050.charge"
 
 
 class VehicleNode:
@@ -142,7 +146,7 @@ class VehicleNode:
             return
         if effect.action_type == "startCharging":
             # The body's charge is its work, to the full battery (docs/protocols.md); the action itself ends now.
-            self.body.act((None, ActionKind.CHARGE, ChargeEnded))
+            self.body.act((None, ActionKind.CHARGE, CHARGE_TAG))
         self.inbox.put(Acted(effect.action_id, True))
 
     def _start_timer(self, effect: fx.StartTimer) -> None:
@@ -175,7 +179,7 @@ class VehicleNode:
         return self.vehicle.on_instant_actions(now, item.message, self.where())  # type: ignore[arg-type]
 
     def _acted(self, now: float, item: Acted) -> list[fx.Effect]:
-        if item.tag is ChargeEnded:
+        if item.tag == CHARGE_TAG:
             return self.vehicle.on_charging_ended(now)
         return self.vehicle.on_acted(now, item.tag, item.ok, item.message)
 
@@ -198,6 +202,10 @@ class VehicleNode:
         return vehicle.on_pause_button(now, started)
 
 
+def _field(node: VehicleNode, now: float, item: Any) -> list[fx.Effect]:
+    return node.vehicle.on_field_violation(now, item.violated)
+
+
 _INBOX: dict[type, Callable[[VehicleNode, float, Any], list[fx.Effect] | None]] = {
     Received: VehicleNode._received,
     Reached: lambda node, now, item: node.vehicle.on_reached(now, item.waypoint.tag, node.where()),
@@ -206,6 +214,7 @@ _INBOX: dict[type, Callable[[VehicleNode, float, Any], list[fx.Effect] | None]] 
     Halted: lambda node, now, item: node.vehicle.on_halted(now, item.why, item.message),
     InService: lambda node, now, item: node.vehicle.on_serviced(now),
     Incident: VehicleNode._on_incident,
+    FieldViolation: _field,
 }
 
 #: The effects that are commands (docs/protocols.md's mapping table); every other effect is an event.
