@@ -1,7 +1,9 @@
-"""README's "Layout" table names every file of the package, and only those (issue 9)."""
+"""The package's layout: README's "Layout" table names every file of the package, and only those (issue 9); one
+way to wire a run, and no long module that is not one named concept (issue 30)."""
 
 from __future__ import annotations
 
+import ast
 import re
 import subprocess
 
@@ -42,3 +44,19 @@ def test_one_way_to_wire_a_run():
                     if not line.split(":", 2)[2].lstrip().startswith(("def ", "#"))})
     # the sweep's folder is a sweep's, staged with what="sweep" by the same vcran.io.runfolder
     assert where == ["vcran/io/sinks.py", "vcran/runner.py", "vcran/sweep/folder.py"]
+
+
+def test_a_module_over_450_lines_names_its_one_concept():
+    """Issue 30 item 4: no file of the package (or of transports/) is longer than 450 lines unless it is one
+    concept, named as such in its docstring ("One concept ..."): a long module is a choice written down, not
+    one that grew."""
+    out = subprocess.run(["git", "ls-files", "vcran", "transports"], cwd=ROOT, capture_output=True, text=True,
+                         check=True)
+    unnamed = []
+    for name in out.stdout.split():
+        if not name.endswith(".py"):
+            continue
+        text = (ROOT / name).read_text(encoding="utf-8")
+        if text.count("\n") > 450 and "one concept" not in (ast.get_docstring(ast.parse(text)) or "").lower():
+            unnamed.append(name)
+    assert unnamed == [], "modules over 450 lines whose docstring names no one concept: split them, or name it"

@@ -1,4 +1,4 @@
-"""R9's history (vcran.core.opil.tasks.History): a byte log in age order with an open-addressing index.
+"""R9's history (vcran.core.opil.history.History): a byte log in age order with an open-addressing index.
 
 Expectations are derived by hand from R9/R10 (the latest ``limit`` ids, oldest evicted first, a cancel
 updating an entry without changing its age) and from the documented record size (25 bytes plus 8 per
@@ -14,11 +14,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vcran.core.opil import tasks
+from vcran.core.opil import history as history_module
 from vcran.core.opil.build import cancel, motion
 from vcran.core.opil.effects import Reason
+from vcran.core.opil.history import CANCEL_OVERHEAD, ENTRY_OVERHEAD, Ended, History, fingerprint
 from vcran.core.opil.ids import id_for
-from vcran.core.opil.tasks import CANCEL_OVERHEAD, ENTRY_OVERHEAD, Ended, History, Task, fingerprint
+from vcran.core.opil.tasks import Task
 
 
 def ended(n_assignments: int, reason: Reason | None = None, t: float = 1.5, name: str = "T") -> Ended:
@@ -34,9 +35,9 @@ def T(i: int):  # noqa: N802 - reads like the task ids of the other core tests
 
 def small_chunks(monkeypatch) -> None:
     """Chunks of 64 bytes: one record of up to three assignments each, larger ones in chunks of their own."""
-    monkeypatch.setattr(tasks, "CHUNK_BITS", 6)
-    monkeypatch.setattr(tasks, "CHUNK", 64)
-    monkeypatch.setattr(tasks, "_CHUNK_MASK", 63)
+    monkeypatch.setattr(history_module, "CHUNK_BITS", 6)
+    monkeypatch.setattr(history_module, "CHUNK", 64)
+    monkeypatch.setattr(history_module, "_CHUNK_MASK", 63)
 
 
 @pytest.fixture(params=["hash", "colliding", "small chunks"])
@@ -44,7 +45,7 @@ def hashing(request, monkeypatch):
     """The real hash; one sending every key to slot 0, so that every lookup walks a probe chain; and the real
     hash with chunks so small that every record starts a chunk (or is larger than one)."""
     if request.param == "colliding":
-        monkeypatch.setattr(tasks, "_hash", lambda key: 0)
+        monkeypatch.setattr(history_module, "_hash", lambda key: 0)
     elif request.param == "small chunks":
         small_chunks(monkeypatch)
 
@@ -145,11 +146,11 @@ def operations(draw):
 @given(operations(), st.booleans(), st.booleans())
 def test_agrees_with_an_ordered_dict(case, colliding, small):
     limit, max_bytes, ops = case
-    saved = tasks._hash, tasks.CHUNK_BITS, tasks.CHUNK, tasks._CHUNK_MASK
+    saved = history_module._hash, history_module.CHUNK_BITS, history_module.CHUNK, history_module._CHUNK_MASK
     if colliding:
-        tasks._hash = lambda key: key[0] % 3  # three chains
+        history_module._hash = lambda key: key[0] % 3  # three chains
     if small:  # 128-byte chunks: three records of one assignment, two of two or three; larger ones alone
-        tasks.CHUNK_BITS, tasks.CHUNK, tasks._CHUNK_MASK = 7, 128, 127
+        history_module.CHUNK_BITS, history_module.CHUNK, history_module._CHUNK_MASK = 7, 128, 127
     try:
         history = History(limit, max_bytes)
         model: OrderedDict[bytes, Ended] = OrderedDict()
@@ -179,7 +180,7 @@ def test_agrees_with_an_ordered_dict(case, colliding, small):
                 assert (got.received, got.reason, got.time, got.cancel) == (want.received, want.reason, want.time, want.cancel)
             assert [i.uuid for i in history] == list(model) and len(history) == len(model)
     finally:
-        tasks._hash, tasks.CHUNK_BITS, tasks.CHUNK, tasks._CHUNK_MASK = saved
+        history_module._hash, history_module.CHUNK_BITS, history_module.CHUNK, history_module._CHUNK_MASK = saved
 
 
 def test_evictions_do_not_grow_the_log_or_the_index(hashing):

@@ -526,7 +526,8 @@ def test_r10_resend_with_new_header_stamp_is_a_duplicate():
 @given(st.data())
 def test_r10_fingerprint_agrees_with_identity(data):
     """Ended tasks keep fingerprints (R9 history): equal exactly when R10 calls two assignments identical."""
-    from vcran.core.opil.tasks import fingerprint, same_content
+    from vcran.core.opil.history import fingerprint
+    from vcran.core.opil.tasks import same_content
     from vcran.testing.strategies import action_assignments, motion_assignments
 
     kind = data.draw(st.sampled_from([motion_assignments, action_assignments]))
@@ -541,8 +542,9 @@ def test_r10_fingerprint_does_not_depend_on_which_objects_hold_equal_values():
     equal ones in full, so R10-identical assignments got different fingerprints (a built motion, whose
     point_id and motion_id are one Id, against the same motion decoded from the wire). Found by
     test_r10_fingerprint_agrees_with_identity, which drew it once in a full suite run."""
+    from vcran.core.opil.history import fingerprint
     from vcran.core.opil.messages import ActionAssignment, RobotAction, Sequence
-    from vcran.core.opil.tasks import fingerprint, same_content
+    from vcran.core.opil.tasks import same_content
 
     one, other = bytes.fromhex("11" * 16), bytes.fromhex("11" * 16)
     assert one == other and one is not other

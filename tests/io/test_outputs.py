@@ -277,7 +277,7 @@ def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
 
 
 def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_than_a_batch(tmp_path):  # §6
-    """A ``.zst`` output is batched (vcran.io.trace._Batched): ``flush`` must make every line written so far
+    """A ``.zst`` output is batched (vcran.io.trace.streams._Batched): ``flush`` must make every line written so far
     readable from the file as it stands (live mode flushes each tick, a killed run keeps its recording),
     and a line longer than a batch must come through whole, in its place."""
     import zstandard
@@ -302,7 +302,7 @@ def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_t
 
 
 def test_compressed_output_keeps_what_was_written_when_the_caller_reuses_its_buffer(tmp_path):  # §6
-    """Lines are gathered in a batch before they reach the compressor (vcran.io.trace._Batched): a
+    """Lines are gathered in a batch before they reach the compressor (vcran.io.trace.streams._Batched): a
     ``bytearray`` or ``memoryview`` written and then changed by the caller, as ``write`` allows, must be
     kept as written."""
     from vcran.io.trace import open_input, open_output

@@ -1,11 +1,11 @@
-"""The summary's task lists (vcran.sim.model.Labels): compact, yet exactly the labels appended, in order."""
+"""The summary's task lists (vcran.sim.labels.Labels): compact, yet exactly the labels appended, in order."""
 
 from __future__ import annotations
 
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vcran.sim.model import Labels
+from vcran.sim.labels import Labels
 
 
 def test_labels_come_back_in_order_whatever_their_length():

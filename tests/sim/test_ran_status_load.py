@@ -95,7 +95,7 @@ class Statuses(vcran.FleetManager):
 
 
 def test_a_change_of_the_load_alone_publishes_ran_status():
-    """ran_status goes out only when it changes (vcran/sim/ran.py): the load is part of it, so a change
+    """ran_status goes out only when it changes (vcran/sim/opil/ran.py): the load is part of it, so a change
     of the load is a change, even when RanLogic's state and queue stay as they were (here the robot has
     no task at all; the load is set by hand at 2.5 s)."""
     sc = scenario(until="until_idle = false", duration=6.0)

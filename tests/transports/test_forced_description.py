@@ -24,7 +24,7 @@ from vcran.core.opil.codec import decode_attribute, encode_entity_json
 from vcran.core.opil.messages import AssignmentStatus, PolygonStamped, RanStatus
 from vcran.core.scenario import RobotConfig
 from vcran.core.wire import Frame, Publish
-from vcran.sim.ran import description
+from vcran.sim.opil.ran import description
 
 ROBOTS = ("robot_1", "robot_2")
 URL = "http://planner.test/notify"

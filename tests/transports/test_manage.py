@@ -353,7 +353,7 @@ def test_the_manager_is_told_of_each_forced_description_write_and_of_no_unchange
     and not of the unchanged description that every notification of the whole entity carries."""
     from vcran.core.opil.messages import PolygonStamped
     from vcran.core.scenario import RobotConfig
-    from vcran.sim.ran import description
+    from vcran.sim.opil.ran import description
 
     config = RobotConfig(id="robot_1")
     desc = description(config, PolygonStamped.from_xy(config.footprint))

@@ -11,7 +11,8 @@ from tests.conftest import ROOT, read_lines, write_lines
 from vcran.api import simulate
 from vcran.io.gen import generate
 from vcran.io.scenario_file import parse
-from vcran.io.trace import EVENTS_FILE, LEGS_FILE, TRACE_FILE, _npy_header
+from vcran.io.trace import EVENTS_FILE, LEGS_FILE, TRACE_FILE
+from vcran.io.trace.writers import _npy_header
 
 
 def bundled(name: str, out: Path) -> Path:

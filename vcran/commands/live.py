@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
 
     def progress(now: float, tasks_done: int) -> None:
         if line is not None and models:
-            states = Counter(r.logic.state.value for r in models[0].robots)
+            states = Counter(node.logic.state.value for node in models[0].protocol.nodes)  # OPIL: RanLogic's
             line.update(LiveStatus(now, len(models[0].robots), tasks_done, transport.status(), states))
 
     mode = f"subscription to {args.notify_url}" if args.notify_url else f"polling every {args.poll_interval:g} s"

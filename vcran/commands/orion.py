@@ -21,7 +21,7 @@ def run(args: argparse.Namespace) -> int:
     from vcran.core.opil.build import motion_message
     from vcran.core.opil.codec import encode_entity_json, split_batch
     from vcran.core.opil.messages import AssignmentStatus, PolygonStamped, RanStatus, Time
-    from vcran.sim.ran import description
+    from vcran.sim.opil.ran import description
 
     setup_logging()
     scenario = load_scenario(args.scenario)

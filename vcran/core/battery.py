@@ -145,6 +145,48 @@ class FleetBattery:
         self.begin(i, t, distance, REST)
 
 
+# --- rules (SPEC §4 Battery): what a robot's body does about its battery -------------------------------------
+# Shared by every protocol: the body (vcran.sim.body) asks these and does what they say; what a protocol tells
+# its fleet manager about it (OPIL: a cancelled task, a ran_error; VDA 5050: errors in its state) is the protocol's.
+
+#: The code of an empty battery's stop (and the reason a protocol gives for the work it ends).
+EMPTY_CODE = "battery_empty"
+
+
+def leg_cut(c: BatteryConfig, leg: Leg, level: float, now: float) -> float:
+    """Seconds from ``now`` until a battery holding ``level`` now runs out driving ``leg`` (inf: not before
+    the leg ends). The common case, a leg that costs less than what is left, needs no root."""
+    if c.per_idle_second * leg.duration + c.per_metre * leg.distance < level:
+        return math.inf
+    tau = max(now - leg.t0, 0.0)
+    done = c.per_idle_second * tau + c.per_metre * leg.distance_at(now)
+    return leg_empty_after(leg, level + done, c.per_idle_second, c.per_metre) - tau
+
+
+def charge_time(c: BatteryConfig, level: float) -> float:
+    """Seconds a charge takes from ``level`` to full: it ends when the battery is full (inf: never, the
+    charge rate does not exceed the base draw)."""
+    return linear_full_after(level, c.capacity, c.charge_rate - c.per_idle_second)
+
+
+def charge_refusal(has_battery: bool, charger_in_reach: bool, seconds: float, x: float, y: float) -> tuple[str, str] | None:
+    """Why a charge at ``(x, y)`` cannot start (code, message), or None: it fails at once, not after a duration
+    (R14), without a battery, without a charger in reach, or when it would never end (``seconds`` inf)."""
+    if not has_battery:
+        return "action_not_capable", "charge: this robot has no battery"
+    if not charger_in_reach:
+        return "no_charger_in_reach", f"charge: no charger in reach at {x:.3f}, {y:.3f}"
+    if seconds == math.inf:
+        return "charge_too_slow", "charge: charge_rate does not exceed the idle draw"
+    return None
+
+
+def empty_stop(c: BatteryConfig, x: float, y: float) -> tuple[str, float | None]:
+    """An empty battery stops the robot where it is, out of service until a swap: the stop's message, and
+    the seconds until the swap gives it a full battery and service again (None: never)."""
+    return f"battery empty at {x:.3f}, {y:.3f}: the robot stopped [§4]", c.swap_after
+
+
 def linear_empty_after(level: float, rate: float) -> float:
     """Seconds until ``level`` drains at ``rate`` per second (inf when it never does)."""
     if level <= 0.0:

@@ -2,7 +2,7 @@
 
 A fault is given at a time (``[[faults]]``) or drawn from a seeded random source (``[[random_faults]]``:
 exponential times between failures with mean ``mtbf`` and repair times with mean ``mttr``, per robot).
-The SimPy model carries them out (:mod:`vcran.sim.robot`); what each does is in docs/robots.md.
+The SimPy model carries them out (:mod:`vcran.sim.body`, :mod:`vcran.sim.faults`); what each does is in docs/robots.md.
 """
 
 from __future__ import annotations

@@ -94,7 +94,7 @@ class Transport:
         """SPEC §4 ``link_down``: cut ``robot``'s link from now until ``until`` on the transport's side, if
         the transport has a link of its own (a closed loop's :class:`vcran.sim.link.Link`), and say so.
 
-        False (the default): the RAN holds the robot's messages itself (:meth:`vcran.sim.ran.Ran.link_down`).
+        False (the default): the RAN holds the robot's messages itself (:meth:`vcran.sim.opil.ran.Ran.link_down`).
         """
         return False
 

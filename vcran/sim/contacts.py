@@ -1,6 +1,6 @@
 """Collision detection in the simulation (SPEC §4 Footprints and collisions): predict, schedule, confirm.
 
-Whenever a robot's track changes (a leg starts or ends, a hold, a stop: :attr:`RobotNode.on_move`), it is
+Whenever a robot's track changes (a leg starts or ends, a hold, a stop: :attr:`Body.on_move`), it is
 re-filed in the :class:`~vcran.core.collisions.Grid` and tested against the robots sharing a cell: for
 each such pair the first instant their footprints start to touch (or, for a pair already in contact, stop
 touching) before either track ends is computed (:func:`~vcran.core.overlap.first_change`) and an event
@@ -9,7 +9,8 @@ and the change itself predicts anew. A contact is reported once, as one ``collis
 first in fleet order, naming the other). In ``"report"`` mode that is all: the robots drive on and
 publish exactly what they would without detection (the original drove through silently, so the wire
 and a fleet manager's view stay the original's); in ``"stop"`` mode both robots stop where they are, and
-RanLogic reports ``collision`` and cancels their tasks with reason ``collision``.
+their protocols' logics are told (OPIL's RanLogic reports ``collision`` and cancels their tasks with reason
+``collision``).
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ import simpy
 
 from vcran.core.collisions import Box, Footprint, Grid, Track, apart
 from vcran.core.incidents import Collision
-from vcran.core.opil.effects import Reason
-from vcran.sim.robot import Halted, RobotNode
+from vcran.sim.body import Body
+from vcran.sim.holds import COLLISION, Halted
 from vcran.sim.timing import COMPLETION, at
 
 #: Grid cell size in metres: a few legs' width, so a leg's box touches a handful of cells. 30 m is half of
@@ -35,7 +36,7 @@ CELL = 30.0
 
 
 class Contacts:
-    def __init__(self, env: simpy.Environment, robots: list[RobotNode], mode: str, resolution: float) -> None:
+    def __init__(self, env: simpy.Environment, robots: list[Body], mode: str, resolution: float) -> None:
         self.env, self.robots, self.stop, self.resolution = env, robots, mode == "stop", resolution
         self.grid = Grid(CELL)
         self.footprints = [Footprint(r.config.footprint) for r in robots]
@@ -52,12 +53,12 @@ class Contacts:
             r.on_move = self.moved
             self._check(r.index)
 
-    def _track(self, robot: RobotNode) -> Track:
+    def _track(self, robot: Body) -> Track:
         leg = robot.fleet.current.get(robot.index)
         until = leg.t_end if leg is not None else math.inf
         return Track(robot.index, self.footprints[robot.index], leg, robot.pose, until)
 
-    def moved(self, robot: RobotNode) -> None:
+    def moved(self, robot: Body) -> None:
         i = robot.index
         self.version[i] += 1
         track = self.tracks[i] = self._track(robot)
@@ -117,6 +118,6 @@ class Contacts:
         where = f"at {x:.3f}, {y:.3f}"
         if self.stop:
             for robot, other in ((ra, rb), (rb, ra)):
-                robot.halt(Halted(Reason.COLLISION, "collision", f"collided with {other.id} {where}: stopped [§4]"))
+                robot.halt(Halted(COLLISION, f"collided with {other.id} {where}: stopped [§4]"))
         else:
             self._predict(i, j)  # when they part again

@@ -15,15 +15,15 @@ import simpy
 
 from vcran.core.faults import FaultSpec
 from vcran.core.incidents import FaultEnded, FaultStarted
-from vcran.core.opil.effects import Reason
-from vcran.sim.robot import Halted, RobotNode
+from vcran.sim.body import Body
+from vcran.sim.holds import MOTION_FAILED, Halted
 from vcran.sim.timing import FAULT, at
 
 
 class Faults:
     """Applies faults to robots; ``link`` takes a robot and a duration and cuts its link (the RAN's part)."""
 
-    def __init__(self, env: simpy.Environment, robots: dict[str, RobotNode], link: Callable[[RobotNode, float], None]) -> None:
+    def __init__(self, env: simpy.Environment, robots: dict[str, Body], link: Callable[[Body, float], None]) -> None:
         self.env, self.robots, self._link = env, robots, link
 
     def play(self, faults: Iterable[FaultSpec]) -> Generator[simpy.events.Event, Any, None]:
@@ -55,7 +55,7 @@ class Faults:
         elif kind == "resume":
             robot.release("pause")
         elif kind == "motion_failure":
-            robot.halt(Halted(Reason.MOTION_FAILED, "motion_failed", "injected motion failure: the robot stopped where it is [§4]"))
+            robot.halt(Halted(MOTION_FAILED, "injected motion failure: the robot stopped where it is [§4]"))
         elif kind == "action_failure":
             robot.fail_next_action = True
         else:
@@ -64,7 +64,7 @@ class Faults:
             self._link(robot, duration)
 
     @staticmethod
-    def _repaired(robot: RobotNode, kind: str) -> None:
+    def _repaired(robot: Body, kind: str) -> None:
         robot.release(kind)
         robot.log_incident(FaultEnded(kind))
 

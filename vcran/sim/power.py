@@ -1,10 +1,11 @@
-"""The battery at the telemetry cadence (SPEC §4): ``battery_state`` publications, the low warning, idle drain.
+"""The battery at the telemetry cadence (SPEC §4): which levels to publish, the low warning, idle drain.
 
-Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. ``battery_state``
-(``sensor_msgs.BatteryState``) is published for a robot when its percentage, rounded to the battery's
-``resolution``, changed, or a charge started or ended, since its last publication: a thousand robots do not put a
-thousand messages per second on the wire. A robot at rest whose battery would run out before the tick
-after next is handed to :meth:`RobotNode.watch_idle`, which schedules the exact instant.
+Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. A robot's level is
+published when its percentage, rounded to the battery's ``resolution``, changed, or a charge started or ended,
+since its last publication: a thousand robots do not put a thousand messages per second on the wire. How it is
+published is the protocol's (OPIL: ``battery_state``, a ``sensor_msgs.BatteryState``): the tick hands it the
+rows that changed. A robot at rest whose battery would run out before the tick after next is handed to
+:meth:`~vcran.sim.energy.Energy.watch_idle`, which schedules the exact instant.
 """
 
 from __future__ import annotations
@@ -15,14 +16,17 @@ import numpy as np
 
 from vcran.core.battery import CHARGE, REST, FleetBattery
 from vcran.core.incidents import BatteryLow
-from vcran.core.opil.messages import BatteryState, Header, Message, Time
-from vcran.sim.robot import RobotNode
+from vcran.sim.body import Body
+
+#: One robot's level to publish: the body, the percentage (rounded to its resolution), the charge in Ah (the
+#: percentage's), the capacity, the level itself (FULL at capacity), whether it is charging, the voltage.
+Level = tuple[Body, float, float, float, float, bool, float]
 
 
 class Power:
     def __init__(
-        self, robots: list[RobotNode], battery: FleetBattery, period: float,
-        publish: Callable[[float, RobotNode, str, Message], None],
+        self, robots: list[Body], battery: FleetBattery, period: float,
+        publish: Callable[[float, list[Level]], None],
     ) -> None:
         self.robots, self.battery, self.period, self._publish = robots, battery, period, publish
         configs = [c for c in (battery.configs[i] for i in battery.indices) if c is not None]
@@ -39,8 +43,7 @@ class Power:
     def tick(self, t: float) -> None:
         """Publish what changed, warn of low batteries, watch resting ones about to run out.
 
-        A robot's ``battery_state`` is published when its percentage step changes or a charge starts or ends
-        (status CHARGING during a charge, FULL at capacity, else DISCHARGING). A tick is a
+        A robot's level is published when its percentage step changes or a charge starts or ends. A tick is a
         handful of numpy operations for the whole fleet; Python work is only for the robots in question.
         """
         b = self.battery
@@ -51,9 +54,8 @@ class Power:
         changed = np.flatnonzero(key != self.last)
         self.last = key
         if len(changed):
-            header = Header(0, Time.from_seconds(t), "")
-            for j in changed:
-                self._battery(t, int(idx[j]), int(j), int(steps[j]), float(levels[j]), int(kinds[j]), header)
+            self._publish(t, [self._level(int(idx[j]), int(j), int(steps[j]), float(levels[j]), int(kinds[j]))
+                              for j in changed])
         for j in np.flatnonzero(levels < self.low):
             i = int(idx[j])
             if not b.low_warned[i] and kinds[j] != CHARGE:
@@ -66,12 +68,7 @@ class Power:
             if kinds[j] == REST:
                 self.robots[int(idx[j])].watch_idle()
 
-    def _battery(self, t: float, i: int, j: int, steps: int, level: float, kind: int, header: Header) -> None:
+    def _level(self, i: int, j: int, steps: int, level: float, kind: int) -> Level:
         capacity = self.battery.capacity[i]
         pct = round(steps * self.resolution[j], 9)  # 0.47, not 0.47000000000000003
-        status = (BatteryState.STATUS_FULL if level >= capacity else
-                  BatteryState.STATUS_CHARGING if kind == CHARGE else BatteryState.STATUS_DISCHARGING)
-        self._publish(t, self.robots[i], "battery_state", BatteryState(
-            header=header, voltage=self.voltage[j], charge=round(pct * capacity, 9), capacity=capacity,
-            design_capacity=capacity, percentage=pct, power_supply_status=status, present=True,
-        ))
+        return self.robots[i], pct, round(pct * capacity, 9), capacity, level, kind == CHARGE, self.voltage[j]

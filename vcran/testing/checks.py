@@ -236,7 +236,7 @@ def _in_motion(changes: list[tuple[float, str, str]], a: float, b: float) -> boo
 
 def overdue(robots: list[Any], now: float) -> list[str]:
     """R7 at the end of a run: no task still queued that was not assembled by its deadline, unless it
-    is finishing its running leg or action (R8). ``robots`` are the model's RobotNodes."""
+    is finishing its running leg or action (R8). ``robots`` are OPIL's RanNodes (``model.protocol.nodes``)."""
     problems = []
     for robot in robots:
         for task in robot.logic.queue.values():
@@ -265,9 +265,9 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
 
     try:
         result = run_to(scenario, work / "a", ScriptedTransport(scenario.messages(), frames=False))
-        idle = all(r.logic.idle for r in result.model.robots)
+        idle = result.model.protocol.idle()
         problems = check_run(work / "a", scenario.settings.task_timeout, finished=idle)
-        problems += overdue(result.model.robots, result.summary["sim_time"])
+        problems += overdue(result.model.protocol.nodes, result.summary["sim_time"])
         if problems or not again:
             return problems
         run_to(scenario, work / "b", ScriptedTransport(scenario.messages(), frames=False))

@@ -28,6 +28,10 @@ Observations (``Obs``):
 Timers (StartTimer/ClearTimer) and state changes are not observations: the model exposes them as
 views (:meth:`ReferenceRan.deadlines`, :attr:`ReferenceRan.state`) that a test compares with what the
 driver holds and with RanLogic's state.
+
+One concept in one module longer than 450 lines (issue 30): the reference model of RanLogic. It mirrors
+every rule RanLogic implements, and its worth is that the whole of it can be checked against the rules
+(docs/rules.md) in one file, each rule a few lines that recompute from the inputs.
 """
 
 from __future__ import annotations

@@ -4,6 +4,11 @@ Field names and order follow the ROS messages of OPIL (``mars_agent_physical_rob
 ``mars_common_msgs``, ``geometry_msgs``, ``std_msgs``) so that the NGSI codec is a mechanical walk over
 :func:`vcran.core.opil.schema.specs`. ``RanStatus``, ``TaskEnd`` and ``RanError`` are vcran's own extensions
 (``vcran_msgs``). Every message validates itself on construction (:class:`vcran.core.opil.schema.Message`).
+
+One concept in one module longer than 450 lines (issue 30): OPIL's message vocabulary, SPEC §2 as data, one
+short class per ROS message and the tables of which attribute carries which (:data:`INBOUND`,
+:data:`OUTBOUND`, :data:`RENAMED`); it is read as a reference, a class at a time. The machinery they share
+is :mod:`vcran.core.opil.schema`'s, their wire form :mod:`vcran.core.opil.codec`'s.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""RanLogic: one robot's task queue and state machine (SPEC §3, R1–R10), as a pure object.
+"""RanLogic: one robot's task queue and state machine (SPEC §3, R1–R10 and R12–R14), as a pure object.
 
 Inputs are method calls carrying the simulated time ``now``; outputs are the returned effects
 (:mod:`vcran.core.opil.effects`), in order. Nothing here knows SimPy, HTTP or a clock, so the rules can be tested by
@@ -11,6 +11,11 @@ Tie order inside one instant is the driver's business (docs/determinism.md); Ran
 asks to fire that long after ``first_seen + task_timeout``, so an input at the deadline as a scenario
 writes it is on time whatever binary rounding made of the sum, and a cancel or timeout within that
 tolerance of the instant a leg or action began abandons it (:class:`~vcran.core.opil.effects.Abandon`).
+
+One concept, RanLogic's state machine, in one module longer than 450 lines (issue 30): its inputs, cancels
+and transitions read and change one robot's state together, and a rule is checked by reading them side by
+side. What is not the machine lives beside it: a task under assembly (:mod:`vcran.core.opil.tasks`), what
+ended tasks leave (:mod:`vcran.core.opil.history`), the effects it returns (:mod:`vcran.core.opil.effects`).
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from vcran.core.opil.effects import (
     TaskCompleted,
     TaskQueued,
 )
+from vcran.core.opil.history import Ended, History, fingerprint
 from vcran.core.opil.ids import NIL, Id
 from vcran.core.opil.messages import (
     ActionAssignment,
@@ -52,7 +58,7 @@ from vcran.core.opil.messages import (
     TaskEnd,
     Time,
 )
-from vcran.core.opil.tasks import Ended, History, Task, assignment_id, fingerprint, kind_of, same_content
+from vcran.core.opil.tasks import Task, assignment_id, kind_of, same_content
 from vcran.core.slots import unchecked
 
 #: R6 as data: the only transitions that exist. Cancel (any state -> WAITING) is listed explicitly.

@@ -33,7 +33,8 @@ from vcran.core.opil.messages import (
 from vcran.core.scenario import RobotConfig
 from vcran.core.slots import unchecked
 from vcran.core.wire import Frame, Inbound, Publish, Transport
-from vcran.sim.robot import Decoded, Malformed, RobotNode
+from vcran.sim.body import Body
+from vcran.sim.opil.node import Decoded, Malformed, RanNode
 from vcran.sim.timing import FAULT, TELEMETRY, at
 
 Decode = Callable[[str, Any], Message]
@@ -47,7 +48,7 @@ class Ran:
     def __init__(
         self,
         env: simpy.Environment,
-        robots: list[RobotNode],
+        robots: list[RanNode],
         transport: Transport,
         decode: Decode,
         reject_unknown: Callable[[Inbound], None],
@@ -94,10 +95,10 @@ class Ran:
 
     # --- outbound ---------------------------------------------------------------------------------------
 
-    def changed(self, robot: RobotNode) -> None:
+    def changed(self, robot: RanNode | Body) -> None:
         self._dirty.add(robot.index)
 
-    def publish_error(self, robot: RobotNode, error: ErrorReport) -> None:
+    def publish_error(self, robot: Body, error: ErrorReport) -> None:
         message = _ran_error(
             code=error.code, severity=error.severity, message=error.message, task_id=error.task,
             motion_id=error.motion, action_id=error.action, stamp=Time.from_seconds(self.env.now),
@@ -116,7 +117,7 @@ class Ran:
             down[1].pop(out.attribute, None)
             down[1][out.attribute] = out
 
-    def link_down(self, robot: RobotNode, duration: float) -> None:
+    def link_down(self, robot: Body, duration: float) -> None:
         """SPEC §4 link_down: for ``duration`` the robot neither receives nor publishes.
 
         Back up, it reads what Orion holds (the latest value of each attribute written meanwhile, in the order
@@ -139,7 +140,7 @@ class Ran:
         """Whether some robot's link is down: what it missed and what it could not publish still wait."""
         return bool(self._down)
 
-    def _link_up(self, robot: RobotNode, end: float) -> None:
+    def _link_up(self, robot: Body, end: float) -> None:
         if self._up_at.get(robot.id) != end:
             return  # extended by a link_down that ends later
         del self._up_at[robot.id]
@@ -152,7 +153,7 @@ class Ran:
 
     def telemetry(self, period: float, stop_when_idle: Callable[[], bool]) -> Generator[simpy.events.Event, Any, None]:
         """Every ``period``: the fleet's current_motion, then the changed statuses, in fleet order."""
-        fleet = self.robots[0].fleet if self.robots else None
+        fleet = self.robots[0].body.fleet if self.robots else None
         k = 0
         while True:
             t = k * period
@@ -166,7 +167,7 @@ class Ran:
             for i in dirty:
                 robot = self.robots[i]
                 self._publish_if_new(t, robot, "assignment_state", self.assignment_state(robot))
-                self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status(robot.carrying))
+                self._publish_if_new(t, robot, "ran_status", robot.logic.ran_status(robot.body.carrying))
             if self.after_statuses is not None:
                 self.after_statuses(t)
             if stop_when_idle():
@@ -184,7 +185,7 @@ class Ran:
                 self.send(Publish(t, robot_id, "robot_description", message))
             j += 1
 
-    def _publish_if_new(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
+    def _publish_if_new(self, t: float, robot: RanNode, attribute: str, message: Message) -> None:
         key = (robot.index, attribute)
         last = self._published.get(key)
         if last is not message and last != message:  # a status kept unchanged is the very same object
@@ -195,11 +196,11 @@ class Ran:
             else:  # send()'s common case, without its call (two statuses per change of every robot)
                 self.transport.send(out)
 
-    def publish(self, t: float, robot: RobotNode, attribute: str, message: Message) -> None:
+    def publish(self, t: float, robot: Body, attribute: str, message: Message) -> None:
         self.send(Publish(t, robot.id, attribute, message))
 
     @staticmethod
-    def assignment_state(robot: RobotNode) -> AssignmentStatus:
+    def assignment_state(robot: RanNode) -> AssignmentStatus:
         logic = robot.logic
         return _assignment_state(
             current_task_id=logic.current_task,
