@@ -187,6 +187,24 @@ def test_2_0_instant_actions_carry_both_spellings_of_the_type() -> None:
         Topic.INSTANT_ACTIONS, "$.actions[0].actionType", "required field missing", 7)
 
 
+def test_2_0_instant_actions_may_name_their_list_instant_actions() -> None:
+    """The 2.0.0 schema calls the list ``actions``, the 2.0 text of June 2020 ``instantActions``
+    (VDA5050/vd-m-a-5050 issue 16), which vda-5050-lib 1.x sends (coatyio/vda-5050-lib.js pull request
+    32, open): a 2.0.0 vehicle reads either, and refuses a message with neither; 2.1.0 has ``actions``
+    only."""
+    doc = orjson.loads(codec.encode(instant(V20), V20))
+    text_spelling = {key: value for key, value in doc.items() if key != "actions"}
+    text_spelling["instantActions"] = [{"actionId": "i1", "blockingType": "NONE", "actionType": "startPause"}]
+    assert codec.decode(Topic.INSTANT_ACTIONS, text_spelling, V20) == instant(V20)
+    assert codec.decode(Topic.INSTANT_ACTIONS, {**text_spelling, "instantActions": [{"actionId": "i1"}]}, V20) \
+        == Invalid(Topic.INSTANT_ACTIONS, "$.instantActions[0].blockingType", "required field missing", 7)
+    neither = {key: value for key, value in text_spelling.items() if key != "instantActions"}
+    assert codec.decode(Topic.INSTANT_ACTIONS, neither, V20) == Invalid(
+        Topic.INSTANT_ACTIONS, "$.actions", "required field missing", 7)
+    assert codec.decode(Topic.INSTANT_ACTIONS, {**text_spelling, "version": "2.1.0"}, V21) == Invalid(
+        Topic.INSTANT_ACTIONS, "$.actions", "required field missing", 7)
+
+
 def test_2_0_instant_actions_need_a_header_as_the_text_says() -> None:
     doc = orjson.loads(codec.encode(instant(V20), V20))
     del doc["timestamp"]

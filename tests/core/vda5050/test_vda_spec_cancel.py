@@ -11,7 +11,7 @@ from __future__ import annotations
 from vcran.core.vda5050.config import VehicleConfig
 from vcran.core.vda5050.effects import Abandon, Interrupt, StopAfterLeg, StopNow
 from vcran.testing.vda5050.harness import Bench
-from vcran.testing.vda5050.plans import MANUFACTURER, SERIAL, action, cancel, order, pause, resume
+from vcran.testing.vda5050.plans import MANUFACTURER, SERIAL, action, cancel, instant, order, pause, resume
 
 A, B, C, D = ("a", 0, 0), ("b", 1, 0), ("c", 2, 0), ("d", 3, 0)
 
@@ -42,6 +42,22 @@ def test_figure_9_a_vehicle_that_cannot_stop_between_nodes() -> None:
     assert bench.seen() == {"order": ("o", 0), "last": ("b", 2), "nodes": [], "edges": [],
                             "actions": {"pc": "FAILED", "x": "FINISHED"}, "driving": False, "errors": []}
     assert bench.route == []
+
+
+def test_figure_9_holds_for_a_hard_cancel_too() -> None:
+    """A master may send cancelOrder SOFT or HARD (vda-5050-lib's examples send their instant actions HARD).
+    §6.12's HARD ("driving is not allowed") cannot keep a vehicle that stops only on nodes from the drive
+    Figure 9 gives it ("AGV drives to next node"): the cancel would never be FINISHED. So a cancel's
+    blocking type holds nothing, and the states are those of the NONE cancel above."""
+    bench = driving_to_b()
+    bench.instant(instant(action("cancelOrder", "x", "HARD")))
+    assert bench.seen() == {"order": ("o", 0), "last": ("a", 0), "nodes": ["b2"], "edges": [],
+                            "actions": {"pc": "FAILED", "x": "RUNNING"}, "driving": True, "errors": []}
+    assert bench.holds == set()
+    bench.now = 2.0
+    bench.reach()
+    assert bench.seen() == {"order": ("o", 0), "last": ("b", 2), "nodes": [], "edges": [],
+                            "actions": {"pc": "FAILED", "x": "FINISHED"}, "driving": False, "errors": []}
 
 
 def test_figure_9_a_vehicle_that_can_stop_between_nodes() -> None:

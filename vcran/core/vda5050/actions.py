@@ -178,8 +178,11 @@ class ActionBook:
                     self._out.append(ActionChanged(run.id, run.action.action_type, PAUSED if held else RUNNING))
 
     def instant_blocking(self) -> bool:
-        """A SOFT or HARD instant action runs: the vehicle must not drive meanwhile."""
-        return any(not r.of_order and r.status is RUNNING and r.blocking is not NONE for r in self.runs.values())
+        """A SOFT or HARD instant action runs: the vehicle must not drive meanwhile. Not a cancelOrder, whatever
+        its blocking type: Figure 9 says how the vehicle stops (to the next node, or at once), and holding it
+        short of its node would keep the cancel from ever finishing (docs/vda5050.md)."""
+        return any(not r.of_order and r.status is RUNNING and r.blocking is not NONE
+                   and r.action.action_type != "cancelOrder" for r in self.runs.values())
 
     def set(self, run: Run, status: ActionStatus, result: str | None = None) -> None:
         if status.final:

@@ -130,8 +130,9 @@ class Order:
 @dataclass(frozen=True, slots=True, kw_only=True)
 class InstantActions:
     """§6.9. The 2.0.0 schema names an action's type ``actionName``; the 2.0.0 text says ``actionType``,
-    which vcran writes in both versions and reads besides ``actionName`` in 2.0.0 (docs/vda5050.md,
-    "Versions")."""
+    which vcran writes in both versions and reads besides ``actionName`` in 2.0.0. The 2.0 text calls the
+    list ``instantActions`` (as 1.1 did), the schemas ``actions``: a 2.0.0 vehicle reads either
+    (docs/vda5050.md, "Versions")."""
 
     header: Header = wire(flatten=True)
-    actions: tuple[Action, ...]
+    actions: tuple[Action, ...] = wire(v2_0_alias="instantActions")

@@ -11,7 +11,9 @@ requires no header, where the 2.0.0 text (§6.9 and the action table of §6.6.6)
 header; 2.1.0 fixed both (VDA5050/vd-m-a-5050 issue 20). The text wins where the two disagree (§6, "If
 there are differences between the JSON schemas and this document, the variant in this document
 applies"), so a header is required and an action's type may be spelled either way (most 2.0.0 masters
-send ``actionType``; one generated from the 2.0.0 schema sends ``actionName``). :func:`official` gives
+send ``actionType``; one generated from the 2.0.0 schema sends ``actionName``). The same text calls the
+list of actions ``instantActions``, the schema ``actions`` (VDA5050/vd-m-a-5050 issue 16; vda-5050-lib
+1.x sends ``instantActions``): either is read. :func:`official` gives
 the schemas unaltered, for checking what vcran sends.
 """
 
@@ -58,7 +60,9 @@ def _corrected(topic: Topic, version: Version) -> dict[str, Any]:
         action["properties"]["actionType"] = action["properties"]["actionName"]
         action["required"] = [r for r in action["required"] if r != "actionName"]
         action["anyOf"] = [{"required": ["actionType"]}, {"required": ["actionName"]}]
-        schema["required"] = official(topic, Version.V2_1_0)["required"]
+        schema["properties"]["instantActions"] = schema["properties"]["actions"]
+        schema["required"] = [r for r in official(topic, Version.V2_1_0)["required"] if r != "actions"]
+        schema["anyOf"] = [{"required": ["actions"]}, {"required": ["instantActions"]}]
     return schema
 
 
