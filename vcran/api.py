@@ -25,7 +25,7 @@ from vcran.core.wire import Frame, Transport
 from vcran.io.scenario_file import ScenarioError, load
 from vcran.io.sinks import FolderSinks, MemorySinks
 from vcran.io.trace import event_records, events_beside, long_table, telemetry_table, trace_in
-from vcran.runner import execute
+from vcran.runner import check_protocol, execute
 from vcran.sim.model import Model
 
 if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager (a scripted run never does)
@@ -146,6 +146,7 @@ def run(
     """:func:`simulate`, with a progress observer (what ``vcran run`` shows) and ``on_start``, called with
     the model before it runs (``vcran run`` stops it there on a signal)."""
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
+    check_protocol(sc)  # before a VDA 5050 master is taken for a FleetManager that is not one
     fleet_manager, name = build_manager(manager, sc)
     _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
     options: dict[str, Any] = ({"transport": "scripted"} if fleet_manager is None else

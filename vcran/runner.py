@@ -21,9 +21,10 @@ from typing import Any
 import simpy
 
 from transports.record import RecordingTransport
-from vcran.core.scenario import Scenario
+from vcran.core.scenario import OPIL, Scenario
 from vcran.core.wire import Transport
 from vcran.io.sinks import FolderSinks, Sinks
+from vcran.io.toml_table import ScenarioError
 from vcran.sim.model import Model
 
 #: Allocations between young-generation collections while a run is under way (CPython's default: 700).
@@ -90,6 +91,18 @@ class RunResult:
         return self.summary["sim_time"] / self.wall_seconds if self.wall_seconds > 0 else float("inf")
 
 
+def check_protocol(scenario: Scenario) -> None:
+    """A scenario whose robots speak a protocol the simulation does not host yet is refused before anything
+    runs (or any folder is made): its VDA 5050 vehicles would be driven as OPIL robots, deaf to their orders.
+    VDA 5050 scenarios load and validate, and :class:`vcran.testing.vda5050.yard.Yard` runs their master,
+    until the SimPy glue (issue 31, vcran/sim/vda5050/) lands."""
+    protocol = scenario.settings.protocol
+    if protocol != OPIL:
+        raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
+                            "VDA 5050 vehicles yet (the scenario loads and validates; vcran.testing.vda5050.yard.Yard "
+                            "runs a VDA 5050 master against it)")
+
+
 def execute(
     scenario: Scenario,
     transport: Transport,
@@ -109,6 +122,7 @@ def execute(
     cannot change the outputs (:class:`vcran.io.progress.ProgressBar` is one). A run that raises closes
     the files and publishes nothing: a folder stays ``<out>.incomplete``.
     """
+    check_protocol(scenario)
     trace, events = sinks.trace, sinks.events
     assert trace is not None, "a run's sinks have a trace (only vcran manage's folder has none)"
     recording = RecordingTransport(transport, trace, after_frame=sinks.after_frame)

@@ -61,7 +61,7 @@ def test_an_unknown_name_lists_the_bundled_ones(tmp_path: Path, monkeypatch: pyt
                                                 capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", "dmeo", "--out", "out"]) == 2
-    assert capsys.readouterr().err == "vcran run: dmeo: no such file (and no bundled scenario of that name; bundled: battery, corridor, crossing, demo, faults, warehouse-faults, warehouse-traffic, warehouse)\n"
+    assert capsys.readouterr().err == "vcran run: dmeo: no such file (and no bundled scenario of that name; bundled: battery, corridor, crossing, demo, faults, vda5050-warehouse, vda5050, warehouse-faults, warehouse-traffic, warehouse)\n"
 
 
 # --- the wheel ---------------------------------------------------------------------------------------------

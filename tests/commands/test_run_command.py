@@ -72,3 +72,31 @@ def test_a_manager_module_in_the_current_folder_imports_as_docs_library_shows(tm
     assert jobs["completed"] == 0 and jobs["open"] == jobs["arrived"] > 0
     assert main(["run", WAREHOUSE, "--out", str(out), "--quiet", "--manager", "not_here_either:Idle"]) == 2
     assert "cannot import not_here_either: No module named 'not_here_either'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["vda5050", "vda5050-warehouse"])
+def test_a_vda5050_scenario_is_refused_until_the_simulation_hosts_its_vehicles(tmp_path, capsys, name):
+    """Until issue 31's SimPy glue, VDA 5050 vehicles would run as OPIL robots, deaf to their orders (and
+    the warehouse's master is no FleetManager): one line saying so, exit 2, no folder."""
+    out = tmp_path / "out"
+    assert main(["run", name, "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"vcran run: {ROOT / 'vcran' / 'scenarios' / name}.toml: [simulation] protocol = "
+                          "'vda5050': the simulation does not host VDA 5050 vehicles yet") and err.count("\n") == 1
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv", [
+    ["send", "vda5050", "--orion", "http://127.0.0.1:9"],
+    ["live", "vda5050", "--orion", "http://127.0.0.1:9", "--out", "out"],
+    ["manage", "vda5050-warehouse", "--orion", "http://127.0.0.1:9"],
+    ["orion", "init", "vda5050", "--orion", "http://127.0.0.1:9"],
+    ["fuzz", "vda5050"],
+])
+def test_every_scenario_command_refuses_a_vda5050_scenario_before_it_connects(tmp_path, capsys, monkeypatch, argv):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "[simulation] protocol = 'vda5050': the simulation does not host VDA 5050 vehicles yet" in err
+    assert err.startswith(f"vcran {argv[0]}: ") and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []

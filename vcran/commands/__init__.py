@@ -11,7 +11,8 @@ if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
 
 #: The scenarios shipped in the package (vcran/scenarios; a test keeps this list in step with it).
-BUNDLED = ("battery", "corridor", "crossing", "demo", "faults", "warehouse-faults", "warehouse-traffic", "warehouse")
+BUNDLED = ("battery", "corridor", "crossing", "demo", "faults", "vda5050-warehouse", "vda5050", "warehouse-faults",
+           "warehouse-traffic", "warehouse")
 
 
 #: What ``--manager`` adds to each command's help: which options the class gets (vcran.api.manager_options).
@@ -51,10 +52,15 @@ def add_scenario_argument(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def load_scenario(path: Path) -> Scenario:
-    """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field."""
+    """The scenario at ``path``, or a CommandError (exit 2) naming the file, the entry and the field; also
+    for a scenario whose protocol the simulation does not host yet (:func:`vcran.runner.check_protocol`),
+    before a command connects to anything."""
     from vcran.io.scenario_file import ScenarioError, load
+    from vcran.runner import check_protocol
 
     try:
-        return load(path)
+        scenario = load(path)
+        check_protocol(scenario)
     except ScenarioError as exc:
         raise CommandError(str(exc)) from None
+    return scenario

@@ -5,7 +5,12 @@ of times (fuzzing, determinism tests). The fleet manager's part is either a mess
 JMeter file) or, in a closed loop (SPEC §9), a workload of jobs for a fleet manager, the link between
 that manager and the RAN, and which manager to run. Reading and writing scenario files (TOML) is
 :mod:`vcran.io`'s part: :mod:`vcran.io.scenario_file` loads them strictly, :mod:`vcran.io.scenario_toml`
-writes them back.
+writes them back. A scenario speaks one protocol (``Settings.protocol``): OPIL, or VDA 5050, whose robots
+carry a vehicle's identity and whose script sends VDA 5050 messages (SPEC §11).
+
+One concept, over 450 lines: the scenario as data, every part a frozen record the others refer to (the
+script's lazy expansion with it, since it is what :meth:`Scenario.messages` returns); its rules are
+:mod:`vcran.core.validity`'s.
 """
 
 from __future__ import annotations
@@ -15,7 +20,7 @@ import random
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from itertools import groupby
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vcran.core.battery import BatteryConfig
 from vcran.core.faults import FaultSpec, RandomFaults
@@ -27,11 +32,26 @@ from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.traffic.settings import TrafficSettings
 from vcran.core.wire import Inbound
 
+if TYPE_CHECKING:  # types only: the shared model imports no protocol package
+    from vcran.core.vda5050.order import InstantActions, Order
+
+    VdaMessage = Order | InstantActions
+
 #: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
 #: is not among them: a robot can charge exactly when it has a battery.
 ACTION_KINDS = tuple(k.value for k in ActionKind if k is not ActionKind.CHARGE)
 #: ``collisions =`` (SPEC §4): "report" (default), "stop", or "off" (no detection at all).
 COLLISION_MODES = ("report", "stop", "off")
+#: ``[simulation] protocol``: what the robots speak with their fleet manager, OPIL (SPEC §2, the default) or
+#: VDA 5050 (SPEC §11).
+OPIL, VDA5050 = "opil", "vda5050"
+PROTOCOLS = (OPIL, VDA5050)
+#: The VDA 5050 versions a vehicle may speak (its ``version``; docs/vda5050.md, "Versions").
+VDA5050_VERSIONS = ("2.1.0", "2.0.0")
+#: A VDA 5050 vehicle's ``interface_name`` unless it says otherwise (§6.3: "uagv").
+INTERFACE_NAME = "uagv"
+#: The topics a VDA 5050 script sends on (a script entry's ``attribute``).
+VDA5050_TOPICS = ("order", "instantActions")
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +69,8 @@ class Settings:
     collisions: str = "report"
     #: Footprints are compared at least every this many metres of any point's travel (docs/robots.md).
     collision_resolution: float = 0.05
+    #: What the robots speak: :data:`OPIL` or :data:`VDA5050` (docs/scenarios.md, "VDA 5050 vehicles").
+    protocol: str = OPIL
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,6 +89,20 @@ class RobotConfig:
     battery: BatteryConfig | None = None
     #: The robot's protective field (SPEC §12, ``[robots.field]``); None: the fleet's (``[traffic] field``).
     field: FieldSpec | None = None
+    #: A VDA 5050 vehicle's identity (SPEC §11; §6.3's topic levels and headers): required in a VDA 5050
+    #: scenario, refused in an OPIL one. None: not given; ``interface_name`` then is :data:`INTERFACE_NAME`,
+    #: ``version`` the first of :data:`VDA5050_VERSIONS` (:meth:`vda5050_identity`).
+    manufacturer: str | None = None
+    serial_number: str | None = None
+    interface_name: str | None = None
+    version: str | None = None
+
+    @property
+    def vda5050_identity(self) -> tuple[str, str, str, str]:
+        """``(interface_name, manufacturer, serial_number, version)`` with the defaults filled in (the
+        manufacturer and serial number, which have none, as given: a VDA 5050 scenario has them)."""
+        return (self.interface_name or INTERFACE_NAME, self.manufacturer or "", self.serial_number or "",
+                self.version or VDA5050_VERSIONS[0])
 
     @property
     def moves_parts(self) -> bool:
@@ -97,12 +133,17 @@ class StationConfig:
 @slot_init
 @dataclass(frozen=True, slots=True)
 class ScriptEntry:
-    """One message of the script: at ``t``, ``attribute`` of ``robot`` becomes ``message`` (or ``raw``)."""
+    """One message of the script: at ``t``, ``attribute`` of ``robot`` becomes ``message`` (or ``raw``).
+
+    In a VDA 5050 scenario ``attribute`` is the topic (``order``, ``instantActions``), ``message`` the
+    :class:`~vcran.core.vda5050.order.Order` or :class:`~vcran.core.vda5050.order.InstantActions` with its
+    header, and ``raw`` a payload text sent as it is (a master's bad message: the vehicle refuses it).
+    """
 
     t: float
     robot: str
     attribute: str
-    message: Message | None = None
+    message: Message | VdaMessage | None = None
     #: An NGSI attribute as JSON, decoded by the RAN like a live one: how scripts exercise R12.
     raw: Any = None
 
@@ -349,6 +390,7 @@ class Scenario:
                 "entity_type": s.entity_type, "action_durations": dict(s.durations),
                 "collisions": s.collisions if s.collisions != "report" else None,
                 "collision_resolution": s.collision_resolution if s.collision_resolution != 0.05 else None,
+                "protocol": s.protocol if s.protocol != OPIL else None,
             },
             "robots": [
                 {
@@ -357,6 +399,8 @@ class Scenario:
                     "max_angular_velocity": r.max_angular_velocity, "footprint": [list(p) for p in r.footprint],
                     "actions": list(r.actions), "capacity": r.capacity, "carrying": r.carrying, "vendor": r.vendor,
                     "battery": _battery_dict(r.battery), "field": r.field.as_dict() if r.field else None,
+                    "manufacturer": r.manufacturer, "serial_number": r.serial_number,
+                    "interface_name": r.interface_name, "version": r.version,
                 }
                 for r in self.robots
             ],

@@ -31,6 +31,7 @@ from vcran.core.faults import KINDS as FAULT_KINDS
 from vcran.core.faults import FaultSpec, RandomFaults
 from vcran.core.scenario import (
     ACTION_KINDS,
+    OPIL,
     SUBSCRIPTION,
     Cycle,
     Job,
@@ -59,6 +60,7 @@ from vcran.core.validity.workload import (
     SCRIPT,
 )
 from vcran.io.scenario_script import check_in_run, script_entry
+from vcran.io.scenario_vda5050 import Draft, stamped
 from vcran.io.toml_table import ScenarioError, Table, read_toml
 
 __all__ = ["ScenarioError", "bundled", "load", "parse", "read", "resolve"]
@@ -124,15 +126,24 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
     owners: list[int] = []  # the [[script]] entry each message came from
     cycles: list[Cycle] = []
     cycle_owners: list[int] = []
+    drafts: dict[int, Draft] = {}  # VDA 5050 messages, by their place in the script, stamped below
     for i, t in enumerate(script_tables):
         entry = script_entry(t)
         check_in_run(t, entry, settings.duration)
         if isinstance(entry, Cycle):
             cycles.append(entry)
             cycle_owners.append(i)
+        elif isinstance(entry, Draft):
+            drafts[len(script)] = entry
+            script.append(None)  # type: ignore[arg-type]  # filled in below
+            owners.append(i)
         else:
             script.extend(entry)
             owners.extend([i] * len(entry))
+    if drafts:
+        for place, stamped_entry in zip(drafts, stamped(list(drafts.values()), {r.id: r for r in robots},
+                                                        settings.protocol)):
+            script[place] = stamped_entry
     in_file = list(script)
     script.sort(key=_time)  # stable: equal times keep file order (so do jobs and faults)
     scenario = Scenario(settings, robots, stations, tuple(script), top.source, tuple(cycles),
@@ -197,6 +208,7 @@ def _settings(t: Table, default_name: str) -> Settings:
         durations=d,
         collisions=t.string("collisions", "report"),
         collision_resolution=t.number("collision_resolution", 0.05),
+        protocol=t.choice("protocol", default=OPIL),
     )
     t.done()
     return s
@@ -225,6 +237,10 @@ def _robot(t: Table) -> RobotConfig:
         vendor=t.text("vendor", "vcran"),
         battery=None if (battery := t.optional_table("battery", BATTERY)) is None else _battery(battery),
         field=None if (field := t.optional_table("field", FIELD)) is None else _field(field),
+        manufacturer=t.string("manufacturer", None),  # a VDA 5050 vehicle's (SPEC §11)
+        serial_number=t.string("serial_number", None),
+        interface_name=t.string("interface_name", None),
+        version=t.choice("version", default=None),
     )
     t.done()
     return r

@@ -217,6 +217,10 @@ class RecordingTable(Table):
         self._note(key, {"oneOf": [names, table]}, _MISSING)
         return [(self._sample("x0", "x1"), 1.0)]
 
+    def document(self, key: str, default: Any = _MISSING) -> Any:
+        self._note(key, {"type": ["object", "string"]}, default)
+        return {}
+
     def poses(self, key: str, default: list[Any]) -> list[tuple[float, float, float | None]]:
         self._note(key, {"type": "array", "items": _POSE}, default)
         return [(1.0, 1.0, None), (2.0, 2.0, self._sample(0.0, 1.0))]

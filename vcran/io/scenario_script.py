@@ -3,7 +3,8 @@ or as a task cycle (docs/scenarios.md).
 
 An entry names its time, its robot and its ``kind``: one message (``motion``, ``action``, ``cancel``, or a
 ``raw`` NGSI attribute as JSON), a whole ``task`` (its motions, then its actions), or a ``cycle`` of tasks
-sent again and again. The messages are built here (:mod:`vcran.core.opil.build`, which checks them as it builds
+sent again and again; in a VDA 5050 scenario an ``order`` or ``instantActions`` message
+(:mod:`vcran.io.scenario_vda5050`). The messages are built here (:mod:`vcran.core.opil.build`, which checks them as it builds
 them); the model's rules for the entries (a robot of the fleet, a time a stamp can hold, nothing after the
 run's end) are :mod:`vcran.core.validity.workload`'s.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from functools import partial
 from typing import Any
 
 from vcran.core.opil import build
@@ -20,13 +22,15 @@ from vcran.core.opil.messages import INBOUND
 from vcran.core.opil.schema import MessageError
 from vcran.core.scenario import Cycle, ScriptEntry, TaskSpec, task_entries
 from vcran.core.validity.workload import CYCLE, SCRIPT_ACTIONS, TASK, after_end, task_problem
+from vcran.io.scenario_vda5050 import Draft, draft
 from vcran.io.toml_table import Table
 
 __all__ = ["check_in_run", "script_entry"]
 
 
-def script_entry(t: Table) -> list[ScriptEntry] | Cycle:
-    """The ``[[script]]`` entry ``t`` (read with :data:`~vcran.core.validity.workload.SCRIPT`'s rules)."""
+def script_entry(t: Table) -> list[ScriptEntry] | Cycle | Draft:
+    """The ``[[script]]`` entry ``t`` (read with :data:`~vcran.core.validity.workload.SCRIPT`'s rules); a
+    VDA 5050 message as a :class:`~vcran.io.scenario_vda5050.Draft`, stamped once all are read."""
     time = t.number("t")  # its rule bounds it before the messages are built (a stamp of 1e308 s overflows)
     robot = t.string("robot")
     kind = t.choice("kind", list(_EXPANDERS))
@@ -117,14 +121,18 @@ def _task_spec(t: Table) -> TaskSpec:
     return TaskSpec(tuple(t.poses("path", [])), tuple(t.choices("actions", default=[])))
 
 
-def check_in_run(t: Table, entry: list[ScriptEntry] | Cycle, duration: float | None) -> None:
+def check_in_run(t: Table, entry: list[ScriptEntry] | Cycle | Draft, duration: float | None) -> None:
     """An entry the run ends before would never be sent (:func:`vcran.core.validity.workload.after_end`),
     said of the whole [[script]] entry: a task's messages end at its last."""
-    start = entry.t if isinstance(entry, Cycle) else max((e.t for e in entry), default=0.0)
-    what = "starts" if isinstance(entry, Cycle) else "is sent" if len(entry) == 1 else "ends"
+    start = entry.t if isinstance(entry, Cycle | Draft) else max((e.t for e in entry), default=0.0)
+    what = "starts" if isinstance(entry, Cycle) else "ends" if isinstance(entry, list) and len(entry) > 1 else "is sent"
     problem = after_end(start, duration, f"entry {what}")
     if problem:
         t.fail("t", problem)
 
 
-_EXPANDERS: dict[str, Any] = {"motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle}
+_EXPANDERS: dict[str, Any] = {
+    "motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle,
+    # VDA 5050 (SPEC §11): the topic the message goes on
+    "order": partial(draft, topic="order"), "instantActions": partial(draft, topic="instantActions"),
+}

@@ -2,7 +2,8 @@
 
 ``vcran fuzz`` prints the shrunk script that broke a rule as a scenario file that ``vcran run`` re-runs,
 and builds every variant it runs from that same text, so what a user re-runs is exactly what failed.
-Script entries become ``motion``, ``action``, ``cancel`` and ``raw`` tables; the fleet comes from
+Script entries become ``motion``, ``action``, ``cancel`` and ``raw`` tables (a VDA 5050 scenario's
+``order`` and ``instantActions``, their headers left for the reader to stamp); the fleet comes from
 :meth:`Scenario.fleet_dict`. A message whose fields a scenario file cannot express (a ``point_id`` that
 differs from its ``motion_id``, a header frame, action attributes, ...) raises :class:`ValueError`
 naming the field, rather than being written differently from what it is.
@@ -18,13 +19,27 @@ from typing import Any
 from vcran.core.opil.build import CATEGORY_OF
 from vcran.core.opil.ids import Id, id_for
 from vcran.core.opil.messages import ActionAssignment, CancelTask, MotionAssignment
-from vcran.core.scenario import Scenario, ScriptEntry
+from vcran.core.scenario import VDA5050_TOPICS, RobotConfig, Scenario, ScriptEntry
+from vcran.core.vda5050.enums import Version
+from vcran.io.scenario_vda5050 import HEADER, header
 
 
 def scenario_dict(scenario: Scenario, script: Iterable[ScriptEntry]) -> dict[str, Any]:
-    """``scenario``'s fleet and settings with ``script`` as its message script, as parse() reads it."""
+    """``scenario``'s fleet and settings with ``script`` (in time order) as its message script, as parse()
+    reads it. A VDA 5050 message is written without its header, which the reader stamps again: one whose
+    header is not the one the reader would stamp raises :class:`ValueError`."""
     data = scenario.fleet_dict()
-    data["script"] = [entry_table(e) for e in script]
+    vehicles = {r.id: r for r in scenario.robots}
+    counts: dict[tuple[str, str], int] = {}
+    tables = []
+    for e in script:
+        if e.attribute in VDA5050_TOPICS and e.message is not None:
+            n = counts.get((e.robot, e.attribute), 0)
+            counts[(e.robot, e.attribute)] = n + 1
+            tables.append(_vda5050_message(e, vehicles.get(e.robot), n))
+        else:
+            tables.append(entry_table(e))
+    data["script"] = tables
     return data
 
 
@@ -49,9 +64,12 @@ def loop_dict(scenario: Scenario) -> dict[str, Any]:
 
 
 def entry_table(e: ScriptEntry) -> dict[str, Any]:
-    """One script entry as a ``[[script]]`` table."""
+    """One script entry as a ``[[script]]`` table (a VDA 5050 message only through :func:`scenario_dict`,
+    which knows its header)."""
     head: dict[str, Any] = {"t": e.t, "robot": e.robot}
     m = e.message
+    if m is None and e.attribute in VDA5050_TOPICS:
+        return {**head, "kind": e.attribute, "payload": e.raw}
     if m is None:
         return {**head, "kind": "raw", "attribute": e.attribute, "value": json.dumps(e.raw, ensure_ascii=False)}
     if isinstance(m, MotionAssignment):
@@ -61,6 +79,19 @@ def entry_table(e: ScriptEntry) -> dict[str, Any]:
     if isinstance(m, CancelTask):
         return {**head, **_cancel(m)}
     raise ValueError(f"a script cannot hold {type(m).__name__}")
+
+
+def _vda5050_message(e: ScriptEntry, vehicle: RobotConfig | None, n: int) -> dict[str, Any]:
+    """A VDA 5050 script message (``n``-th of its robot and topic) as its ``[[script]]`` table."""
+    from vcran.core.vda5050.codec import to_plain
+
+    if vehicle is None:
+        raise ValueError(f"a script message for {e.robot!r}, which is no robot of the scenario")
+    plain = to_plain(e.message, Version(vehicle.vda5050_identity[3]))
+    stamped = {key: plain.pop(key, None) for key in HEADER}
+    _require(stamped == header(vehicle, n, e.t), "header",
+             f"vcran stamps {header(vehicle, n, e.t)}, the message has {stamped}")
+    return {"t": e.t, "robot": e.robot, "kind": e.attribute, "message": plain}
 
 
 def name_of(ident: Id) -> str:

@@ -290,3 +290,13 @@ class Table:
             if problem := pose_problem(p):
                 self.fail(f"{key}[{i}]", problem)
         return [(float(p[0]), float(p[1]), float(p[2]) if len(p) == 3 else None) for p in v]
+
+    def document(self, key: str, default: Any = _MISSING) -> Any:
+        """A JSON object written as a TOML table (returned as the dict) or as a JSON text (returned as the
+        string, for the caller to parse): a VDA 5050 message in a script (:mod:`vcran.io.scenario_vda5050`)."""
+        v = self.raw(key, default)
+        if v is default and default is not _MISSING:
+            return v
+        if not isinstance(v, dict | str):
+            self.fail(key, f"expected a table or a JSON text, got {type(v).__name__}")
+        return v

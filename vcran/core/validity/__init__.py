@@ -7,7 +7,8 @@ into the model, calls :func:`validate` and says where in the file each problem l
 ``stations[0].dock``, ``jobs[1].pickup``; the file's keys), told as one line by ``str(problem)``.
 
 The rules, by part: settings, robots and stations in :mod:`.fleet`; faults, the closed loop (jobs, job
-stream, link, manager) and the script in :mod:`.workload`; a roadmap's in
+stream, link, manager) and the script in :mod:`.workload`; what the scenario's protocol allows (VDA 5050
+vehicles, and the script's messages) in :mod:`.protocol`; a roadmap's in
 :func:`vcran.core.traffic.roadmap.validate`; safety fields and deadlock settings in :mod:`.safety`; the
 rules between parts and of the whole scenario here. Each field's own rule (kind and bounds) is declared once
 in those modules, and the file's reader applies it to the value as the file writes it (:mod:`.fields`).
@@ -23,6 +24,9 @@ from vcran.core.traffic import roadmap as traffic
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.validity.fields import Problem, is_number
 from vcran.core.validity.fleet import robot_problems, settings_problems, station_problems
+from vcran.core.validity.protocol import link_problems as protocol_link_problems
+from vcran.core.validity.protocol import script_problems as protocol_script_problems
+from vcran.core.validity.protocol import vehicle_problems
 from vcran.core.validity.safety import traffic_problems
 from vcran.core.validity.workload import (
     fault_problems,
@@ -56,6 +60,9 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
     for i, r in enumerate(sc.robots):
         out += robot_problems(r, i, own)
     out += _unique("robots", sc.robots, RobotConfig)
+    protocol = sc.settings.protocol if isinstance(sc.settings, Settings) else None
+    if protocol is not None and not out:  # a robot's own fields first: its topics are made of them
+        out += vehicle_problems(sc.robots, protocol)
     stations = []
     for i, s in enumerate(sc.stations):
         stations += station_problems(s, i, own)
@@ -65,7 +72,8 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
     elif not stations:  # the roadmap's rules read the stations' docks
         out += [Problem(*p) for p in traffic.validate(sc.roadmap, sc.stations)]
     out += traffic_problems(sc, own)
-    out += link_problems(sc.link, own)
+    link = link_problems(sc.link, own)
+    out += link or (protocol_link_problems(sc.link, protocol) if protocol is not None else [])
     if sc.manager is not None:
         out += manager_problems(sc.manager, own)
     robots = _ids(sc.robots, RobotConfig)
@@ -81,7 +89,10 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
     if sc.job_stream is not None:
         listed = [j.id for j in sc.jobs if isinstance(getattr(j, "id", None), str)]
         out += job_stream_problems(sc.job_stream, names, listed, end, own)
-    out += script_problems(sc.script, sc.cycles, robots, end, own)
+    script = script_problems(sc.script, sc.cycles, robots, end, own)
+    if protocol is not None and not script:
+        script = protocol_script_problems(sc.script, sc.cycles, protocol)
+    out += script
     return out + _whole(sc, faults_sound=not faults)
 
 

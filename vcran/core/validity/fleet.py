@@ -14,12 +14,21 @@ from typing import Any
 from vcran.core.battery import BatteryConfig
 from vcran.core.orion_rules import identifier_error
 from vcran.core.polygon import covers, polygon_problem
-from vcran.core.scenario import ACTION_KINDS, COLLISION_MODES, RobotConfig, Settings, StationConfig
+from vcran.core.scenario import (
+    ACTION_KINDS,
+    COLLISION_MODES,
+    PROTOCOLS,
+    VDA5050_VERSIONS,
+    RobotConfig,
+    Settings,
+    StationConfig,
+)
 from vcran.core.validity.fields import (
     Choices,
     Flag,
     Integer,
     Number,
+    OneOf,
     Problem,
     Rule,
     Shape,
@@ -55,6 +64,7 @@ SETTINGS: dict[str, Rule] = {
     "entity_type": Text(then=_entity_type),
     "collisions": Text(then=_collision_mode),
     "collision_resolution": Number(positive=True),
+    "protocol": OneOf(PROTOCOLS, "protocol"),
 }
 #: ``[simulation.action_durations]``: seconds per action (the model's :attr:`Settings.durations`).
 ACTION_DURATIONS: dict[str, Rule] = {kind: Number(minimum=0.0) for kind in ACTION_KINDS}
@@ -74,6 +84,28 @@ def _footprint(v: Any) -> str | None:
 _CHARGE = ("'charge' is not listed among a robot's actions: a robot with [robots.battery] can charge "
            f"(SPEC §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
 
+#: What an MQTT topic level cannot hold: the separator, the wildcards, ``$`` (topics of the broker's own),
+#: NUL. A VDA 5050 vehicle's identity is three levels of its topics (§6.3).
+TOPIC_LEVEL_FORBIDDEN = "/+#$\0"
+
+
+def _topic_level(v: str) -> str | None:
+    bad = [c if c != "\0" else "NUL" for c in TOPIC_LEVEL_FORBIDDEN if c in v]
+    if bad:
+        return (f"contains {' '.join(bad)}, which an MQTT topic level cannot hold (VDA 5050 §6.3: it names the "
+                "vehicle's topics)")
+    return None
+
+
+#: A VDA 5050 vehicle's identity (SPEC §11): required or refused by the scenario's protocol
+#: (:func:`vcran.core.validity.protocol.vehicle_problems`), so absent (None) here.
+VEHICLE: dict[str, Rule] = {
+    "manufacturer": Text(absent=None, then=_topic_level),
+    "serial_number": Text(absent=None, then=_topic_level),
+    "interface_name": Text(absent=None, then=_topic_level),
+    "version": OneOf(VDA5050_VERSIONS, "VDA 5050 version", absent=None),
+}
+
 ROBOT: dict[str, Rule] = {
     "id": Text(then=_robot_id),
     "max_acceleration": Number(minimum=0.0),
@@ -86,6 +118,7 @@ ROBOT: dict[str, Rule] = {
     "capacity": Integer(minimum=0),
     "carrying": Integer(minimum=0),
     "vendor": Text(publishable=True),
+    **VEHICLE,
 }
 
 

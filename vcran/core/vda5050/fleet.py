@@ -18,9 +18,18 @@ from vcran.core.traffic.paths import Graph
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.vda5050.builder import Stop
 from vcran.core.vda5050.config import VehicleConfig
+from vcran.core.vda5050.enums import Version
 
 if TYPE_CHECKING:  # types only: VDA 5050 imports nothing of OPIL's, which the scenario module still does
     from vcran.core.scenario import LinkSettings, RobotConfig, Scenario, Settings, StationConfig
+
+
+def vehicle_config(robot: RobotConfig) -> VehicleConfig:
+    """A robot's vehicle configuration: the identity and version a VDA 5050 scenario gives it; a robot
+    without one (a layout of an OPIL scenario, in tests) is serial number its id, manufacturer its
+    ``vendor``, version 2.1.0."""
+    version = Version(robot.version) if robot.version is not None else Version.V2_1_0
+    return VehicleConfig(robot.manufacturer or robot.vendor, robot.serial_number or robot.id, version=version)
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,10 +78,10 @@ class MasterFleet:
     @classmethod
     def of(cls, scenario: Scenario, configs: Sequence[VehicleConfig] | None = None) -> MasterFleet:
         """The scenario's fleet, each robot paired with its vehicle configuration (in fleet order); without
-        ``configs``, a robot's serial number is its id and its manufacturer its ``vendor``. The settings are
-        a copy: a master that writes to its ``durations`` changes nothing of the run."""
+        ``configs``, :func:`vehicle_config`'s. The settings are a copy: a master that writes to its
+        ``durations`` changes nothing of the run."""
         if configs is None:
-            configs = [VehicleConfig(r.vendor, r.id) for r in scenario.robots]
+            configs = [vehicle_config(r) for r in scenario.robots]
         if len(configs) != len(scenario.robots):
             raise ValueError(f"{len(configs)} vehicle configurations for {len(scenario.robots)} robots")
         settings = replace(scenario.settings, durations=dict(scenario.settings.durations))

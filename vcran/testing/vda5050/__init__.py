@@ -4,5 +4,7 @@
 * :mod:`vcran.testing.vda5050.plans` — orders a vehicle can drive, and the updates, cancels and pauses
   a master sends them;
 * :mod:`vcran.testing.vda5050.model` — a reference model of the vehicle's acceptance rules (§6.6);
-* :mod:`vcran.testing.vda5050.stateful` — a hypothesis state machine pairing the vehicle with the model.
+* :mod:`vcran.testing.vda5050.stateful` — a hypothesis state machine pairing the vehicle with the model;
+* :mod:`vcran.testing.vda5050.yard` — a master and a scenario's vehicles in simulated time, without SimPy;
+* :mod:`vcran.testing.vda5050.scripted` — a VDA 5050 scenario's script and its stations' production there.
 """
