@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from vcran.core.collisions import Box, Grid, Track, apart
 from vcran.core.traffic.fields import FieldTrack
 
-#: Grid cell size in metres (as collision detection's: a few legs' width).
+#: Grid cell size in metres: a few legs' width.
 CELL = 20.0
 
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 from typing import Any
 
 from vcran.core.scenario import RobotConfig, Scenario
-from vcran.core.traffic.settings import DEADLOCK_ACTIONS, TrafficSettings
 from vcran.core.traffic.fields import FieldSpec
+from vcran.core.traffic.settings import DEADLOCK_ACTIONS, TrafficSettings
 from vcran.core.validity.fields import Flag, Number, OneOf, Problem, Rule, fields
 
 FIELD: dict[str, Rule] = {
