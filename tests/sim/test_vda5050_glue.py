@@ -117,6 +117,40 @@ def test_a_vda5050_scenario_with_a_master_is_refused_until_the_closed_loop_hosts
     assert not (tmp_path / "out").exists()
 
 
+def order(t: float, robot: str, order_id: str, nodes: list[tuple[str, float]]) -> str:
+    """A script entry: an order along the x axis through ``nodes`` ((nodeId, x)), all released."""
+    node_rows = ",\n".join(
+        f'  {{ nodeId = "{n}", sequenceId = {2 * i}, released = true, nodePosition = {{ x = {x}, y = 0.0, mapId = "map" }}, actions = [] }}'
+        for i, (n, x) in enumerate(nodes))
+    edge_rows = ",\n".join(
+        f'  {{ edgeId = "{a}-{b}", sequenceId = {2 * i + 1}, released = true, startNodeId = "{a}", endNodeId = "{b}", actions = [] }}'
+        for i, ((a, _), (b, _)) in enumerate(zip(nodes, nodes[1:])))
+    return f"""
+[[script]]
+t = {t}
+robot = "{robot}"
+kind = "order"
+message.orderId = "{order_id}"
+message.orderUpdateId = 0
+message.nodes = [
+{node_rows},
+]
+message.edges = [
+{edge_rows},
+]
+"""
+
+
+def instant(t: float, robot: str, action_type: str, action_id: str, blocking: str) -> str:
+    return f"""
+[[script]]
+t = {t}
+robot = "{robot}"
+kind = "instantActions"
+message = '{{"actions": [{{"actionType": "{action_type}", "actionId": "{action_id}", "blockingType": "{blocking}"}}]}}'
+"""
+
+
 LINE = """
 [simulation]
 protocol = "vda5050"
@@ -130,59 +164,14 @@ serial_number = "7"
 pose = [0.0, 0.0, 0.0]
 max_velocity = 1.0
 max_acceleration = 0.5
-
-[[script]]
-t = 1.0
-robot = "agv"
-kind = "order"
-message.orderId = "o1"
-message.orderUpdateId = 0
-message.nodes = [
-  { nodeId = "a", sequenceId = 0, released = true, nodePosition = { x = 0.0, y = 0.0, mapId = "map" }, actions = [] },
-  { nodeId = "b", sequenceId = 2, released = true, nodePosition = { x = 6.0, y = 0.0, mapId = "map" }, actions = [] },
-]
-message.edges = [{ edgeId = "a-b", sequenceId = 1, released = true, startNodeId = "a", endNodeId = "b", actions = [] }]
-
-[[script]]
-t = 3.0
-robot = "agv"
-kind = "instantActions"
-message = '{"actions": [{"actionType": "startPause", "actionId": "pause_1", "blockingType": "HARD"}]}'
-
+""" + order(1.0, "agv", "o1", [("a", 0.0), ("b", 6.0)]) + instant(3.0, "agv", "startPause", "pause_1", "HARD") + """
 [[script]]
 t = 4.0
 robot = "agv"
 kind = "order"
 payload = '{"orderId": "bad"}'
-
-[[script]]
-t = 7.0
-robot = "agv"
-kind = "instantActions"
-message = '{"actions": [{"actionType": "stopPause", "actionId": "resume_1", "blockingType": "HARD"}]}'
-
-[[script]]
-t = 20.0
-robot = "agv"
-kind = "order"
-message.orderId = "o2"
-message.orderUpdateId = 0
-message.nodes = [
-  { nodeId = "b", sequenceId = 0, released = true, nodePosition = { x = 6.0, y = 0.0, mapId = "map" }, actions = [] },
-  { nodeId = "c", sequenceId = 2, released = true, nodePosition = { x = 12.0, y = 0.0, mapId = "map" }, actions = [] },
-  { nodeId = "d", sequenceId = 4, released = true, nodePosition = { x = 18.0, y = 0.0, mapId = "map" }, actions = [] },
-]
-message.edges = [
-  { edgeId = "b-c", sequenceId = 1, released = true, startNodeId = "b", endNodeId = "c", actions = [] },
-  { edgeId = "c-d", sequenceId = 3, released = true, startNodeId = "c", endNodeId = "d", actions = [] },
-]
-
-[[script]]
-t = 22.0
-robot = "agv"
-kind = "instantActions"
-message = '{"actions": [{"actionType": "cancelOrder", "actionId": "cancel_1", "blockingType": "NONE"}]}'
-"""
+""" + instant(7.0, "agv", "stopPause", "resume_1", "HARD") + order(20.0, "agv", "o2", [("b", 6.0), ("c", 12.0), ("d", 18.0)]) \
+    + instant(22.0, "agv", "cancelOrder", "cancel_1", "NONE")
 
 
 def test_pause_a_refused_payload_and_a_cancel_reach_the_body(tmp_path):
@@ -231,19 +220,8 @@ pose = [{x0}, 0.0, {theta}]
 max_velocity = 1.0
 max_acceleration = 0.5
 footprint = [[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]]
-
-[[script]]
-t = 0.0
-robot = "{name}"
-kind = "order"
-message.orderId = "{name}_go"
-message.orderUpdateId = 0
-message.nodes = [
-  {{ nodeId = "{name}0", sequenceId = 0, released = true, nodePosition = {{ x = {x0}, y = 0.0, mapId = "map" }}, actions = [] }},
-  {{ nodeId = "{name}1", sequenceId = 2, released = true, nodePosition = {{ x = {x1}, y = 0.0, mapId = "map" }}, actions = [] }},
-]
-message.edges = [{{ edgeId = "{name}-go", sequenceId = 1, released = true, startNodeId = "{name}0", endNodeId = "{name}1", actions = [] }}]
-""" for name, x0, x1, theta in (("A", 0.0, 20.0, 0.0), ("B", 20.0, 0.0, math.pi)))
+""" + order(0.0, name, f"{name}_go", [(f"{name}0", x0), (f"{name}1", x1)])
+              for name, x0, x1, theta in (("A", 0.0, 20.0, 0.0), ("B", 20.0, 0.0, math.pi)))
 
 
 def test_safety_fields_show_as_field_violation_and_a_deadlock_cancel_gives_the_orders_up(tmp_path):
