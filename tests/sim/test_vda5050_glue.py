@@ -248,3 +248,53 @@ def test_safety_fields_show_as_field_violation_and_a_deadlock_cancel_gives_the_o
     assert ended == {"A": (pytest.approx(11.0), "deadlock"), "B": (pytest.approx(11.0), "deadlock")}
     poses = {r: p["final_pose"]["x"] for r, p in json.loads((out / "summary.json").read_text())["robots"].items()}
     assert poses == pytest.approx({"A": 9.0, "B": 11.0})
+
+
+FAULTY = """
+[simulation]
+protocol = "vda5050"
+until_idle = true
+duration = 100.0
+
+[[robots]]
+id = "agv"
+manufacturer = "acme"
+serial_number = "7"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+max_acceleration = 0.5
+
+[[faults]]
+t = 3.0
+robot = "agv"
+kind = "breakdown"
+duration = 4.0
+
+[[faults]]
+t = 10.0
+robot = "agv"
+kind = "pause"
+
+[[faults]]
+t = 12.0
+robot = "agv"
+kind = "resume"
+""" + order(1.0, "agv", "o1", [("a", 0.0), ("b", 6.0)]) + instant(20.0, "agv", "startPause", "pause_1", "NONE")
+
+
+def test_spec_4_faults_reach_the_vehicle(tmp_path):
+    """SPEC §4 on a VDA 5050 vehicle (docs/vda5050.md, "Choices"): a breakdown from 3 to 7 holds the 6 m leg
+    (8 s from 1) and is a FATAL ``breakdown`` error while it lasts; the pause fault at 10 and the resume at 12
+    are the pause button (``paused`` true between, no actionState); b is reached 4 + 2 s late, at 15. A
+    startPause after that is an instant action as usual (FINISHED)."""
+    path = tmp_path / "faulty.toml"
+    path.write_text(FAULTY)
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    events = list(event_records(out / "events.jsonl.zst"))
+    assert [(e["t"], e["how"]) for e in events if e["event"] == "order_ended"] == [(pytest.approx(15.0), "completed")]
+    states = [(r["t"], r["raw"]) for r in trace_records(out) if r.get("attr") == "state"]
+    levels = {t: [(e["errorType"], e["errorLevel"]) for e in s["errors"]] for t, s in states}
+    assert levels[3.0] == [("breakdown", "FATAL")] and levels[7.0] == []
+    assert [s["paused"] for t, s in states if t in (10.0, 12.0)] == [True, False]
+    assert all(s["actionStates"] == [] for t, s in states if t < 20.0)

@@ -42,6 +42,8 @@ PERFORMED = {"pick": ActionKind.LOAD, "drop": ActionKind.UNLOAD}
 #: The body's holds are counted by kind: the Vehicle's own (pause, a blocking instant action) are kept apart
 #: from the faults' (a SPEC §4 pause or breakdown), which the Vehicle also hears of as inputs.
 HOLD_PREFIX = "vda5050."
+#: SPEC §4's faults the Vehicle hears of when they start (a breakdown's end too): the pause button and a breakdown.
+VEHICLE_FAULTS = ("breakdown", "pause", "resume")
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,22 +186,24 @@ class VehicleNode:
         return self.vehicle.on_acted(now, item.tag, item.ok, item.message)
 
     def _incident(self, body: Body, event: Any) -> None:
-        """Every incident goes to the run's log; those the Vehicle takes as inputs go to it too, through the
-        inbox (the body reports them from within its own processes)."""
+        """Every incident goes to the run's log; those the Vehicle takes as inputs (SPEC §4's breakdown and its
+        repair, the pause and resume faults, the battery's warning level) go to it too, through the inbox (the
+        body reports them from within its own processes)."""
         self.glue.log_incident(self, event)
         kind = type(event)
-        if kind is BatteryLow or (kind in (FaultStarted, FaultEnded) and event.kind in ("breakdown", "pause")
-                                  and getattr(event, "applied", True)):
+        if kind is BatteryLow or (kind is FaultStarted and event.applied and event.kind in VEHICLE_FAULTS) or (
+                kind is FaultEnded and event.kind == "breakdown"):
             self.inbox.put(Incident(event))
 
     def _on_incident(self, now: float, item: Incident) -> list[fx.Effect]:
         event, vehicle = item.event, self.vehicle
         if type(event) is BatteryLow:
             return vehicle.on_battery_low(now, True)
-        started = type(event) is FaultStarted
+        if type(event) is FaultEnded:
+            return vehicle.on_repaired(now)
         if event.kind == "breakdown":
-            return vehicle.on_breakdown(now) if started else vehicle.on_repaired(now)
-        return vehicle.on_pause_button(now, started)
+            return vehicle.on_breakdown(now)
+        return vehicle.on_pause_button(now, event.kind == "pause")
 
 
 def _field(node: VehicleNode, now: float, item: Any) -> list[fx.Effect]:
