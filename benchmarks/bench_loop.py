@@ -1,4 +1,4 @@
-"""The closed loop in process (SPEC §9): the warehouse with its dispatcher, and the cost of the loop.
+"""The closed loop in process (docs/contract.md §9): the warehouse with its dispatcher, and the cost of the loop.
 
     python benchmarks/bench_loop.py              # scenarios/warehouse.toml, best of 3
     python benchmarks/bench_loop.py --repeat 5 --scenario my.toml
@@ -12,7 +12,7 @@ Three runs of the same simulated hour, each timed in process (best of ``--repeat
   RAN does the same work at the same instants, but no manager, job book or link runs. The ratio loop /
   fixed script is what the closed loop costs over a scripted run of the same fleet and workload;
 * **replay of the trace** (``ReplayTransport``, with a run folder), which also checks that the trace
-  reproduces the loop run (SPEC §6), so the script did the same simulation.
+  reproduces the loop run (docs/contract.md §6), so the script did the same simulation.
 
 Wall-clock figures on a shared machine swing with its load: compare the ratios within one run. The CPU
 seconds of the same runs (``time.process_time``, the best of ``--repeat`` too) swing much less, and are

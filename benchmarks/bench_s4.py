@@ -1,4 +1,4 @@
-"""What SPEC §4 costs: a generated fleet with collision detection on vs off, and with batteries vs without.
+"""What docs/contract.md §4 costs: a generated fleet with collision detection on vs off, and with batteries vs without.
 
     python benchmarks/bench_s4.py                          # 1000 robots, one simulated hour
     python benchmarks/bench_s4.py --robots 100 --hours 0.25

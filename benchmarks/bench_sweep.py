@@ -1,4 +1,4 @@
-"""Sweeps (SPEC §10): 40 runs of the 10-robot hour on 1 worker vs 2, and the Dask path against the local
+"""Sweeps (docs/contract.md §10): 40 runs of the 10-robot hour on 1 worker vs 2, and the Dask path against the local
 process pool, in one run.
 
     python benchmarks/bench_sweep.py                 # 40 runs of vcran gen --robots 10 --hours 1

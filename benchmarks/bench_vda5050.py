@@ -1,4 +1,4 @@
-"""What VDA 5050's message handling costs (SPEC §11): a received order decoded (orjson, the official schema
+"""What VDA 5050's message handling costs (docs/contract.md §11): a received order decoded (orjson, the official schema
 through jsonschema, the typed model) for 2, 10 and 50 nodes, against parsing its JSON alone; and a state
 message built by a vehicle and encoded, the per-vehicle cost of every state sent.
 

@@ -1,4 +1,4 @@
-"""``vcran view`` at scale (SPEC §13, issue 33 item 5): page size, build time, load time and scrub redraws.
+"""``vcran view`` at scale (docs/contract.md §13, issue 33 item 5): page size, build time, load time and scrub redraws.
 
 For each fleet (``vcran gen --robots N --hours H --seed S``, run with its script): the wall time to write
 the page and its size; then, in headless Chromium (the system's, as tests/view does), the time from

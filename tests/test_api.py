@@ -1,4 +1,4 @@
-"""``vcran.simulate`` and its ``Result`` (SPEC §9, "The API"): in memory or into a run folder, the same run;
+"""``vcran.simulate`` and its ``Result`` (docs/contract.md §9, "The API"): in memory or into a run folder, the same run;
 how a fleet manager is named; clear errors for scenarios and managers that cannot run."""
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ class AnInbound(vcran.FleetManager):
 
 
 class OldNames(vcran.FleetManager):
-    """Written before vcran took OPIL's own attribute names (SPEC §2: a real OPIL planner reads these)."""
+    """Written before vcran took OPIL's own attribute names (docs/contract.md §2: a real OPIL planner reads these)."""
 
     attributes = frozenset({"assignment_status", "battery", "ran_status"})
 

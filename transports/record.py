@@ -1,4 +1,4 @@
-"""A recording transport: a wrapper that writes every message to a trace, then passes it on (SPEC §6)."""
+"""A recording transport: a wrapper that writes every message to a trace, then passes it on (docs/contract.md §6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The replay transport: feeds a recorded trace's inbound records back at their recorded times (SPEC §6).
+"""The replay transport: feeds a recorded trace's inbound records back at their recorded times (docs/contract.md §6).
 
 The trace is read lazily, line by line, so a replay of a long run needs no more memory than the run did.
 Outbound messages are dropped here; verification compares the files the replay writes.

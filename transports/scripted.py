@@ -1,4 +1,4 @@
-"""The scripted transport: the scenario's message script plays the fleet manager (the seed's JMeter file).
+"""The scripted transport: the scenario's message script plays the fleet manager (the original VC-RAN's JMeter file).
 
 Inbound messages enter at their script times, as fast as the simulation runs. Outbound messages are kept
 the way Orion keeps them, as the fleet's entities: the latest value per robot and attribute (``latest``,

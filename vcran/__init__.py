@@ -35,7 +35,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "load_scenario": ("vcran.io.scenario_file", "load"),
     "parse_scenario": ("vcran.io.scenario_file", "parse"),
     "ScenarioError": ("vcran.io.scenario_file", "ScenarioError"),
-    # messages of the OPIL RAN interface (SPEC §2) and ids
+    # messages of the OPIL RAN interface (docs/contract.md §2) and ids
     "Id": ("vcran.core.opil.ids", "Id"),
     "id_for": ("vcran.core.opil.ids", "id_for"),
     "MotionAssignment": ("vcran.core.opil.messages", "MotionAssignment"),
@@ -46,7 +46,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "Inbound": ("vcran.core.wire", "Inbound"),
     "Publish": ("vcran.core.wire", "Publish"),
     "Frame": ("vcran.core.wire", "Frame"),
-    # running a scenario in process (SPEC §9), or into a run folder with a transport of one's own
+    # running a scenario in process (docs/contract.md §9), or into a run folder with a transport of one's own
     "simulate": ("vcran.api", "simulate"),
     "Result": ("vcran.api", "Result"),
     "ManagerError": ("vcran.api", "ManagerError"),
@@ -56,7 +56,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     # reading a run folder back (docs/outputs.md)
     "telemetry_table": ("vcran.io.trace", "telemetry_table"),
     "trace_records": ("vcran.io.trace", "trace_records"),
-    # a fleet manager in the loop (SPEC §9)
+    # a fleet manager in the loop (docs/contract.md §9)
     "FleetManager": ("vcran.core.opil.manager", "FleetManager"),
     "Handle": ("vcran.core.opil.manager", "OpilHandle"),
     "Fleet": ("vcran.core.manager", "Fleet"),
@@ -65,7 +65,7 @@ _EXPORTS: dict[str, tuple[str, str]] = {
     "JobStream": ("vcran.core.scenario", "JobStream"),
     "LinkSettings": ("vcran.core.scenario", "LinkSettings"),
     "JobRecord": ("vcran.core.jobs", "JobRecord"),
-    # many variants and seeds into one KPI table, here or on a Dask cluster (SPEC §10)
+    # many variants and seeds into one KPI table, here or on a Dask cluster (docs/contract.md §10)
     "load_sweep": ("vcran.sweep.spec", "load"),
     "run_sweep": ("vcran.sweep.runs", "run_sweep"),
     "Sweep": ("vcran.sweep.spec", "Sweep"),

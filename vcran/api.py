@@ -1,4 +1,4 @@
-"""Run a scenario in process: :func:`simulate` and its :class:`Result` (SPEC §9, "The API"; docs/library.md).
+"""Run a scenario in process: :func:`simulate` and its :class:`Result` (docs/contract.md §9, "The API"; docs/library.md).
 
 One path for every in-process run: a scenario with a message script plays it (as ``vcran run`` always
 did); a scenario with a fleet manager, named in the scenario or passed in, runs a closed loop
@@ -172,7 +172,7 @@ def run(
 
 
 def loop_summary(model: Model, loop: ClosedLoop) -> dict[str, Any]:
-    """summary.json of a closed loop: the model's, with the jobs and each robot's share of time busy (SPEC §9)."""
+    """summary.json of a closed loop: the model's, with the jobs and each robot's share of time busy (docs/contract.md §9)."""
     summary = model.summary()
     t = model.env.now
     summary["jobs"] = loop.jobs.summary(t)
@@ -242,7 +242,7 @@ def manager_options(own: ManagerSpec | None, manager: str | type) -> dict[str, A
 
 
 def _check_attributes(manager: FleetManager) -> None:
-    """``attributes`` names what the robots publish (SPEC §2), or is None. A misspelt name was never
+    """``attributes`` names what the robots publish (docs/contract.md §2), or is None. A misspelt name was never
     notified in simulated time, while ``vcran manage`` subscribed with an empty condition and was told
     of every change: one class, two behaviours, and no word of the mistake."""
     from vcran.core.opil.messages import OUTBOUND, RENAMED

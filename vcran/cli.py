@@ -1,4 +1,4 @@
-"""The ``vcran`` console command: one subcommand per module in :mod:`vcran.commands` (SPEC §8).
+"""The ``vcran`` console command: one subcommand per module in :mod:`vcran.commands` (docs/contract.md §8).
 
 Each command module exposes ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``.
 Command modules import their heavy dependencies inside ``run`` so that ``vcran --help`` and the fast
@@ -62,7 +62,7 @@ class _UsageError(Exception):
 class _Parser(argparse.ArgumentParser):
     """argparse with the boundary's manners: a usage error reaches :func:`main`, which says it as one line
     ``vcran COMMAND: message`` (the usage itself is one ``--help`` away), exit status 2. Options are spelled
-    in full (``allow_abbrev`` off): SPEC §8 lets options grow, and an abbreviation that is unique today
+    in full (``allow_abbrev`` off): docs/contract.md §8 lets options grow, and an abbreviation that is unique today
     (``--rep``) would change meaning or turn ambiguous the day a command gains an option, under a script
     that used it; a prefix is an unknown option, and the error names the option it is short for."""
 

@@ -1,5 +1,5 @@
 """One way to wire a run: :func:`execute` builds the model for a scenario and a transport, runs it with
-every record going to the run's sinks, and publishes the summary (SPEC §5, §8).
+every record going to the run's sinks, and publishes the summary (docs/contract.md §5, §8).
 
 Every entry point calls it with its transport and sinks (:mod:`vcran.io.sinks`: a run folder, or memory):
 ``vcran run`` and :func:`vcran.simulate` (through :func:`vcran.api.run`: the script, or a fleet manager in

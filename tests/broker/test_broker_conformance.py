@@ -196,7 +196,7 @@ def test_recording_is_complete() -> None:
     assert len(EXCHANGES) == 110
 
 
-# --- numbers: Orion prints doubles its own way (SPEC §7, issue 12) ----------------------------------------
+# --- numbers: Orion prints doubles its own way (docs/contract.md §7, issue 12) ----------------------------------------
 # Orion stores every number as a double and prints it with at most 9 decimals, trailing zeros cut, and a
 # value within ~1e-9 of an integer as that integer. Each expected text below follows from that rule by
 # hand; the last three are quirks of Orion's routine (a truncating cast decides the rounding direction,

@@ -61,7 +61,7 @@ def test_a_surrogate_pair_is_a_character_and_is_stored(client):
     assert client.get("/v2/entities/r1/attrs/a").json()["value"] == "\U0001F600"
 
 
-# --- options (SPEC §7: every value Orion 4.7 accepts) -------------------------------------------------------
+# --- options (docs/contract.md §7: every value Orion 4.7 accepts) -------------------------------------------------------
 
 #: Orion 4.7's list of valid ``options`` items (its documentation and rest/ConnectionInfo.cpp).
 ORION_OPTIONS = ["count", "normalized", "values", "keyValues", "append", "unique", "dateCreated", "dateModified",

@@ -1,4 +1,4 @@
-"""vcran's broker driven by FiLiP, the FIWARE Python client (SPEC §7: the broker answers like Orion on
+"""vcran's broker driven by FiLiP, the FIWARE Python client (docs/contract.md §7: the broker answers like Orion on
 every call FiLiP makes). FiLiP checks the broker's version when it connects, asks for
 ``options=normalized`` on every read and validates what it gets back with pydantic models, so each call
 here fails if the broker answers anything an Orion 4.7 would not."""

@@ -1,5 +1,5 @@
-"""``options=forcedUpdate`` as Orion 4.7 implements it (SPEC §7; issue 29 item 2): vcran's live sender writes
-``robot_description`` with it, so that a planner subscribing late still gets the description (SPEC §2).
+"""``options=forcedUpdate`` as Orion 4.7 implements it (docs/contract.md §7; issue 29 item 2): vcran's live sender writes
+``robot_description`` with it, so that a planner subscribing late still gets the description (docs/contract.md §2).
 
 Ground truth, from telefonicaid/fiware-orion at 4.7.0 (c678400):
 

@@ -261,7 +261,7 @@ def test_a_fleet_manager_that_raises_is_its_bug_not_vcrans(capsys: pytest.Captur
 def test_a_fleet_manager_that_calls_sys_exit_fails_its_run_like_any_bug(capsys: pytest.CaptureFixture[str],
                                                                          tmp_path: Path) -> None:
     """A hook's sys.exit(3) ended vcran run with exit 3 and no word, its folder left incomplete (a fresh
-    user's review): the manager's bug, one line and exit 1 as for a raise (SPEC §9)."""
+    user's review): the manager's bug, one line and exit 1 as for a raise (docs/contract.md §9)."""
     argv = ["run", "warehouse", "--out", str(tmp_path / "o"), "--manager", "tests.testing.loop_managers:Exiting", "--quiet"]
     code, out, err = vcran(capsys, *argv)
     assert (code, out) == (1, "")

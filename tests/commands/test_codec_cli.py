@@ -1,4 +1,4 @@
-"""``vcran decode FILE`` / ``vcran decode -`` through :func:`vcran.cli.main` (SPEC §8, issue 3 item 5)."""
+"""``vcran decode FILE`` / ``vcran decode -`` through :func:`vcran.cli.main` (docs/contract.md §8, issue 3 item 5)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Configuration errors fail at start: one line, exit 2, no traceback, nothing written (issue 12 item 11).
 
 A URL that cannot work is refused before anything runs; a well-formed URL where nothing answers is an
-Orion that is down, which live mode rides out (SPEC §7).
+Orion that is down, which live mode rides out (docs/contract.md §7).
 """
 
 from __future__ import annotations

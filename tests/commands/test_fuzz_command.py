@@ -1,4 +1,4 @@
-"""``vcran fuzz`` (SPEC §8): clean on the demo, deterministic per seed, and a shrunk failure is a scenario
+"""``vcran fuzz`` (docs/contract.md §8): clean on the demo, deterministic per seed, and a shrunk failure is a scenario
 file that reproduces the violation with ``vcran run``."""
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ def test_bad_scenario_is_a_usage_error(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
 
 
-# --- a fleet manager in the loop (SPEC §9) ------------------------------------------------------------------
+# --- a fleet manager in the loop (docs/contract.md §9) ------------------------------------------------------------------
 
 
 def test_fuzzing_a_manager_saves_a_shrunk_failing_scenario_that_names_it(tmp_path, capsys):
@@ -145,7 +145,7 @@ def test_a_campaign_option_that_is_not_a_positive_number_is_a_usage_error(option
 
 def test_a_horizon_too_large_to_count_in_tenths_is_a_usage_error(tmp_path, capsys):
     """``--horizon 1e308`` passed the positive-and-finite check, then ``int(horizon * 10)`` overflowed in the
-    job strategy: 'internal error', exit 70, as ``--horizon inf`` did (SPEC §9, §8)."""
+    job strategy: 'internal error', exit 70, as ``--horizon inf`` did (docs/contract.md §9, §8)."""
     from dataclasses import replace
 
     import vcran

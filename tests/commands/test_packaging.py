@@ -88,7 +88,7 @@ def test_the_wheel_installs_and_runs_outside_the_repository(tmp_path: Path) -> N
     names = zipfile.ZipFile(wheel).namelist()
     assert {"vcran/py.typed", "transports/py.typed", *(f"vcran/scenarios/{n}.toml" for n in BUNDLED)} <= set(names)
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
-    schemas = "vcran/core/vda5050/schemas"  # the official VDA 5050 schemas, each copy with its licence (SPEC §11)
+    schemas = "vcran/core/vda5050/schemas"  # the official VDA 5050 schemas, each copy with its licence (docs/contract.md §11)
     assert {f"{schemas}/{v}/{f}" for v in ("2.0.0", "2.1.0") for f in ("LICENSE.txt", "order.schema", "state.schema")
             } | {f"{schemas}/2.0.0/factsheet.json", f"{schemas}/2.1.0/factsheet.schema"} <= set(names)
     assert not [n for n in names if n.startswith("tests/") or "/tests/" in n or "conftest" in n]

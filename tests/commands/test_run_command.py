@@ -1,4 +1,4 @@
-"""``vcran run SCENARIO --out DIR [--manager module:Class]`` (SPEC §8, §9): the closed loop from the CLI."""
+"""``vcran run SCENARIO --out DIR [--manager module:Class]`` (docs/contract.md §8, §9): the closed loop from the CLI."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""SPEC §4 Battery, the pure model: the instant a leg drains a battery, derived by hand per phase."""
+"""docs/contract.md §4 Battery, the pure model: the instant a leg drains a battery, derived by hand per phase."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The battery's rules every protocol's body follows (SPEC §4 Battery; vcran/core/battery.py), derived by hand.
+"""The battery's rules every protocol's body follows (docs/contract.md §4 Battery; vcran/core/battery.py), derived by hand.
 
 A leg of 10 m along +x at 1 m/s with instantaneous acceleration lasts 10 s and has driven t metres at t s."""
 

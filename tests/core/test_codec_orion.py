@@ -1,4 +1,4 @@
-"""Everything the codec sends is accepted by Orion: identifiers, forbidden characters, request size (SPEC §2).
+"""Everything the codec sends is accepted by Orion: identifiers, forbidden characters, request size (docs/contract.md §2).
 
 ``orion_objections`` is a validator of Orion's syntax rules, calibrated below against the answers of a
 real Orion 4.7 to the recorded ``POST /v2/entities`` requests; the encoder's output must pass it.

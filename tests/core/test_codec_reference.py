@@ -3,7 +3,7 @@
 The reference (tests/data/opil_robot_entity.json) was written by a real OPIL deployment; the exchanges
 file holds the same entity read back from Orion normalized, with options=keyValues, and as
 notifications. Decoding must give the values below, and encoding what we decoded must give the
-reference back: same structure, wrapper types and metadata (SPEC §2).
+reference back: same structure, wrapper types and metadata (docs/contract.md §2).
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def test_reference_entity_decodes_to_its_real_values() -> None:
     action = decoded["action_assignment"]
     assert isinstance(action, ActionAssignment)
     assert (action.robot_action.category, action.robot_action.action) == (10, 5)
-    assert action.kind is ActionKind.LOAD  # category first (SPEC §2)
+    assert action.kind is ActionKind.LOAD  # category first (docs/contract.md §2)
     assert action.task_id.description == "task pickup at p1: task_1"
     assert action.task_id.canonical == "7e916ede-a8a5-5a53-8d71-1d2d16170184"
     assert action.action_id.uuid == uuid_of(REFERENCE["action_assignment"], "action_id")

@@ -1,4 +1,4 @@
-"""Round trips: every message of SPEC §2 survives encode -> JSON text -> decode, in both renderings."""
+"""Round trips: every message of docs/contract.md §2 survives encode -> JSON text -> decode, in both renderings."""
 
 from __future__ import annotations
 

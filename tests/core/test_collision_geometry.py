@@ -1,4 +1,4 @@
-"""SPEC §4 footprints and collisions in the pure core: the separating-axis test, refinement, track boxes.
+"""docs/contract.md §4 footprints and collisions in the pure core: the separating-axis test, refinement, track boxes.
 
 Every expectation is derived by hand from the geometry in the test's comment.
 """

@@ -1,4 +1,4 @@
-"""SPEC §4 collisions, broad phase: :class:`vcran.core.collisions.Grid` returns every robot whose box meets a
+"""docs/contract.md §4 collisions, broad phase: :class:`vcran.core.collisions.Grid` returns every robot whose box meets a
 robot's new box, in index order (a superset is allowed: vcran.sim.contacts tests boxes before anything else).
 
 Cells are 20 m; the expectations are worked out by hand from the cells each box's corners fall in.

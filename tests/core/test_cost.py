@@ -137,7 +137,7 @@ def test_repeated_tasks_are_built_again_under_their_names_with_one_header():  # 
 
 @pytest.mark.parametrize("first", [0.0, -0.0])
 def test_shared_parts_keep_the_sign_of_zero_whatever_was_built_before(first):
-    # §5: the parts build shares (points, limits, areas) are keyed by their text. Keyed by float value, a
+    # docs/contract.md §5: the parts build shares (points, limits, areas) are keyed by their text. Keyed by float value, a
     # point written with x = -0.0 came back with the sign of whichever zero a run (or an earlier run in the
     # same process, e.g. a sweep's) had built first.
     import math

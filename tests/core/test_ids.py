@@ -1,4 +1,4 @@
-"""Ids where they are built (SPEC §2: a `mars_common_msgs/Id` is sixteen bytes; R12: uuid arrays not of
+"""Ids where they are built (docs/contract.md §2: a `mars_common_msgs/Id` is sixteen bytes; R12: uuid arrays not of
 16 bytes are bad input). The decoder refuses a wrong-length uuid array before an Id exists; these tests
 pin the same refusal on the Id itself, for ids a program builds without the wire."""
 

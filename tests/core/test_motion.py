@@ -1,4 +1,4 @@
-"""Leg kinematics (SPEC §4): analytic poses, and the scalar and vectorised paths agreeing bit for bit."""
+"""Leg kinematics (docs/contract.md §4): analytic poses, and the scalar and vectorised paths agreeing bit for bit."""
 
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ def test_turns_in_place_before_and_after():
     (-3 * math.pi / 4, 0, 4, 3 * math.pi / 4),  # the short way round (3π/4), not the long one (5π/4)
 ])
 def test_s4_a_legs_duration_includes_its_first_turn(theta0, x1, y1, turn):
-    """SPEC §4: a leg turns in place to face its point, then drives. From (0, 0) to a point 4 m away at
+    """docs/contract.md §4: a leg turns in place to face its point, then drives. From (0, 0) to a point 4 m away at
     2 m/s with no ramps, turning at 0.5 rad/s: turn / 0.5 s of turning (π s for a quarter turn) plus
     4 / 2 = 2 s of driving; the leg starts at t0 = 10 (issue 29 item 14(e))."""
     leg = Leg(10.0, 0, 0, theta0, x1, y1, None, Limits(2.0, 0, 0, 0.5))

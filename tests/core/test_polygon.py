@@ -1,4 +1,4 @@
-"""Simple polygons (SPEC §4): footprints and station areas are checked when a scenario loads, exactly and
+"""Simple polygons (docs/contract.md §4): footprints and station areas are checked when a scenario loads, exactly and
 without shapely; the answer agrees with shapely's own validity wherever shapely says anything."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""RanLogic, rule by rule (SPEC §3). Pure: no SimPy, inputs are method calls, outputs are effect lists."""
+"""RanLogic, rule by rule (docs/contract.md §3). Pure: no SimPy, inputs are method calls, outputs are effect lists."""
 
 from __future__ import annotations
 
@@ -249,7 +249,7 @@ def test_r8_cancel_queued_task_removes_it():
 
 
 def test_r8_ran_status_shows_a_queued_task_cancelled_while_the_state_stays():
-    """§8 ran_status after a cancel that changes neither the state nor the arrivals: B leaves the queue
+    """docs/contract.md §8 ran_status after a cancel that changes neither the state nor the arrivals: B leaves the queue
     and shows as cancelled (ran_status is rebuilt only when what it shows changed)."""
     logic = RanLogic("r")
     two_motion_task(logic, 0, "A")

@@ -1,6 +1,6 @@
-"""R13 (partial cancel) and R14 (instants and reasons), rule by rule on the pure RanLogic (SPEC §3).
+"""R13 (partial cancel) and R14 (instants and reasons), rule by rule on the pure RanLogic (docs/contract.md §3).
 
-Every expectation is derived by hand from the SPEC text: which positions a task has, what runs when, and
+Every expectation is derived by hand from the text of docs/contract.md: which positions a task has, what runs when, and
 what the rule says must happen next.
 """
 

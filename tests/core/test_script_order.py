@@ -1,4 +1,4 @@
-"""Scenario.messages (SPEC §5): the script and its cycles in time order, equal times in file order."""
+"""Scenario.messages (docs/contract.md §5): the script and its cycles in time order, equal times in file order."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def test_time_order_and_file_order_at_equal_times(script_times, cycles):
     assert list(scenario(script, cs).messages()) == expected
 
 
-def test_a_cycle_starting_at_minus_zero_keeps_that_time():  # §5: entries at exactly the written time
+def test_a_cycle_starting_at_minus_zero_keeps_that_time():  # docs/contract.md §5: entries at exactly the written time
     cycle = Cycle(t=-0.0, robot=ROBOT, every=10.0, until=15.0, prefix="c", tasks=(SPEC,))
     script = scenario((), (cycle,)).messages()
     for times in ([e.t for e in script], [t for t, run in scenario((), (cycle,)).messages().runs() for _ in run]):

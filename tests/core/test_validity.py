@@ -100,12 +100,12 @@ CASES: list[tuple[str, str, Callable[[Data], Any], Callable[[Scenario], Scenario
     ("robot-charge", "warehouse", _set("robots", 0, "actions", value=["load", "charge"]),
      _robot(0, actions=("load", "charge")),
      "robots[0]: field 'actions': 'charge' is not listed among a robot's actions: a robot with [robots.battery] "
-     "can charge (SPEC §4, docs/robots.md); the actions listed here are dummy, load, unload"),
+     "can charge (docs/contract.md §4, docs/robots.md); the actions listed here are dummy, load, unload"),
     ("robot-footprint", "warehouse",  # a bow tie: its first and third edges cross at the origin
      _set("robots", 0, "footprint", value=[[0.5, 0.5], [-0.5, -0.5], [-0.5, 0.5], [0.5, -0.5]]),
      _robot(0, footprint=((0.5, 0.5), (-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5))),
      "robots[0]: field 'footprint': its edges [0.5, 0.5]-[-0.5, -0.5] and [-0.5, 0.5]-[0.5, -0.5] cross or "
-     "touch: not a simple polygon (SPEC §4: a footprint is a simple polygon)"),
+     "touch: not a simple polygon (docs/contract.md §4: a footprint is a simple polygon)"),
     ("robot-carrying", "warehouse", _set("robots", 0, "carrying", value=2), _robot(0, carrying=2),
      "robots[0]: field 'carrying': 2 exceeds capacity 1"),  # capacity defaults to 1
     ("robot-duplicate", "warehouse", _set("robots", 3, "id", value="robot_2"), _robot(3, id="robot_2"),

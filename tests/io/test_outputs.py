@@ -1,4 +1,4 @@
-"""Run folders people can load (issue 14, SPEC §6, §8): the documented calls, the format's promises."""
+"""Run folders people can load (issue 14, docs/contract.md §6, §8): the documented calls, the format's promises."""
 
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ class Frames(ScriptedTransport):
 
 
 @pytest.mark.parametrize("robots", [3, 40])  # few movers: scalar sampling; 40: numpy's vectorised path
-def test_telemetry_evaluated_from_the_legs_is_bit_for_bit_what_was_published(tmp_path, robots):  # §6
+def test_telemetry_evaluated_from_the_legs_is_bit_for_bit_what_was_published(tmp_path, robots):  # docs/contract.md §6
     scenario = parse(tomllib.loads(generate(robots, 0.05, 3)), "<gen>")
     transport = Frames(scenario.messages())
     run_to(scenario, tmp_path / "run", transport)
@@ -59,7 +59,7 @@ def test_telemetry_evaluated_from_the_legs_is_bit_for_bit_what_was_published(tmp
 
 
 @pytest.mark.parametrize("name", ["faults", "battery", "crossing"])
-def test_telemetry_of_held_and_stopped_legs_is_bit_for_bit_what_was_published(tmp_path, name):  # §4, §6
+def test_telemetry_of_held_and_stopped_legs_is_bit_for_bit_what_was_published(tmp_path, name):  # docs/contract.md §4, §6
     """Pauses, breakdowns, an empty battery and collisions halt robots mid-leg; a halted robot's next leg
     starts where it halted, a resumed leg is timed from its shifted origin: the leg log says all of it."""
     scenario = load(ROOT / "scenarios" / f"{name}.toml")
@@ -98,7 +98,7 @@ path = [[0.0, 4.0]]
 """
 
 
-def test_a_halt_before_its_legs_end_within_one_tick_is_where_the_robot_rests(tmp_path):  # §4, §6
+def test_a_halt_before_its_legs_end_within_one_tick_is_where_the_robot_rests(tmp_path):  # docs/contract.md §4, §6
     """The battery runs out at 3.90625, its leg would end at 4.0, the tick is at 4.0: the robot rests where
     it halted (hypothesis found the evaluation finishing the leg first, then ignoring the halt)."""
     scenario = parse(tomllib.loads(HALT_BEFORE_THE_LEGS_END), "<halt>")
@@ -170,7 +170,7 @@ action = "dummy"
 """
 
 
-def test_legs_abandoned_as_they_begin_are_not_in_the_evaluated_telemetry(tmp_path):  # R14, §6
+def test_legs_abandoned_as_they_begin_are_not_in_the_evaluated_telemetry(tmp_path):  # R14, docs/contract.md §6
     """By hand (R14: a leg that began at the instant of a cancel or of a timeout's deadline is abandoned,
     the robot stays where it began). r0's leg is dispatched at 0 and cancelled at 0: r0 rests at (0, 3)
     at every tick. r1 reaches (10, 6) at 10, B's deadline (its position 4 never comes), and starts the leg
@@ -197,7 +197,7 @@ def test_events_carry_the_same_keys_in_the_same_order(tmp_path):
     assert {tuple(json.loads(line)) for line in lines} == {EVENT_KEYS}
 
 
-def test_an_event_line_is_its_dict_over_the_event_keys_whatever_its_fields(tmp_path):  # §8
+def test_an_event_line_is_its_dict_over_the_event_keys_whatever_its_fields(tmp_path):  # docs/contract.md §8
     """docs/outputs.md: a line is ``t``, ``robot``, ``event`` and the event's fields over EVENT_KEYS (null where it
     has none), fields EVENT_KEYS lacks after them in their order. The writer assembles lines from pieces made
     once per name and set of keys (issue 30); the expected line here is that dict, rendered as one value: fields
@@ -263,7 +263,7 @@ def test_trace_repeats_nothing_a_reader_can_take_from_an_earlier_record(tmp_path
 
 
 def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
-    """§8 summary.json: encoded piece by piece as it is written (issue 14: a fleet's summary lists every
+    """docs/contract.md §8 summary.json: encoded piece by piece as it is written (issue 14: a fleet's summary lists every
     task), yet byte for byte ``json.dumps(indent=2, ensure_ascii=False)`` and a newline, across batches."""
     import json
 
@@ -276,7 +276,7 @@ def test_summary_json_is_written_as_json_dumps_would_print_it(tmp_path):
     assert (tmp_path / "summary.json").read_bytes() == (json.dumps(summary, indent=2, ensure_ascii=False) + "\n").encode()
 
 
-def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_than_a_batch(tmp_path):  # §6
+def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_than_a_batch(tmp_path):  # docs/contract.md §6
     """A ``.zst`` output is batched (vcran.io.trace.streams._Batched): ``flush`` must make every line written so far
     readable from the file as it stands (live mode flushes each tick, a killed run keeps its recording),
     and a line longer than a batch must come through whole, in its place."""
@@ -301,7 +301,7 @@ def test_compressed_output_hands_every_line_on_at_flush_and_keeps_lines_longer_t
         assert g.read() == b"".join(lines) + long + lines[0]
 
 
-def test_compressed_output_keeps_what_was_written_when_the_caller_reuses_its_buffer(tmp_path):  # §6
+def test_compressed_output_keeps_what_was_written_when_the_caller_reuses_its_buffer(tmp_path):  # docs/contract.md §6
     """Lines are gathered in a batch before they reach the compressor (vcran.io.trace.streams._Batched): a
     ``bytearray`` or ``memoryview`` written and then changed by the caller, as ``write`` allows, must be
     kept as written."""
@@ -320,7 +320,7 @@ def test_compressed_output_keeps_what_was_written_when_the_caller_reuses_its_buf
         assert g.read() == b"".join(b'{"n":%d}\n' % (i % 10) for i in range(lines))
 
 
-def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # §6, issue 14 (flat memory)
+def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # docs/contract.md §6, issue 14 (flat memory)
     """A line several batches long (a raw payload near Orion's 1 MB limit) goes through whole, and the
     batch buffer it grew is not kept for the rest of the run."""
     from vcran.io.trace import BATCH, open_input, open_output
@@ -337,7 +337,7 @@ def test_compressed_output_drops_the_buffer_a_long_line_grew(tmp_path):  # §6, 
         assert g.read() == long + b'{"n":1}\n'
 
 
-def test_an_events_file_cut_off_is_an_error_not_fewer_events(tmp_path):  # §6, §8
+def test_an_events_file_cut_off_is_an_error_not_fewer_events(tmp_path):  # docs/contract.md §6, §8
     """A zstd stream cut short reads as a shorter one, without an error, and cut where a block ends it even
     ends with a whole line: ``vcran report`` drew a finished run from half its events (0 tasks done where
     the demo does 3). A reader of a finished run's events says the file is cut off; one reading a killed
@@ -364,7 +364,7 @@ def test_an_events_file_cut_off_is_an_error_not_fewer_events(tmp_path):  # §6, 
         list(event_records(path))
 
 
-def test_a_zstd_file_with_skippable_frames_is_whole_not_a_foreign_file(tmp_path):  # §6, §8
+def test_a_zstd_file_with_skippable_frames_is_whole_not_a_foreign_file(tmp_path):  # docs/contract.md §6, §8
     """zstd's skippable frames (pzstd writes one before each frame) are part of a valid stream, which the
     reader always read; the cut-off check called such a file 'not a zstd stream'. One cut inside a
     skippable frame is cut off, and a raw block or an RLE one (one byte for many) are walked over too."""

@@ -18,13 +18,13 @@ from vcran.testing.strategies import attribute_messages, messages_of
 
 
 @given(attribute_messages())
-def test_plain_converter_equals_the_schema_walk(pair):  # §6: trace v1 values are to_plain
+def test_plain_converter_equals_the_schema_walk(pair):  # docs/contract.md §6: trace v1 values are to_plain
     _, message = pair
     assert to_json_value(message) == to_plain(message)
 
 
 @given(attribute_messages())
-def test_compact_converter_round_trips(pair):  # §6 v2: compact ids read back to the same message
+def test_compact_converter_round_trips(pair):  # docs/contract.md §6 v2: compact ids read back to the same message
     attribute, message = pair
     compact = to_json_value(message, "compact")
     assert expand(ATTRIBUTES[attribute], compact) == to_plain(message)
@@ -65,7 +65,7 @@ def test_named_ids_stay_honest():  # ids.NamedId: the class vouches for its byte
 
 
 @given(st.data())
-def test_delta_converter_writes_exactly_the_changed_fields(data):  # §6 v2: nothing repeated
+def test_delta_converter_writes_exactly_the_changed_fields(data):  # docs/contract.md §6 v2: nothing repeated
     from vcran.io.render import converter, delta_converter
 
     attribute, first = data.draw(attribute_messages())
@@ -80,7 +80,7 @@ def test_delta_converter_writes_exactly_the_changed_fields(data):  # §6 v2: not
     assert delta_converter(type(first))(first, first, dict(before)) == {}  # the same message: nothing
 
 
-def test_delta_of_a_rebuilt_array():  # §6 v2: an array rebuilt with the same ids is unchanged, a relabelled id is not
+def test_delta_of_a_rebuilt_array():  # docs/contract.md §6 v2: an array rebuilt with the same ids is unchanged, a relabelled id is not
     from vcran.core.opil.messages import RanStatus
     from vcran.io.render import converter, delta_converter
 

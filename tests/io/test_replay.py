@@ -1,4 +1,4 @@
-"""Replay and verification (SPEC §6): a run's own trace reproduces it; any tampering is found and named."""
+"""Replay and verification (docs/contract.md §6): a run's own trace reproduces it; any tampering is found and named."""
 
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ def test_demo_trace_replays_identically(demo_run, tmp_path):
             assert (demo_run / name).read_bytes() == (tmp_path / "rep" / name).read_bytes()
 
 
-def test_format_1_recording_replays_and_verifies(tmp_path):  # §6: v1 traces still replay
+def test_format_1_recording_replays_and_verifies(tmp_path):  # docs/contract.md §6: v1 traces still replay
     v1 = tmp_path / "v1"
     shutil.copytree(ROOT / "tests" / "data" / "v1-demo", v1)
     assert replay(v1 / "trace.jsonl", tmp_path / "rep") == 0
@@ -140,7 +140,7 @@ def without_the_load(path) -> None:
 
 
 def test_a_recording_made_before_ran_status_carried_the_load_verifies(demo_run, tmp_path, capsys):
-    """SPEC §2 added the load to ran_status; a recording without it verifies with it left out, and the
+    """docs/contract.md §2 added the load to ran_status; a recording without it verifies with it left out, and the
     rest of its records are still compared."""
     trace = demo_run / "trace.jsonl.zst"
     without_the_load(trace)
@@ -282,7 +282,7 @@ def test_replay_without_out_or_verify_is_a_usage_error(demo_run, capsys):
 
 
 def test_a_zero_written_negative_is_recorded_and_replayed_as_written(run_toml, tmp_path):
-    # §5, §6: the trace holds the decoded value a fleet manager wrote, sign of a zero included (-0.0 == 0.0
+    # docs/contract.md §5, §6: the trace holds the decoded value a fleet manager wrote, sign of a zero included (-0.0 == 0.0
     # in Python, so a delta by == dropped it, and a memo keyed by floats handed back the other sign).
     # The leg to x = -0.0 ends at -0.0, bit for bit, and the replay drives the same leg.
     out = run_toml(script(motion(1, "A", "A_m1", 1, 1, 0.0, -1.0), motion(10, "B", "B_m1", 1, 1, -0.0, -1.0),
@@ -305,7 +305,7 @@ def test_verify_does_not_claim_events_it_could_not_compare(demo_run, capsys):
 
 
 def test_a_recording_made_before_opils_attribute_names_still_verifies(demo_run, tmp_path, capsys):
-    # SPEC §2: vcran now publishes assignment_state and battery_state, the names OPIL's planner reads; a run
+    # docs/contract.md §2: vcran now publishes assignment_state and battery_state, the names OPIL's planner reads; a run
     # recorded under the old names (assignment_status, battery) replays and verifies, read with the new ones
     lines = read_lines(demo_run / "trace.jsonl.zst")
     old = [line.replace('"attr":"assignment_state"', '"attr":"assignment_status"') for line in lines]

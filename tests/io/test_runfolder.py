@@ -1,4 +1,4 @@
-"""Atomic run folders (issue 14 item 4, SPEC §6): complete or visibly incomplete, never mixed into."""
+"""Atomic run folders (issue 14 item 4, docs/contract.md §6): complete or visibly incomplete, never mixed into."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def test_interrupted_run_leaves_an_incomplete_folder_and_the_previous_run_intact
     partial = tmp_path / "run.incomplete"
     assert sorted(p.name for p in partial.iterdir()) == ["events.jsonl.zst", "legs.npy", "trace.jsonl.zst"]
     assert not (partial / "summary.json").exists()
-    # what was written before the interruption replays as far as it goes, as a killed live run does (§6)
+    # what was written before the interruption replays as far as it goes, as a killed live run does (docs/contract.md §6)
     assert main(["replay", str(partial), "--out", str(tmp_path / "rep"), "--verify"]) == 0
     assert "has no end record" in capsys.readouterr().err
 
@@ -71,7 +71,7 @@ def test_an_empty_folder_or_an_earlier_run_is_a_valid_out(tmp_path):
 
 
 def test_an_out_that_is_a_symlink_to_an_earlier_run_leaves_nothing_behind(tmp_path):
-    """§6: the earlier --out is renamed aside and removed once the new run is in place. A symlink's rmtree
+    """docs/contract.md §6: the earlier --out is renamed aside and removed once the new run is in place. A symlink's rmtree
     fails (ignored), so ``link.replaced-PID`` stayed beside the new folder for good, a new one per run."""
     assert main(["run", str(DEMO), "--out", str(tmp_path / "real"), "--quiet"]) == 0
     (tmp_path / "link").symlink_to("real")

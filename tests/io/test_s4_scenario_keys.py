@@ -1,5 +1,5 @@
-"""SPEC §4 scenario keys: docs/robots.md's annotated example loads as documented, bad values fail clearly,
-and a scenario round-trips through its trace header (replay needs the §4 keys back)."""
+"""docs/contract.md §4 scenario keys: docs/robots.md's annotated example loads as documented, bad values fail clearly,
+and a scenario round-trips through its trace header (replay needs the docs/contract.md §4 keys back)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""SPEC §12 safety fields and deadlock settings in scenario files (issue 32): ``[traffic]`` for the fleet,
+"""docs/contract.md §12 safety fields and deadlock settings in scenario files (issue 32): ``[traffic]`` for the fleet,
 ``[robots.field]`` for one robot. Read into the model, their problems told as one line naming the file, the
 table and the field (the rules are :mod:`vcran.core.validity.safety`'s, the reader only locates them; a
 scenario built in code is told the same), written back by the scenario writer, in the trace header only
@@ -52,7 +52,7 @@ def test_fields_are_off_by_default() -> None:
     s = read(FLEET)
     assert s.traffic == TrafficSettings(field=None, deadlock_bound=None, on_deadlock="continue")
     assert [s.traffic.field_of(r) for r in s.robots] == [None, None] and not s.traffic.any_field(s.robots)
-    # the trace header (fleet_dict) of a scenario without them is what it was before SPEC §12's fields
+    # the trace header (fleet_dict) of a scenario without them is what it was before docs/contract.md §12's fields
     header = s.fleet_dict()
     assert "traffic" not in header and all("field" not in r for r in header["robots"])
 

@@ -1,4 +1,4 @@
-"""Closed-loop sections of a scenario file (SPEC §9): ``[[jobs]]``, ``[job_stream]``, ``[link]``, ``[manager]``.
+"""Closed-loop sections of a scenario file (docs/contract.md §9): ``[[jobs]]``, ``[job_stream]``, ``[link]``, ``[manager]``.
 
 Loading is strict like every other section: each bad entry fails with a ScenarioError that names the file,
 the section and the field.

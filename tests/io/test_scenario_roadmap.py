@@ -1,4 +1,4 @@
-"""SPEC §12 ``[roadmap]`` in scenario files: read into the model, its problems told as one line naming the
+"""docs/contract.md §12 ``[roadmap]`` in scenario files: read into the model, its problems told as one line naming the
 file, the entry and the field (the rules are :func:`vcran.core.traffic.roadmap.validate`'s, the reader only
 locates them), written back by the scenario writer, carried by the trace header only when present."""
 

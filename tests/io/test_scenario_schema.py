@@ -119,7 +119,7 @@ def first_fault(d: dict[str, Any], kind: str) -> dict[str, Any]:
 ], ids=["fault-kind", "breakdown-duration", "failure-duration", "battery-key"])
 def test_robot_section_mistakes_are_rejected_where_they_are(validator: jsonschema.Draft7Validator, name: str,
                                                             mistake: Any, where: str) -> None:
-    """SPEC §4's sections: a fault's fields depend on its kind (one if/then per kind, as for script kinds)."""
+    """docs/contract.md §4's sections: a fault's fields depend on its kind (one if/then per kind, as for script kinds)."""
     data = bundled_data(name)
     assert errors(validator, data) == []
     mistake(data)

@@ -1,4 +1,4 @@
-"""A scenario's protocol (issue 31 item 3, SPEC §11; docs/scenarios.md "VDA 5050 vehicles"): ``[simulation]
+"""A scenario's protocol (issue 31 item 3, docs/contract.md §11; docs/scenarios.md "VDA 5050 vehicles"): ``[simulation]
 protocol``, a VDA 5050 vehicle's identity on ``[[robots]]``, and a script of ``order`` and ``instantActions``
 messages stamped by vcran and checked against the vehicle's version's official schema as the file loads.
 

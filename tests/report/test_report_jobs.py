@@ -1,4 +1,4 @@
-"""`vcran report` of a closed-loop run (SPEC §9, issue 10 item 8): the job KPIs next to the robots' table."""
+"""`vcran report` of a closed-loop run (docs/contract.md §9, issue 10 item 8): the job KPIs next to the robots' table."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`vcran report` and SPEC §4: battery curves, incidents on the figures, energy per job, downtime and
+"""`vcran report` and docs/contract.md §4: battery curves, incidents on the figures, energy per job, downtime and
 collisions in the KPI tables; figures from docs/robots.md's hand derivations."""
 
 from __future__ import annotations

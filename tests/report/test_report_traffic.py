@@ -1,4 +1,4 @@
-"""SPEC §12 in `vcran report` and `vcran sweep`: blocks, blocked time and deadlocks, counted from the events
+"""docs/contract.md §12 in `vcran report` and `vcran sweep`: blocks, blocked time and deadlocks, counted from the events
 (vcran.report.traffic) and from the summary's ``traffic`` section (vcran.sweep.worker), and shown only for
 runs whose robots had safety fields."""
 

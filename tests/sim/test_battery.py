@@ -1,4 +1,4 @@
-"""SPEC §4 Battery, end to end: scenarios/battery.toml's outcome as derived by hand in docs/robots.md."""
+"""docs/contract.md §4 Battery, end to end: scenarios/battery.toml's outcome as derived by hand in docs/robots.md."""
 
 from __future__ import annotations
 

@@ -56,7 +56,7 @@ def test_a_route_can_be_appended_to_while_a_leg_runs():
 
 
 def test_a_hold_resumes_exactly_where_it_stopped():
-    """SPEC §4: held from 1 s to 3 s, the 4 m leg ends 2 s late, at 6 s; during the hold the robot stands at x = 1."""
+    """docs/contract.md §4: held from 1 s to 3 s, the 4 m leg ends 2 s late, at 6 s; during the hold the robot stands at x = 1."""
     b, told = body()
     b.drive([Waypoint(4.0, 0.0, tag="a")])
     when(b, 1.0, lambda: b.hold("pause"))

@@ -1,4 +1,4 @@
-"""The shared body with safety fields (SPEC §12), driven without a protocol: what it tells the fields when a
+"""The shared body with safety fields (docs/contract.md §12), driven without a protocol: what it tells the fields when a
 second protocol's commands move it (stop_now, place). The robots are docs/robots.md's corridor robots: 1 m x
 1 m squares, 1 m/s, 0.5 m/s^2 both ways; fields 2 m plus the braking distance (3 m at 1 m/s). A leg from rest
 covers 1 m in its first 2 s, then 1 m/s."""

@@ -1,4 +1,4 @@
-"""SPEC §4 Footprints and collisions, end to end: scenarios/crossing.toml as derived by hand in docs/robots.md."""
+"""docs/contract.md §4 Footprints and collisions, end to end: scenarios/crossing.toml as derived by hand in docs/robots.md."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""SPEC §12 safety fields in a whole run (issue 32): the bundled ``corridor`` and variants of it, through
+"""docs/contract.md §12 safety fields in a whole run (issue 32): the bundled ``corridor`` and variants of it, through
 vcran.simulate (the shared body, OPIL's glue). Instants derived by hand in docs/robots.md ("The corridor, by
 hand") and scenarios/corridor.toml: 1 m x 1 m squares, 1 m/s, 0.5 m/s^2 both ways, turns at once, fields
 of margin 2 m plus the braking distance (3 m at 1 m/s); a leg from rest covers 1 m in its first 2 s."""
@@ -36,7 +36,7 @@ def corridor() -> Scenario:
 def test_s12_the_corridor_blocks_at_9_and_deadlocks_at_11(corridor: Scenario) -> None:
     """Both blocked at 9 (A at 8, B at 12), both stopped at 11 (at 9 and 11, 1 m apart): one deadlock, a
     cycle, on A naming B. No contact; neither task completes; each robot's ``blocked`` is a ran_error warning
-    (OPIL, SPEC §12), two errors in all; blocked from 9 to the end at 60: 51 s each."""
+    (OPIL, docs/contract.md §12), two errors in all; blocked from 9 to the end at 60: 51 s each."""
     result = vcran.simulate(corridor)
     assert brief(of(result, "blocked", "unblocked", "deadlock", "collision", "task_completed")) == [
         (9.0, "A", "blocked", "B"), (9.0, "B", "blocked", "A"), (11.0, "A", "deadlock", "B", "cycle", 2.0)]
@@ -72,7 +72,7 @@ def test_s12_on_deadlock_cancel_ends_both_tasks_with_reason_deadlock(corridor: S
 
 
 def test_s12_without_fields_the_robots_drive_through_each_other(corridor: Scenario) -> None:
-    """The same run with no field: SPEC §4's collision (the fronts meet at x = 10, 1 m + 8.5 s at 1 m/s:
+    """The same run with no field: docs/contract.md §4's collision (the fronts meet at x = 10, 1 m + 8.5 s at 1 m/s:
     t = 10.5) and both tasks complete at 22 s; no traffic section in the summary."""
     result = vcran.simulate(dataclasses.replace(corridor, traffic=TrafficSettings()))
     assert brief(of(result, "collision", "task_completed", "blocked")) == [
@@ -112,7 +112,7 @@ def test_s12_a_breakdown_while_blocked_ends_the_block_and_the_robot_blocks_again
 
 
 def test_s12_the_same_corridor_twice_is_the_same_run(corridor: Scenario, tmp_path) -> None:
-    """Determinism (SPEC §5): every output byte for byte."""
+    """Determinism (docs/contract.md §5): every output byte for byte."""
     vcran.simulate(corridor, out=tmp_path / "a")
     vcran.simulate(corridor, out=tmp_path / "b")
     for name in ("summary.json", "events.jsonl.zst", "legs.npy", "trace.jsonl.zst"):

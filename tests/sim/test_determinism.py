@@ -1,4 +1,4 @@
-"""SPEC §5: same scenario, same seed -> byte-identical outputs, whatever PYTHONHASHSEED."""
+"""docs/contract.md §5: same scenario, same seed -> byte-identical outputs, whatever PYTHONHASHSEED."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def run_cli(args: list[str], hashseed: str, cwd) -> subprocess.CompletedProcess:
 @pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["demo", "generated", "warehouse"])
 def test_outputs_are_byte_identical_across_hash_seeds(tmp_path, scenario):
-    if scenario in ("demo", "warehouse"):  # warehouse: a closed loop with the Dispatcher (§9)
+    if scenario in ("demo", "warehouse"):  # warehouse: a closed loop with the Dispatcher (docs/contract.md §9)
         path = ROOT / "scenarios" / f"{scenario}.toml"
     else:
         gen = run_cli(["gen", "--robots", "30", "--hours", "0.05", "--seed", "7"], "0", tmp_path)
@@ -42,7 +42,7 @@ def test_outputs_are_byte_identical_across_hash_seeds(tmp_path, scenario):
 
 def test_wall_clock_speed_does_not_reach_the_outputs(tmp_path):
     """The same run, once as fast as possible and once slowed down by a progress observer that sleeps
-    at every tick: identical files (SPEC §5: no wall clock in simulated logic)."""
+    at every tick: identical files (docs/contract.md §5: no wall clock in simulated logic)."""
     import time
 
     from transports.scripted import ScriptedTransport

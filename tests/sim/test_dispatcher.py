@@ -1,4 +1,4 @@
-"""The reference fleet manager, vcran.managers.Dispatcher (SPEC §9): nearest idle robot, priority then FIFO,
+"""The reference fleet manager, vcran.managers.Dispatcher (docs/contract.md §9): nearest idle robot, priority then FIFO,
 two tasks per job, a retry after a cancelled task, failure after max_tries."""
 
 from __future__ import annotations
@@ -108,7 +108,7 @@ def test_a_failed_pickup_waits_before_its_retry_so_a_producing_station_can_catch
         assert cancelled + wait <= retried <= cancelled + wait + 1.05
 
 
-# --- SPEC §4 in the loop: link_down -------------------------------------------------------------------------
+# --- docs/contract.md §4 in the loop: link_down -------------------------------------------------------------------------
 
 LINK_DOWN = '\n[[faults]]\nt = 5.0\nrobot = "robot_1"\nkind = "link_down"\nduration = 20.0\n'
 
@@ -158,7 +158,7 @@ def test_s4_link_down_in_the_loop_hides_the_robots_pose_too():
     assert manager.heard[:6] == [pytest.approx(k + 0.05) for k in range(5)] + [pytest.approx(25.05)]
 
 
-# --- SPEC §4 in the loop: charging when low, re-planning after a fault --------------------------------------
+# --- docs/contract.md §4 in the loop: charging when low, re-planning after a fault --------------------------------------
 
 def battery(initial: float, *, swap_after: float | None = None) -> str:
     swap = f"swap_after = {swap_after}\n" if swap_after is not None else ""
@@ -249,7 +249,7 @@ def test_s4_a_task_refused_by_a_robot_already_out_of_service_is_planned_again():
     assert result.job("j1").outcome == "completed"
 
 
-# --- SPEC §4 in the loop: a failed load or unload moves nothing (issue 29 item 5) ----------------------------
+# --- docs/contract.md §4 in the loop: a failed load or unload moves nothing (issue 29 item 5) ----------------------------
 
 ACTION_FAILURE = '\n[[faults]]\nt = {t}\nrobot = "robot_1"\nkind = "action_failure"\n'
 
@@ -341,7 +341,7 @@ def test_s4_a_robot_that_starts_loaded_returns_its_part_before_its_first_pickup(
     assert (stations["a"]["parts"], stations["b"]["parts"], result.summary["robots"]["robot_1"]["carrying"]) == (5, 1, 0)
 
 
-# --- jobs no robot can serve (SPEC §9: a job failed with evidence; issue 29 item 6) -------------------------
+# --- jobs no robot can serve (docs/contract.md §9: a job failed with evidence; issue 29 item 6) -------------------------
 
 def test_a_job_no_robot_can_serve_is_reported_unassignable_at_once():
     # robot_1 cannot unload: it could never finish a job, so it gets none and each fails on arrival
@@ -366,7 +366,7 @@ ROBOT_3 = '[[robots]]\nid = "robot_3"\npose = [2.0, 9.0, 0.0]\nmax_velocity = 1.
 
 
 def test_s4_robots_out_of_service_or_unable_to_move_parts_are_not_idle_while_a_job_waits():
-    """SPEC §4/§9 (vcran.testing.loop.check_no_idle_while_waiting): robot_1 is empty from 5 until swapped
+    """docs/contract.md §4/§9 (vcran.testing.loop.check_no_idle_while_waiting): robot_1 is empty from 5 until swapped
     at 205, robot_3 cannot load or unload; robot_2 does the three jobs of t = 10 one after the other (j2
     from 37.05: 20 m to a, 2 s, 20 m to b, 2 s, heard done at 83.05), so j3 waits until 83.05. Neither
     robot_1 nor robot_3 could have taken it: both were reported idle 10..83.05 while it waited."""

@@ -1,4 +1,4 @@
-"""The Dispatcher on a roadmap (SPEC §12, issue 32 item 4): shortest routes under node reservations, one OPIL
+"""The Dispatcher on a roadmap (docs/contract.md §12, issue 32 item 4): shortest routes under node reservations, one OPIL
 task per stretch, so that its robots neither collide nor deadlock; ``routing = "straight"`` drives through.
 
 Every scenario here: 1 m x 1 m robots at 1 m/s, 0.5 m/s^2 both ways, turns at once (docs/robots.md's

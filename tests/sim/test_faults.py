@@ -1,4 +1,4 @@
-"""SPEC §4 Faults, end to end: scenarios/faults.toml's outcome as derived by hand in docs/robots.md, and the
+"""docs/contract.md §4 Faults, end to end: scenarios/faults.toml's outcome as derived by hand in docs/robots.md, and the
 scenario keys' errors."""
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ ARMED = '\n[[faults]]\nt = 0.5\nrobot = "robot_1"\nkind = "action_failure"\n'
 
 
 def test_s4_a_load_failed_by_an_injected_action_failure_moves_no_part(run_toml):
-    """SPEC §4 (issue 29 item 5): a failed load moves nothing. The load was applied and its outcome replaced
+    """docs/contract.md §4 (issue 29 item 5): a failed load moves nothing. The load was applied and its outcome replaced
     afterwards: task L cancelled action_failed, yet the robot carried a part and s1 held 2 of its 3."""
     out = run_toml(script(_task(1.0, "L", "load")) + ARMED)
     assert [(e["task"], e["event"], e.get("reason")) for e in out.of("task_cancelled") + out.of("task_completed")] == [
@@ -99,7 +99,7 @@ def test_s4_a_load_failed_by_an_injected_action_failure_moves_no_part(run_toml):
 
 
 def test_s4_an_unload_failed_by_an_injected_action_failure_keeps_the_part_on_board(run_toml):
-    """SPEC §4 (issue 29 item 5): a failed unload moves nothing: the robot still carries its part, s1 keeps
+    """docs/contract.md §4 (issue 29 item 5): a failed unload moves nothing: the robot still carries its part, s1 keeps
     its 3, and no part counts as moved; the unload sent again delivers it."""
     def loaded(*tasks: str) -> str:  # the robot starts with a part on board
         return script(*tasks).replace("max_velocity = 1.0\n", "max_velocity = 1.0\ncarrying = 1\n", 1) + ARMED

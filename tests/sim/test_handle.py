@@ -1,4 +1,4 @@
-"""The fleet manager's handle in simulated time (SPEC §9): what it refuses, timers, spaced task messages,
+"""The fleet manager's handle in simulated time (docs/contract.md §9): what it refuses, timers, spaced task messages,
 seeded randomness, what Orion holds, and job reports that make no sense."""
 
 from __future__ import annotations
@@ -244,7 +244,7 @@ def test_the_fleet_a_manager_is_given_is_read_only():
 
 
 def test_the_read_only_fleet_still_copies_pickles_and_serialises():
-    """Read-only must not mean unusable (SPEC §9): a MappingProxyType made the fleet, and a manager holding
+    """Read-only must not mean unusable (docs/contract.md §9): a MappingProxyType made the fleet, and a manager holding
     it after a run, impossible to pickle or deep-copy ("cannot pickle 'mappingproxy' object"), and its
     durations to json.dumps or dataclasses.asdict, all of which worked before the fleet was made
     read-only. A copy is read-only too, and writing to it leaves the original alone."""
@@ -278,7 +278,7 @@ def test_a_path_as_a_numpy_array_or_any_iterable_is_the_same_task():
     """A planner's path as an (n, 2) numpy array ('The truth value of an array with more than one element
     is ambiguous', from inside the task builder), or a generator (consumed by the point check, then 'has no
     len()'), is the task the same points as a list give: the handle takes the points, as its check says
-    (SPEC §9, docs/library.md)."""
+    (docs/contract.md §9, docs/library.md)."""
     import numpy as np
 
     points = [(2.0, 2.0), (3.0, 2.0)]

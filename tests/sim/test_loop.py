@@ -1,4 +1,4 @@
-"""A fleet manager in the loop, in simulated time (SPEC §9): the link's latency, ordering and semantics, the
+"""A fleet manager in the loop, in simulated time (docs/contract.md §9): the link's latency, ordering and semantics, the
 tie order of callbacks, and when a closed-loop run is over (the lost-last-task defect of issue 10)."""
 
 from __future__ import annotations
@@ -236,8 +236,8 @@ class Describe(vcran.FleetManager):
 
 
 def test_every_periodic_robot_description_reaches_the_manager_as_live_mode_forces_it():
-    """SPEC §2, issue 29 item 2: live, each periodic write of the (unchanged) description is forced through
-    Orion (options=forcedUpdate), so it notifies every subscriber; the link stands for Orion (SPEC §9), so
+    """docs/contract.md §2, issue 29 item 2: live, each periodic write of the (unchanged) description is forced through
+    Orion (options=forcedUpdate), so it notifies every subscriber; the link stands for Orion (docs/contract.md §9), so
     the manager gets it every description_period too, not only the first time. Expected by hand: written
     at 0, 10, 20 (duration 25 s), each arriving 0.5 s later, robot_1 then robot_2 (fleet order)."""
     sc = parse(tomllib.loads(FLEET.replace("until_idle = true", "description_period = 10.0").replace(

@@ -1,5 +1,5 @@
 """Behaviours no test pinned down before issue 13 (a mutation run could break each without a failing
-test): the speed and turn limits of a leg (SPEC §4), what AgvAction does at stations, the seed's action
+test): the speed and turn limits of a leg (docs/contract.md §4), what AgvAction does at stations, the original VC-RAN's action
 codes, tie orders, a ran_error's stamp, parts_moved. Every expectation is worked out by hand.
 
 One robot at the origin facing +x with no acceleration or turn limits unless a test says otherwise, so a
@@ -69,7 +69,7 @@ def parts(out):
     return {name: s["parts"] for name, s in out.summary["stations"].items()}
 
 
-# --- §4: a leg's limits ------------------------------------------------------------------------------------
+# --- docs/contract.md §4: a leg's limits ------------------------------------------------------------------------------------
 
 
 def test_s4_speed_is_the_assignments_capped_by_the_robots(run_toml):
@@ -104,13 +104,13 @@ def test_s4_the_turn_rate_is_the_assignments_capped_by_the_robots(tmp_path, aske
     assert t == pytest.approx(1 + turn + 4)
 
 
-# --- §4: actions at stations -------------------------------------------------------------------------------
+# --- docs/contract.md §4: actions at stations -------------------------------------------------------------------------------
 
 STATION = station("s1", 4, 0.5, "parts = 3")
 
 
 def test_s4_the_seeds_action_codes_0_1_2_are_dummy_load_unload(run_toml):
-    """Category 0 (undefined) falls back to the seed's codes: 1 load (2 s), 2 unload (3 s), 0 dummy (1 s)."""
+    """Category 0 (undefined) falls back to the original VC-RAN's codes: 1 load (2 s), 2 unload (3 s), 0 dummy (1 s)."""
     out = run_toml(fleet(stations=STATION) + go(1, "A", "A_m1", 1, 4, 4, 0, "is_waypoint = false")
                    + act(1, "A", "A_a2", 2, 4, 1) + act(1, "A", "A_a3", 3, 4, 2) + act(1, "A", "A_a4", 4, 4, 0))
     assert action_done(out) == [(7.0, "A_a2", True), (10.0, "A_a3", True), (11.0, "A_a4", True)]
@@ -176,7 +176,7 @@ def test_s4_of_two_stations_in_reach_the_nearest_serves(run_toml, first, second,
     assert parts(out) == {"first": 1, "second": 1} | {taken: 0}
 
 
-# --- §5: what is published ---------------------------------------------------------------------------------
+# --- docs/contract.md §5: what is published ---------------------------------------------------------------------------------
 
 
 def test_s5_statuses_of_one_tick_go_out_in_fleet_order(run_toml):

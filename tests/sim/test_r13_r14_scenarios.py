@@ -247,7 +247,7 @@ def test_r14_an_incapable_action_fails_before_a_cancel_of_a_later_instant(run_to
 
 def test_r14_a_battery_running_out_as_an_incapable_action_fails_stops_the_robot_then(run_toml):
     """By hand: 1 Ah drawn at 0.25 Ah/s at rest runs out at exactly t=4, between telemetry ticks (3, 6).
-    The action dispatched at 4 fails there (R14), and the robot, empty, stops at 4 too (§4), not at the
+    The action dispatched at 4 fails there (R14), and the robot, empty, stops at 4 too (docs/contract.md §4), not at the
     next tick (6): the failure's zero-length wait (a completion of the instant) must not hide that instant."""
     out = run_toml(script(action(4, "A", "A_a1", 1, 1, "unload")).replace(
         "max_velocity = 1.0", "max_velocity = 1.0\nactions = [\"dummy\"]\n"

@@ -1,4 +1,4 @@
-"""``ran_status`` carries the parts the robot carries (SPEC §2; issue 29 item 4): a fleet manager must be
+"""``ran_status`` carries the parts the robot carries (docs/contract.md §2; issue 29 item 4): a fleet manager must be
 able to see a load that a failed action left where it was. It is published when it changes, a change of
 the load alone included."""
 

@@ -1,4 +1,4 @@
-"""SPEC §12 safety fields in simulated time: :class:`vcran.sim.traffic.SafetyFields` runs the pure Traffic
+"""docs/contract.md §12 safety fields in simulated time: :class:`vcran.sim.traffic.SafetyFields` runs the pure Traffic
 state machine in SimPy, with a minimal body (tests/sim/traffic_body.py), and writes ``blocked``,
 ``unblocked`` and ``deadlock`` events.
 
@@ -116,6 +116,6 @@ def test_a_robot_blocked_past_the_bound_is_a_deadlock_once() -> None:
 
 
 def test_the_same_run_twice_logs_the_same() -> None:
-    """Determinism (SPEC §5): the same robots and routes give the same log, event for event."""
+    """Determinism (docs/contract.md §5): the same robots and routes give the same log, event for event."""
     assert corridor().run(120.0) == corridor().run(120.0)
     assert parked(10.0).run(120.0) == parked(10.0).run(120.0)

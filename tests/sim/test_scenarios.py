@@ -1,4 +1,4 @@
-"""Scenario tests: the seed's demo and the behaviours issue "simulation core" asks to see, end to end."""
+"""Scenario tests: the original VC-RAN's demo and the behaviours issue "simulation core" asks to see, end to end."""
 
 from __future__ import annotations
 
@@ -262,7 +262,7 @@ def test_r7_timer_of_a_task_id_seen_again_after_history_eviction(run_toml):
 
 
 def test_raw_payloads_orjson_cannot_write_are_rejected_and_replay(run_toml, tmp_path):
-    """Deep nesting, a 100-digit integer and NaN in raw input (R12): rejected, recorded, replayed (§6)."""
+    """Deep nesting, a 100-digit integer and NaN in raw input (R12): rejected, recorded, replayed (docs/contract.md §6)."""
     from vcran.cli import main
 
     deep: object = 1
@@ -281,7 +281,7 @@ def test_raw_payloads_orjson_cannot_write_are_rejected_and_replay(run_toml, tmp_
 
 def test_r12_lone_surrogate_in_a_raw_value_is_rejected_recorded_and_replayed(run_toml, tmp_path):
     """JSON can carry a lone UTF-16 surrogate ("\\udc00"), which no UTF-8 file can hold: the RAN rejects
-    it (R12), the trace records it (escaped) and a replay rejects it again (§6); nothing crashes."""
+    it (R12), the trace records it (escaped) and a replay rejects it again (docs/contract.md §6); nothing crashes."""
     from vcran.cli import main
     from vcran.core.opil.build import cancel as build_cancel
     from vcran.core.opil.codec import encode_attribute
@@ -322,7 +322,7 @@ def test_scripted_transport_holds_the_final_entity_state_like_orion(tmp_path):
 
 
 def test_a_transport_that_wants_no_frames_gets_none_and_the_files_are_the_same(tmp_path, monkeypatch):
-    """§6: frames are sampled only for a consumer; a folder's files never depended on them."""
+    """docs/contract.md §6: frames are sampled only for a consumer; a folder's files never depended on them."""
     from transports.scripted import ScriptedTransport
     from vcran.core.motion import FleetKinematics
     from vcran.runner import run_to
@@ -335,7 +335,7 @@ def test_a_transport_that_wants_no_frames_gets_none_and_the_files_are_the_same(t
     monkeypatch.setattr(FleetKinematics, "sample", lambda self, t: sampled.append(t) or original(self, t))
     without = ScriptedTransport(scenario.messages(), frames=False)
     run_to(scenario, tmp_path / "b", without)
-    # never: not the 58 ticks, and the summary's final poses (SPEC §8) are read robot by robot (pose())
+    # never: not the 58 ticks, and the summary's final poses (docs/contract.md §8) are read robot by robot (pose())
     assert sampled == [] and without.last_frame is None and "current_motion" not in without.counts
     assert without.latest == with_frames.latest  # the statuses published are the same
     for name in ("trace.jsonl.zst", "legs.npy", "events.jsonl.zst", "summary.json"):
@@ -343,7 +343,7 @@ def test_a_transport_that_wants_no_frames_gets_none_and_the_files_are_the_same(t
 
 
 def test_telemetry_of_a_busy_fleet_is_the_same_vectorised_and_leg_by_leg(tmp_path, monkeypatch):
-    """§6: the telemetry reproduced from the leg log is bit for bit the same whether the sweep runs in numpy
+    """docs/contract.md §6: the telemetry reproduced from the leg log is bit for bit the same whether the sweep runs in numpy
     (from 24 moving robots on, its leg table updated only for the robots that started a leg since the last
     tick) or leg by leg in Python, over a fleet whose legs start and end all the time."""
     import numpy as np

@@ -1,5 +1,5 @@
 """vcran's use of SimPy internals (vcran/sim/timing.py), guarded: a SimPy release that changes its event
-queue must fail here, loudly, not shift event order silently (SPEC §5 tie order)."""
+queue must fail here, loudly, not shift event order silently (docs/contract.md §5 tie order)."""
 
 from __future__ import annotations
 

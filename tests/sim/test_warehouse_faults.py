@@ -1,6 +1,6 @@
-"""scenarios/warehouse-faults.toml (issue 29 item 7, SPEC §4 and §9): the warehouse with batteries, chargers and
+"""scenarios/warehouse-faults.toml (issue 29 item 7, docs/contract.md §4 and §9): the warehouse with batteries, chargers and
 faults of every kind in a closed loop. The reference Dispatcher ends every job, completed or failed with
-evidence; every count below is derived from the Dispatcher's rules and SPEC §4, not read off a run."""
+evidence; every count below is derived from the Dispatcher's rules and docs/contract.md §4, not read off a run."""
 
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ def test_every_drawn_fault_happens_and_every_cancelled_task_is_a_faults_doing(ru
         for robot in SCENARIO.robots:
             drawn.update(f.kind for f in takewhile(lambda f: f.t <= end, source.stream(SCENARIO.settings.seed, robot.id)))
     assert Counter(e["kind"] for e in of(run, "fault")) == drawn
-    # SPEC §4: a motion failure that applied cancels its task motion_failed; an armed action failure fails
+    # docs/contract.md §4: a motion failure that applied cancels its task motion_failed; an armed action failure fails
     # one action (action_fault) and cancels its task action_failed; nothing else cancels a task here
     applied = Counter(e["kind"] for e in of(run, "fault") if e.get("applied", True))
     reasons = Counter(e["reason"] for e in of(run, "task_cancelled"))
@@ -71,7 +71,7 @@ def test_every_drawn_fault_happens_and_every_cancelled_task_is_a_faults_doing(ru
 
 def test_a_failed_load_or_unload_moves_nothing_so_the_parts_add_up(run):
     # the docks start empty and produce nothing: they hold one part per completed job. A line holds its 10,
-    # plus what it produced, minus one per completed job that picked up there (SPEC §4: a failed load took
+    # plus what it produced, minus one per completed job that picked up there (docs/contract.md §4: a failed load took
     # nothing); every robot ends empty-handed (a failed unload kept its part, delivered by the retry)
     stations = run.summary["stations"]
     done = [r for r in run.jobs if r.outcome == "completed"]

@@ -1,4 +1,4 @@
-"""scenarios/warehouse-traffic.toml (SPEC §12, issue 32 items 4 and 5): the warehouse on
+"""scenarios/warehouse-traffic.toml (docs/contract.md §12, issue 32 items 4 and 5): the warehouse on
 a roadmap with safety fields on, where the reference Dispatcher routes and reserves so that every job
 completes with no contact between robots and no deadlock; driving straight, as in the warehouse, its robots
 brake for one another and deadlock, and without fields they run through one another."""
@@ -77,7 +77,7 @@ def test_s12_every_job_completes_and_no_robot_touches_another(run):
     # before its task goes out, so the idle bound must cover traffic (docs/fuzzing.md): five minutes
     assert loop_problems(run, bound=300.0) == []
     assert check_no_deadlock(run) == []
-    # safety fields on (SPEC §12): the reservations keep every robot out of the others' fields
+    # safety fields on (docs/contract.md §12): the reservations keep every robot out of the others' fields
     assert SCENARIO.traffic.any_field(SCENARIO.robots)
     assert run.summary["traffic"] == {"blocks": 0, "blocked_time": 0.0, "deadlocks": 0}
 

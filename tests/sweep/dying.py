@@ -1,4 +1,4 @@
-"""Jobs whose process dies, for tests of the local pool (§10): importable by its worker processes."""
+"""Jobs whose process dies, for tests of the local pool (docs/contract.md §10): importable by its worker processes."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A Dask scheduler lost part way, for tests (§10): a run cuts the connection of vcran's client to its
+"""A Dask scheduler lost part way, for tests (docs/contract.md §10): a run cuts the connection of vcran's client to its
 scheduler, which is what the client sees when the scheduler's machine goes down, while the LocalCluster
 itself stays up and closes at once at the end of the test."""
 

@@ -1,4 +1,4 @@
-"""Fuzz campaigns across workers (§10): consecutive search seeds in chunks, clean runs count every example,
+"""Fuzz campaigns across workers (docs/contract.md §10): consecutive search seeds in chunks, clean runs count every example,
 the first failure stops the campaign and names the one search that finds it again alone."""
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def test_a_campaign_on_dask_stops_at_the_first_failure_which_its_seed_reproduces
 @pytest.mark.slow
 def test_a_fleet_managers_campaign_runs_on_local_processes_and_saves_a_scenario_naming_its_search(tmp_path, capsys):
     """A manager that never replans a failed task (tests/testing/loop_managers.py) leaves a job open
-    (SPEC §9's loop property); the worker processes import it by name, as a Dask worker would. Each
+    (docs/contract.md §9's loop property); the worker processes import it by name, as a Dask worker would. Each
     search shrinks its failure (~130 runs), so the campaign is two searches of one example."""
     from dataclasses import replace
 
@@ -117,7 +117,7 @@ def test_bad_campaign_options(capsys, argv, message):
 
 @pytest.mark.slow
 def test_a_campaign_that_loses_its_scheduler_is_exit_2_never_ran_clean(tmp_path, monkeypatch, capsys):
-    # §10: the searches Dask cancelled when it lost its scheduler did not run clean; the command says it lost
+    # docs/contract.md §10: the searches Dask cancelled when it lost its scheduler did not run clean; the command says it lost
     # the cluster (exit 2) instead of reporting the examples of the searches that finished as the campaign
     distributed = pytest.importorskip("distributed")
     from tests.sweep.lost_scheduler import LostScheduler

@@ -1,5 +1,5 @@
 """``vcran.run_sweep(keep_runs=DIR)`` and ``SweepResult.write(DIR)`` write their folder as ``vcran sweep --out
-DIR`` does (SPEC §6, §10; vcran.sweep.folder, the code they share): into ``DIR.incomplete``, renamed to
+DIR`` does (docs/contract.md §6, §10; vcran.sweep.folder, the code they share): into ``DIR.incomplete``, renamed to
 ``DIR`` when it is complete; an earlier sweep's folder is replaced whole, a folder vcran did not write (or
 the one you are in) refused before anything runs; an interrupted or failed sweep leaves ``DIR.incomplete``
 and any earlier ``DIR`` untouched. ``result.write(DIR)`` over the folder ``run_sweep(keep_runs=DIR)`` wrote
@@ -280,7 +280,7 @@ def test_svg_figures_as_vcran_sweep_format_svg(tmp_path):
 def test_write_over_its_own_folder_without_kept_runs_there(tmp_path):
     """Dask workers without a file system shared with this machine keep their runs on theirs: the folder
     ``keep_runs`` wrote here holds the tables and figures but no ``runs/``. Writing the result over it again
-    was a FileNotFoundError from copying the runs it does not have (SPEC §10)."""
+    was a FileNotFoundError from copying the runs it does not have (docs/contract.md §10)."""
     import shutil
 
     narrow = sweep_file(tmp_path, "narrow", NARROW)
@@ -292,7 +292,7 @@ def test_write_over_its_own_folder_without_kept_runs_there(tmp_path):
 
 @pytest.mark.slow
 def test_a_scheduler_lost_mid_sweep_raises_pool_error_with_the_rows_done(tmp_path, monkeypatch):
-    # §10, §6: run_sweep never returns a part of a sweep as if it were the whole when its cluster went away;
+    # docs/contract.md §10, §6: run_sweep never returns a part of a sweep as if it were the whole when its cluster went away;
     # the PoolError carries the rows done (result.interrupted) and leaves them in DIR.incomplete
     distributed = pytest.importorskip("distributed")
     from tests.sweep.lost_scheduler import lost_at_seed

@@ -1,4 +1,4 @@
-"""``vcran sweep`` (§10): a run in a sweep is the run alone, byte for byte; the same rows from this process,
+"""``vcran sweep`` (docs/contract.md §10): a run in a sweep is the run alone, byte for byte; the same rows from this process,
 a local process pool and a real Dask LocalCluster on loopback; failures and Ctrl-C keep every row done
 (after Ctrl-C in DIR.incomplete: test_sweep_out_folder.py)."""
 
@@ -151,7 +151,7 @@ def test_ctrl_c_keeps_the_rows_already_done(sweep_file, tmp_path, monkeypatch, c
     interrupt_run(monkeypatch, 4)
     out = tmp_path / "sweep"
     assert main(["sweep", str(sweep_file), "--out", str(out), "--workers", "1", "--quiet"]) == 130
-    partial = tmp_path / "sweep.incomplete"  # never a DIR that looks finished (SPEC §6)
+    partial = tmp_path / "sweep.incomplete"  # never a DIR that looks finished (docs/contract.md §6)
     assert [r["run"] for r in rows(partial)] == ["0", "1", "2"] and not out.exists()
     assert "interrupted: 3 of 8 runs done" in capsys.readouterr().err
     assert not list(partial.glob("*.tmp"))
@@ -177,7 +177,7 @@ def test_kpis_of_a_summary_written_by_hand():
             "b": {"completed": [], "cancelled": [{"task": "t4", "reason": "cancelled"},
                                                  {"task": "t5", "reason": "timeout"},
                                                  {"task": "t6", "reason": "collision"}],
-                  "distance": 2.0, "parts_moved": 0, "collisions": 1},  # a and b met once (SPEC §4)
+                  "distance": 2.0, "parts_moved": 0, "collisions": 1},  # a and b met once (docs/contract.md §4)
             "c": {"completed": [], "cancelled": [], "distance": 0.0, "parts_moved": 0,
                   "battery": {"charge": 9.5, "percentage": 95.0, "used": 0.5, "charged": 0.0}},
         },
@@ -283,7 +283,7 @@ def test_json_params_in_csv(tmp_path):
 
 
 def test_a_scheduler_lost_mid_sweep_is_exit_2_and_an_incomplete_folder(sweep_file, tmp_path, monkeypatch, capsys):
-    # §10 and §6: the runs Dask cancelled when it lost its scheduler are neither dropped from a folder that
+    # docs/contract.md §10 and docs/contract.md §6: the runs Dask cancelled when it lost its scheduler are neither dropped from a folder that
     # looks finished (exit 0) nor taken for the runs' own failures; the rows done stay in DIR.incomplete
     distributed = pytest.importorskip("distributed")
     from tests.sweep.lost_scheduler import lost_at_seed
@@ -333,7 +333,7 @@ manager = ["tests.testing.loop_managers:Raising", "tests.testing.loop_managers:E
 
 
 def test_a_fleet_manager_that_raises_or_exits_is_its_run_s_row_the_same_in_any_pool(tmp_path, capsys):
-    # §10: runs.csv without wall_seconds is the same whichever pool ran it; a manager's sys.exit() ended a
+    # docs/contract.md §10: runs.csv without wall_seconds is the same whichever pool ran it; a manager's sys.exit() ended a
     # sweep in this process (exit 3, no rows) and ended Dask's workers one after the other (KilledWorker),
     # and a raise lost the hook and time that `vcran run` names
     path = tmp_path / "managers.toml"
@@ -349,7 +349,7 @@ def test_a_fleet_manager_that_raises_or_exits_is_its_run_s_row_the_same_in_any_p
 
 
 def test_a_local_worker_that_dies_fails_only_the_run_that_kills_it(tmp_path):
-    # §10: a worker process killed part way broke the executor, and every run not finished, most never
+    # docs/contract.md §10: a worker process killed part way broke the executor, and every run not finished, most never
     # started, came back failed with BrokenProcessPool; now they run again, and only the run whose own
     # process dies again is a failure
     from tests.sweep.dying import square_or_die

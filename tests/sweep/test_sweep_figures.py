@@ -1,4 +1,4 @@
-"""Comparison figures (§10): each KPI against a swept parameter, the mean over seeds with its min-max range
+"""Comparison figures (docs/contract.md §10): each KPI against a swept parameter, the mean over seeds with its min-max range
 and the single runs, one line per value of the other parameters. Rows are made up by hand, so the
 expected points are plain arithmetic."""
 

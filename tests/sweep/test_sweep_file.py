@@ -1,4 +1,4 @@
-"""Sweep files (§10): seeds, grid × variants in a fixed order, dotted paths into the scenario, and strict
+"""Sweep files (docs/contract.md §10): seeds, grid × variants in a fixed order, dotted paths into the scenario, and strict
 errors that name the file, the variant and the field."""
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ def test_a_broken_scenario_is_the_scenario_loaders_message_behind_the_sweep_file
 
 
 def test_an_empty_table_clears_what_the_scenario_had_there(tmp_path):
-    # §10, docs/sweeps.md: the warehouse's [manager] options are the Dispatcher's; a variant comparing a
+    # docs/contract.md §10, docs/sweeps.md: the warehouse's [manager] options are the Dispatcher's; a variant comparing a
     # class that takes none must be able to clear them ({} used to flatten into no path at all)
     sweep = load(write(tmp_path, """
 seeds = [1]

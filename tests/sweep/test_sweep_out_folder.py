@@ -1,4 +1,4 @@
-"""``vcran sweep --out DIR`` is written like a run folder (SPEC §6, §10; vcran.io.runfolder): into
+"""``vcran sweep --out DIR`` is written like a run folder (docs/contract.md §6, §10; vcran.io.runfolder): into
 ``DIR.incomplete``, renamed to ``DIR`` when the sweep has ended. An earlier sweep's folder is replaced as a
 whole (never its figures and kept runs beside new rows), a folder that is no vcran output is refused before
 anything runs, and a sweep that fails or is interrupted leaves ``DIR.incomplete`` and any earlier ``DIR``

@@ -1,4 +1,4 @@
-"""The progress line of a sweep (§10): runs done of all, failures, ETA from the mean wall time per run;
+"""The progress line of a sweep (docs/contract.md §10): runs done of all, failures, ETA from the mean wall time per run;
 whole lines at most every 10 s in a log."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """docs/sweeps.md's blocks that tests/test_docs.py leaves to this file (its 'tested by' markers): the sweep
 file shown is scenarios/sweeps/demo-sweep.toml, and the ```sh lines run verbatim, with run 3 of the sweep
-byte-identical to the same run alone (§10). tests/test_docs.py runs the ```python blocks; the indented
+byte-identical to the same run alone (docs/contract.md §10). tests/test_docs.py runs the ```python blocks; the indented
 commands (a real cluster, a fuzz campaign) run nowhere verbatim: tests/sweep/test_sweep_command.py and
 test_fuzz_campaign.py run the same paths on a LocalCluster."""
 

@@ -1,4 +1,4 @@
-"""Deliberately broken fleet managers (SPEC §9, issue 10): the loop properties must catch each one, and
+"""Deliberately broken fleet managers (docs/contract.md §9, issue 10): the loop properties must catch each one, and
 the CLI must blame the manager, not vcran, for one that raises.
 
 Importable as ``tests.testing.loop_managers:Class`` so that ``vcran fuzz --manager`` can run them too.
@@ -37,7 +37,7 @@ class NeverReplans(Dispatcher):
 
 
 class ForgetsMotionFailures(Dispatcher):
-    """Re-plans after every cancel but a ``motion_failed`` one (SPEC §4): that job is forgotten."""
+    """Re-plans after every cancel but a ``motion_failed`` one (docs/contract.md §4): that job is forgotten."""
 
     def task_cancelled(self, robot: str, trip: Trip, reason: str) -> None:
         if reason == "motion_failed":

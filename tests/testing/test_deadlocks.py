@@ -1,4 +1,4 @@
-"""The loop property "no deadlock" (SPEC §12, issue 32 item 4; vcran.testing.deadlocks): on event lists written
+"""The loop property "no deadlock" (docs/contract.md §12, issue 32 item 4; vcran.testing.deadlocks): on event lists written
 by hand (the ``deadlock`` events safety fields will raise, robots stuck idle on an open job), and on the
 Dispatcher in the corridor with and without its passing bay."""
 
@@ -37,7 +37,7 @@ def state(t: float, robot: str, old: str, new: str) -> dict[str, Any]:
 
 
 def test_s12_every_deadlock_event_is_a_violation():
-    # the event safety fields raise (SPEC §12, vcran.core.incidents.Deadlock): robots blocked on one another in a
+    # the event safety fields raise (docs/contract.md §12, vcran.core.incidents.Deadlock): robots blocked on one another in a
     # cycle (A waits for B, B for C, C for A), or one past a bound (C, by A and B in its field)
     run = Run([e(11.0, "deadlock", "A", kind="cycle", other="B, C", duration=2.0),
                e(300.0, "deadlock", "C", kind="bound", other="A, B", duration=120.0)])

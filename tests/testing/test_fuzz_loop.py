@@ -1,4 +1,4 @@
-"""Fuzzing the loop (SPEC §9, issue 10 item 7): the properties catch deliberately broken managers, pass
+"""Fuzzing the loop (docs/contract.md §9, issue 10 item 7): the properties catch deliberately broken managers, pass
 the reference dispatcher, and the search shrinks a failure to a minimal scenario."""
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def test_idle_while_waiting_counts_only_the_overlap_of_idle_robot_and_waiting_jo
 
 
 def test_a_robot_out_of_reach_is_not_idle():
-    # r1 idles 0..100 while j waits from 10; its link is down 30..75 and it breaks down 80..90 (§4): the
+    # r1 idles 0..100 while j waits from 10; its link is down 30..75 and it breaks down 80..90 (docs/contract.md §4): the
     # manager could use it 10..30, 75..80 and 90..100, at most 20 s at a stretch; a fault that applied to
     # nothing, and another robot's outage, cut nothing
     events = [
@@ -114,7 +114,7 @@ def test_a_robot_out_of_reach_is_not_idle():
 
 
 def test_an_empty_battery_cuts_a_robots_idle_stretch_until_its_swap():
-    """SPEC §4: a robot out of service (its battery empty) is not idle for a job; one never swapped stays out."""
+    """docs/contract.md §4: a robot out of service (its battery empty) is not idle for a job; one never swapped stays out."""
     events = [{"t": 0.0, "robot": "", "event": "job_arrived", "job": "j"},
               {"t": 30.0, "robot": "r1", "event": "battery_empty", "x": 0.0, "y": 0.0},
               {"t": 75.0, "robot": "r1", "event": "battery_swapped"}]
@@ -193,7 +193,7 @@ def test_the_search_shrinks_a_never_replanning_manager_to_one_job_at_an_empty_li
     assert check_jobs_ended(vcran.simulate(again, manager=NeverReplans))
 
 
-# --- SPEC §4 faults in the loop -------------------------------------------------------------------------------
+# --- docs/contract.md §4 faults in the loop -------------------------------------------------------------------------------
 
 LANE = parse(tomllib.loads("""
 [simulation]

@@ -1,4 +1,4 @@
-"""Model-based stateful fuzzing of RanLogic (SPEC §3, R1–R10, R12) against the reference model.
+"""Model-based stateful fuzzing of RanLogic (docs/contract.md §3, R1–R10, R12) against the reference model.
 
 The machine lives in :mod:`vcran.testing.stateful` so that users can run it too; this module runs it
 under the active hypothesis profile (``vcran`` by default, ``vcran-deep`` for campaigns; docs/fuzzing.md).

@@ -1,9 +1,9 @@
-"""Whole-simulation properties over generated, perturbed scenarios (SPEC §3–§6).
+"""Whole-simulation properties over generated, perturbed scenarios (docs/contract.md §3–§6).
 
 Each example is a small generated fleet (vcran.testing.scripts.fleets) whose message script is
 perturbed (reordered, duplicated, delayed, dropped, cancels injected), written as a scenario file and
 run. The rules are checked on the run's outputs (vcran.testing.checks); the run must go idle (every task
-ended), run byte-identically twice (§5) and pass replay verification against its own trace (§6). A
+ended), run byte-identically twice (docs/contract.md §5) and pass replay verification against its own trace (docs/contract.md §6). A
 failing example is printed as the scenario file that reproduces it (``vcran run`` it).
 """
 

@@ -1,4 +1,4 @@
-"""SPEC §9's job-outcome properties (issue 29 item 6): a job is reported failed only with evidence, and
+"""docs/contract.md §9's job-outcome properties (issue 29 item 6): a job is reported failed only with evidence, and
 without faults a feasible workload completes every job. A manager that gives up, or never sends a task,
 fails them; the reference Dispatcher keeps them."""
 

@@ -1,7 +1,7 @@
-"""The reference model's R2 check and the R6 table of the checks, against the SPEC worked by hand.
+"""The reference model's R2 check and the R6 table of the checks, against docs/contract.md worked by hand.
 
 Both are restated in ``vcran.testing`` rather than taken from RanLogic, so that a mistake in RanLogic
-shows as a disagreement; these tests pin the restatements themselves to the SPEC's words.
+shows as a disagreement; these tests pin the restatements themselves to the words of docs/contract.md.
 """
 
 from __future__ import annotations

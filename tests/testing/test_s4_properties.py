@@ -1,4 +1,4 @@
-"""SPEC §4 properties (issue 11, item 5), with hypothesis: batteries stay in range and an empty robot never
+"""docs/contract.md §4 properties (issue 11, item 5), with hypothesis: batteries stay in range and an empty robot never
 moves; random fault streams never crash a run and every task ends exactly once; collision detection agrees
 with a brute-force all-pairs check."""
 

@@ -1,6 +1,6 @@
 """The planner side of OPIL's FIROS bridge, as iml130/firos at 8b581f3 does it, with OPIL's own NGSI encoder
 (``fiwareobjectconverter==0.1.1`` on PyPI): what tests/transports/test_firos.py drives vcran with (issue 29
-item 3; SPEC §2).
+item 3; docs/contract.md §2).
 
 What FIROS does, and where (``firos/include/`` of iml130/firos at 8b581f3):
 
@@ -28,7 +28,7 @@ The message definitions are written from the ``.msg`` files, not from vcran: ``m
 and ``mars_common_msgs`` of iml130/mod.sw.tp.mtp at df0639b (``Physical-Agents/mars_agent_physical_robot_msgs/
 msg``, ``mars_common_msgs/msg``); ``std_msgs``, ``geometry_msgs`` and ``sensor_msgs/BatteryState`` of ROS 1
 Melodic (ros/common_msgs 1.12.7, before Noetic added temperatures); ``time`` as genpy's ``Time`` (``secs``,
-``nsecs``, both int32); ``vcran_msgs`` from docs/wire-format.md (SPEC §2's table).
+``nsecs``, both int32); ``vcran_msgs`` from docs/wire-format.md (docs/contract.md §2's table).
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ MSG: dict[str, list[tuple[str, str]]] = {
                             ("motion_id", ID), ("action_id", ID), ("stamp", "time"), ("count", "uint32")],
 }
 
-#: The attributes of SPEC §2 and their ROS types: the MTP's FIROS configuration
+#: The attributes of docs/contract.md §2 and their ROS types: the MTP's FIROS configuration
 #: (mod_sw_tp/firos_config/robots.json) names the first five; action_assignment is the RAN's.
 TOPICS: dict[str, str] = {
     "assignment_state": f"{MRP}/AssignmentStatus",

@@ -1,4 +1,4 @@
-"""vcran driven the way OPIL's own planner side drives a RAN (issue 29 item 3; SPEC §2, §7): FIROS at
+"""vcran driven the way OPIL's own planner side drives a RAN (issue 29 item 3; docs/contract.md §2, §7): FIROS at
 iml130/firos 8b581f3 with OPIL's NGSI encoder, ``fiwareobjectconverter==0.1.1`` (tests/transports/firos.py
 says what FIROS does and where), against ``vcran broker`` and ``vcran live`` as their own processes on
 127.0.0.1, as a user starts them.
@@ -134,7 +134,7 @@ def test_a_firos_planner_drives_a_task_and_a_cancel_through_vcran_live_and_the_b
         planner.write("motion_assignment", motion("T1", "T1_m2", 2, 3, 2.0, 0.0))
         planner.write("action_assignment", load("T1", "T1_a1", 3, 3))
         assert wait_until(lambda: seen(planner, "ran_status", lambda s: uuid_list("T1") in ids(s["completed"])), 20)
-        # OPIL's own status says so too; and the part is on board (SPEC §2) from the status that says T1 is done
+        # OPIL's own status says so too; and the part is on board (docs/contract.md §2) from the status that says T1 is done
         assert wait_until(lambda: seen(planner, "assignment_state",
                                        lambda s: s["last_finished_action"]["uuid"] == uuid_list("T1_a1")), 10)
         assert {s["carrying"] for s in seen(planner, "ran_status", lambda s: uuid_list("T1") in ids(s["completed"]))} == {1}
@@ -183,7 +183,7 @@ def test_a_firos_planner_drives_a_task_and_a_cancel_through_vcran_live_and_the_b
 
 
 def test_orion_init_creates_the_attributes_opils_planner_reads(broker_process, tmp_path):  # noqa: F811
-    """``vcran orion init`` (the seed's "Initialize FOCB") creates ``assignment_state`` (SPEC §2: the
+    """``vcran orion init`` (the original VC-RAN's "Initialize FOCB") creates ``assignment_state`` (docs/contract.md §2: the
     name OPIL's planner reads, mod_sw_tp/firos_config/robots.json), not ``assignment_status``, with
     ``current_motion``, ``robot_description`` and ``ran_status``; each decodes with the converter."""
     url = broker_process

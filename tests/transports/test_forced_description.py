@@ -1,4 +1,4 @@
-"""``robot_description`` reaches a planner that subscribes late (SPEC §2; issue 29 item 2).
+"""``robot_description`` reaches a planner that subscribes late (docs/contract.md §2; issue 29 item 2).
 
 The description goes out at start and every ``description_period`` and never changes; Orion notifies only
 changes, so vcran's live sender writes it with ``options=forcedUpdate`` in a request of its own. Here the
@@ -70,7 +70,7 @@ def fleet(orion: InProcessOrion) -> tuple[OrionTransport, dict[str, object]]:
     client = OrionClient("http://orion.test", transport=httpx.MockTransport(orion))
     configs = [RobotConfig(id=r) for r in ROBOTS]
     descriptions = {c.id: description(c, PolygonStamped.from_xy(c.footprint)) for c in configs}
-    for r in ROBOTS:  # what `vcran orion init` writes first (the seed's "Initialize FOCB")
+    for r in ROBOTS:  # what `vcran orion init` writes first (the original VC-RAN's "Initialize FOCB")
         client.update(b'{"actionType":"append","entities":[' + encode_entity_json(r, "ROBOT", {
             "robot_description": descriptions[r], "ran_status": RanStatus()}) + b"]}")
     return OrionTransport(client, LinkOptions("ROBOT", ROBOTS)), descriptions
@@ -105,7 +105,7 @@ def test_a_planner_that_subscribes_late_gets_the_description_at_the_next_periodi
 
 def test_only_the_description_is_forced_in_one_request_for_the_whole_fleet():
     """forcedUpdate forces every attribute of its request (Orion's mergeAttrInfo), so the forced request
-    holds the descriptions and nothing else; one for the fleet, as the tick's request is (SPEC §7)."""
+    holds the descriptions and nothing else; one for the fleet, as the tick's request is (docs/contract.md §7)."""
     orion = InProcessOrion()
     t, descriptions = fleet(orion)
     del orion.requests[:]  # those of `vcran orion init`

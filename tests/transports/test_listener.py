@@ -1,4 +1,4 @@
-"""The notification listener under traffic a well-behaved Orion never sends, and under a burst (SPEC §7,
+"""The notification listener under traffic a well-behaved Orion never sends, and under a burst (docs/contract.md §7,
 issue 12 items 7 and 10), over real loopback sockets. The broker's HTTP shell shares the hardening
 (vcran.io.http_server), so its idle and slow-client cases are here too."""
 

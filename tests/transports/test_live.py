@@ -1,4 +1,4 @@
-"""Live mode over real loopback HTTP (SPEC §7): vcran broker, orion init, live, send, replay --verify.
+"""Live mode over real loopback HTTP (docs/contract.md §7): vcran broker, orion init, live, send, replay --verify.
 
 The end-to-end tests run the CLI commands as separate processes, exactly as a user would. The fault
 tests run the live transport in-process, so that they can stop the broker under it, look at its state
@@ -107,7 +107,7 @@ def test_demo_end_to_end_through_the_broker(broker_process, tmp_path, inbound):
     live = vcran("live", str(DEMO), "--orion", url, "--out", str(out), "--factor", "20", *extra)
     try:
         assert wait_until(lambda: live_time(url) >= 1.0, 15)  # the live run ticks (init wrote t = 0)
-        if inbound == "subscription":  # values overwritten before the subscription exists are gone (SPEC §7)
+        if inbound == "subscription":  # values overwritten before the subscription exists are gone (docs/contract.md §7)
             assert wait_until(lambda: httpx.get(f"{url}/v2/subscriptions").json() != [], 10)
         sender = vcran("send", str(DEMO), "--orion", url, "--factor", "20", "--quiet")
         assert sender.wait(timeout=30) == 0, sender.stderr.read()
@@ -239,13 +239,13 @@ def test_broker_restart_mid_run(tmp_path):
         result = run.stop()
         broker.stop()
     assert result.summary["robots"]["robot_1"]["completed"] == ["after"]
-    # what was recorded through the outage replays exactly (§6)
+    # what was recorded through the outage replays exactly (docs/contract.md §6)
     assert main(["replay", str(run.out), "--out", str(tmp_path / "rep"), "--verify", "--quiet"]) == 0
 
 
 @pytest.mark.slow
 def test_5xx_and_slow_answers_do_not_stall_the_simulation(tmp_path, caplog):
-    """SPEC §7: Orion answering 503, then holding an answer back, never holds up the simulation. Shown by
+    """docs/contract.md §7: Orion answering 503, then holding an answer back, never holds up the simulation. Shown by
     counting, not timing: simulated time goes on while every update is refused, and while one request waits
     for its answer for as long as the test likes (a pace measured against the wall clock failed on a loaded
     machine)."""
@@ -346,7 +346,7 @@ def test_polling_loses_overwritten_values_subscription_does_not(tmp_path, inboun
 
 def test_values_written_while_the_subscription_was_gone_are_not_lost(tmp_path):
     """Orion keeps its data but loses vcran's subscription: the keeper re-creates it and reads the entity
-    again, so an assignment written in between still reaches the simulation (SPEC §7)."""
+    again, so an assignment written in between still reaches the simulation (docs/contract.md §7)."""
     broker = start_broker(port=0)
     init(broker.url)
     run = LiveRun(tmp_path, broker.url)
@@ -395,7 +395,7 @@ def test_r12_lone_surrogate_in_a_notification_is_rejected_and_the_run_goes_on(tm
 def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
     """Orion gives up on a notification (the listener was unreachable, or too slow in a burst) and says
     so in the subscription's lastFailure/failsCounter; the keeper sees it and reads the entities, so the
-    values those notifications carried still reach the simulation (SPEC §7: no loss window)."""
+    values those notifications carried still reach the simulation (docs/contract.md §7: no loss window)."""
     broker = start_broker(port=0)
     init(broker.url)
     run = LiveRun(tmp_path, broker.url)
@@ -419,7 +419,7 @@ def test_notifications_orion_failed_to_deliver_are_read_from_orion(tmp_path):
 def test_a_failure_success_failure_within_one_second_still_reads_as_a_failure():
     """Orion shows delivery times in whole seconds and resets failsCounter at a success: between two looks
     of the keeper, fail, succeed and fail again within one second leave lastFailure and failsCounter as
-    they were. The notifications counted meanwhile tell (SPEC §7: no loss window)."""
+    they were. The notifications counted meanwhile tell (docs/contract.md §7: no loss window)."""
     from transports.orion.link import _failures
 
     def shown(**notification):
@@ -436,7 +436,7 @@ def test_a_failure_success_failure_within_one_second_still_reads_as_a_failure():
 
 @pytest.mark.slow
 def test_s4_link_down_live_the_robot_neither_publishes_nor_receives_until_it_is_back(tmp_path):
-    """SPEC §4 link_down in live mode: from t = 0 to 50 (5 wall seconds at 10x) robot_1 publishes nothing
+    """docs/contract.md §4 link_down in live mode: from t = 0 to 50 (5 wall seconds at 10x) robot_1 publishes nothing
     (Orion holds no ran_status of it) and a task written meanwhile waits in Orion; back up, the robot
     reads it and runs it, and the recording replays."""
     broker = start_broker(port=0)

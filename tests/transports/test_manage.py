@@ -1,4 +1,4 @@
-"""``vcran manage`` (SPEC §9, issue 10 item 6): the same fleet manager against a real Orion in real time,
+"""``vcran manage`` (docs/contract.md §9, issue 10 item 6): the same fleet manager against a real Orion in real time,
 end to end over loopback: ``vcran broker`` + ``vcran live`` (the warehouse's robots) + ``vcran manage``
 (the Dispatcher), each its own process as a user would start them; and its polling mode, in process against
 vcran's broker, where the test decides when Orion changes or goes away."""
@@ -216,7 +216,7 @@ def updates(batch: list[Outbound]) -> set[tuple[str, str, Any]]:
 
 
 def test_polling_forwards_an_entity_only_when_one_of_the_managers_attributes_changed():
-    """SPEC §9: polling tells the manager what a subscription on its ``attributes`` would: everything
+    """docs/contract.md §9: polling tells the manager what a subscription on its ``attributes`` would: everything
     Orion holds at first, then a robot's published attributes (all of them, as a notification carries
     them) when one of its condition attributes changed; an unchanged robot is not handed on again."""
     broker = start_broker(port=0)
@@ -265,7 +265,7 @@ def test_a_manager_on_every_attribute_is_told_each_poll_that_finds_a_change(attr
 
 
 def test_orion_going_away_while_polling_is_logged_once_and_polling_recovers(caplog):
-    """SPEC §7 faults, for the manager: Orion down mid-run is one line per cause (not one per poll),
+    """docs/contract.md §7 faults, for the manager: Orion down mid-run is one line per cause (not one per poll),
     retried with backoff, one line when it is back; what it holds then reaches the manager."""
     broker = start_broker(port=0)
     port, url = broker.port, broker.url
@@ -332,7 +332,7 @@ def test_manage_on_a_busy_notification_port_names_the_address_and_exits_2(tmp_pa
 
 
 def test_a_notification_entity_with_an_id_that_is_no_string_is_skipped_not_raised():
-    """SPEC §7: a notification is outside input. An entity whose id is a list (unhashable) raised TypeError
+    """docs/contract.md §7: a notification is outside input. An entity whose id is a list (unhashable) raised TypeError
     in the membership test, the listener answered 500 and the batch's other robots were lost too."""
     batches: list[list[Outbound]] = []
     options = LinkOptions("ROBOT", ROBOTS, "http://127.0.0.1:9/notify")
@@ -347,7 +347,7 @@ def test_a_notification_entity_with_an_id_that_is_no_string_is_skipped_not_raise
 
 
 def test_the_manager_is_told_of_each_forced_description_write_and_of_no_unchanged_one(tmp_path):
-    """SPEC §2, §9, issue 29 item 2: ``vcran live`` writes robot_description every period, unchanged, with
+    """docs/contract.md §2, §9, issue 29 item 2: ``vcran live`` writes robot_description every period, unchanged, with
     forcedUpdate; the manager is told of each such write (as in simulated time,
     tests/sim/test_loop.py::test_every_periodic_robot_description_reaches_the_manager_as_live_mode_forces_it),
     and not of the unchanged description that every notification of the whole entity carries."""

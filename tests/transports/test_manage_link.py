@@ -1,4 +1,4 @@
-"""SPEC §7 on the fleet manager's side (issue 30 item 2): ``vcran manage`` keeps its link to Orion as
+"""docs/contract.md §7 on the fleet manager's side (issue 30 item 2): ``vcran manage`` keeps its link to Orion as
 ``vcran live`` does, because it is the same link (transports/orion/link.py). Its subscriptions are
 re-created when Orion loses them, nothing Orion holds is lost across a gap, its writes back off on 4xx
 and 5xx without flooding Orion and each reaches Orion in the end, in order.
@@ -84,7 +84,7 @@ def written(bodies: list[dict]) -> list[tuple[str, str]]:
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", ["401", "429", "404-drop"])
 def test_a_refusing_orion_gets_a_bounded_number_of_the_managers_requests_and_every_write_in_the_end(mode, caplog):
-    """SPEC §7 (4xx is not an outage, vcran backs off and never floods Orion), on the manager's side: 40
+    """docs/contract.md §7 (4xx is not an outage, vcran backs off and never floods Orion), on the manager's side: 40
     writes while Orion refuses every update (an expired token; 429 with Retry-After; a dropped connection
     and a 404 in turn) cost no more requests than the backoff allows, each cause is logged once, and once
     Orion takes updates again every write reaches it, each robot's in order. Before, each write was one
@@ -115,7 +115,7 @@ def test_a_refusing_orion_gets_a_bounded_number_of_the_managers_requests_and_eve
 
 
 def test_a_write_orion_refuses_as_invalid_is_sent_once_more_then_reported_and_the_loop_can_end(caplog):
-    """SPEC §7 as for the fleet's ran_errors: content Orion refuses (400) is not resent in a loop; the
+    """docs/contract.md §7 as for the fleet's ran_errors: content Orion refuses (400) is not resent in a loop; the
     write gets a second chance (another element of the body may have been the invalid one), then it is
     counted undeliverable and logged, and the manager's side is idle again, so an until_idle run ends."""
     orion = FakeOrion(update_status=400)
@@ -145,7 +145,7 @@ class Outage(httpx.HTTPTransport):
 
 
 def test_a_5xx_outage_loses_nothing_orion_holds_and_the_managers_writes_arrive_after_it(caplog):
-    """SPEC §7 on the manager's side: Orion answers 503 to the manager for a while, during which it loses
+    """docs/contract.md §7 on the manager's side: Orion answers 503 to the manager for a while, during which it loses
     the manager's subscriptions (as after a restart that kept its data) and a robot's ran_status changes,
     which nobody is notified of. Once Orion answers again, the keeper re-creates both subscriptions and
     reads the entities: the manager hears the change. What it wrote meanwhile is delivered; notifications
@@ -197,7 +197,7 @@ def test_a_5xx_outage_loses_nothing_orion_holds_and_the_managers_writes_arrive_a
 
 
 def test_a_failed_notification_is_read_from_orion_by_the_manager():
-    """SPEC §7 (no loss window), as tests/transports/test_live.py tests it for the fleet: Orion fails to
+    """docs/contract.md §7 (no loss window), as tests/transports/test_live.py tests it for the fleet: Orion fails to
     deliver the manager's notifications (its listener unreachable) and says so in the subscription; the
     keeper reads the entities, so the change those notifications carried reaches the manager."""
     broker = start_broker(port=0)

@@ -261,7 +261,7 @@ class RefusingOrion:
 
 
 def most_requests(elapsed: float, start: float, cap: float, retry_after: float = 0.0) -> int:
-    """The most requests a sender that backs off as SPEC §7 says can make in ``elapsed`` wall seconds of an
+    """The most requests a sender that backs off as docs/contract.md §7 says can make in ``elapsed`` wall seconds of an
     Orion refusing each one: the first at once, each next one a delay later (``start`` doubling to ``cap``,
     never shorter than ``retry_after``). Derived from the backoff, not measured: a loaded machine only
     makes fewer, so a bound on the count, not on time, holds however busy the machine is."""
@@ -493,7 +493,7 @@ def test_a_poll_period_longer_than_any_wait_polls_once_and_stops_cleanly():
 
 
 def test_battery_goes_to_orion_with_the_robots_other_state():
-    # SPEC §4: battery is published at the telemetry cadence, and §9: a fleet manager reads it from Orion.
+    # docs/contract.md §4: battery is published at the telemetry cadence, and docs/contract.md §9: a fleet manager reads it from Orion.
     # The live sender kept only the four RAN attributes of an entity's state, so a live fleet's battery
     # was recorded in the trace as sent and never reached Orion (found by the fifth fresh-user review).
     from vcran.core.opil.messages import BatteryState

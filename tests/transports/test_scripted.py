@@ -1,4 +1,4 @@
-"""The scripted transport delivers a script's messages at their times (SPEC §5), however it is given."""
+"""The scripted transport delivers a script's messages at their times (docs/contract.md §5), however it is given."""
 
 from __future__ import annotations
 

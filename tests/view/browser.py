@@ -1,4 +1,4 @@
-"""A real headless browser for the page's tests (SPEC §13, issue 33 item 4): the system's Chromium, driven
+"""A real headless browser for the page's tests (docs/contract.md §13, issue 33 item 4): the system's Chromium, driven
 by Playwright for Python (which never downloads a browser of its own here: it launches the one given).
 
 Where no Chromium is installed, the browser tests are skipped with the reason, except in CI (the ``CI``

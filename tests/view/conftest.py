@@ -16,7 +16,7 @@ def browser() -> Iterator[Any]:
     reason = unavailable()
     if reason is not None:
         if in_ci():
-            pytest.fail(f"CI runs the browser tests (SPEC §13), but {reason}")
+            pytest.fail(f"CI runs the browser tests (docs/contract.md §13), but {reason}")
         pytest.skip(f"the page's browser tests need a browser: {reason}")
     from playwright.sync_api import sync_playwright
 

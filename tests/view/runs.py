@@ -1,4 +1,4 @@
-"""Run folders for the view's tests, made once per test module: every kind vcran writes (SPEC §13)."""
+"""Run folders for the view's tests, made once per test module: every kind vcran writes (docs/contract.md §13)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``vcran view RUN [--out PAGE.html] [--open]`` and ``vcran run --view`` (SPEC §13, issue 33 items 1 and 6):
+"""``vcran view RUN [--out PAGE.html] [--open]`` and ``vcran run --view`` (docs/contract.md §13, issue 33 items 1 and 6):
 where the page goes, and every refusal as one line with exit status 2."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The live page (SPEC §13, issue 33 item 3): ``vcran live``/``vcran manage ... --view PORT`` serve the page
+"""The live page (docs/contract.md §13, issue 33 item 3): ``vcran live``/``vcran manage ... --view PORT`` serve the page
 on 127.0.0.1 and it follows the run as its folder grows, the slider still able to look back."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``vcran view``'s model of a run folder (SPEC §13, issue 33 item 2): where the robots are at any instant,
+"""``vcran view``'s model of a run folder (docs/contract.md §13, issue 33 item 2): where the robots are at any instant,
 what each was doing, carrying and reporting, the stations' parts, the jobs and the incidents, for every
 kind of folder vcran writes. Expectations come from docs/demo.md's geometry worked by hand, the scenario
 files, or vcran's other readers (telemetry_table, trace_records), never from the view's own code."""
@@ -48,7 +48,7 @@ def value_at(steps: Steps, owner: int, t: float, initial):
 
 @pytest.mark.parametrize("name", ["demo", "warehouse", "faults", "battery", "crossing", "generated"])
 def test_poses_at_every_tick_are_the_telemetry_bit_for_bit(runs, name):
-    """SPEC §13: what the page draws at t is what the run's telemetry says; the rule of vcran/view/poses.py
+    """docs/contract.md §13: what the page draws at t is what the run's telemetry says; the rule of vcran/view/poses.py
     (and of fleet.js, which the browser tests check) against vcran.telemetry_table, every robot, every tick."""
     files = read_folder(runs[name])
     poses = Poses([tuple(r["pose"]) for r in files.header["fleet"]["robots"]], files.legs)
@@ -121,7 +121,7 @@ def test_faults_scenario_incidents_are_its_faults_failures_and_cancels(runs):
 
 
 def test_battery_levels_are_the_published_battery_states(runs):
-    """SPEC §4: the page's battery at t is the last battery_state the robot published at or before t."""
+    """docs/contract.md §4: the page's battery at t is the last battery_state the robot published at or before t."""
     model = build_model(read_folder(runs["battery"]))
     published = [(r["t"], r["value"]["percentage"]) for r in vcran.trace_records(runs["battery"])
                  if r["attr"] == "battery_state"]
@@ -131,7 +131,7 @@ def test_battery_levels_are_the_published_battery_states(runs):
 
 
 def test_warehouse_jobs_have_their_robot_tasks_and_lead_times(runs):
-    """SPEC §9: every job of the closed loop, its robot from job_assigned, its tasks (the dispatcher names them
+    """docs/contract.md §9: every job of the closed loop, its robot from job_assigned, its tasks (the dispatcher names them
     JOB_pick1, JOB_drop1), and a lead time from arrival to completion (docs/outputs.md)."""
     model = build_model(read_folder(runs["warehouse"]))
     summary = json.loads((runs["warehouse"] / "summary.json").read_text())
@@ -188,7 +188,7 @@ def test_a_replayed_run_is_shown_as_the_recording(runs, tmp_path):
 
 def test_the_payload_is_aligned_columns_and_the_same_bytes_every_time(runs, tmp_path):
     """vcran/view/pack.py's layout: uint32 length, JSON, columns at multiples of 8; a second run of the same
-    scenario gives a byte-identical page (SPEC §5)."""
+    scenario gives a byte-identical page (docs/contract.md §5)."""
     model = build_model(read_folder(runs["warehouse"]))
     raw = zlib.decompress(base64.b64decode(payload(model)))
     assert raw == packed(model)

@@ -1,4 +1,4 @@
-"""The page in a real browser (SPEC §13, issue 33 items 2 and 4): it loads from disk with no console error
+"""The page in a real browser (docs/contract.md §13, issue 33 items 2 and 4): it loads from disk with no console error
 and no request but its own file; what it draws at t is what the run's telemetry says (the positions the
 page reports drawing, and the canvas's pixels); clicking a job highlights its robot; clicking an incident
 jumps to it. Expectations come from vcran.telemetry_table, the run's events and docs/demo.md."""
@@ -56,7 +56,7 @@ def telemetry_at(run, t: float) -> dict[str, tuple[float, float, float]]:
 
 @pytest.mark.parametrize(("name", "times"), [("demo", (10.0, 25.0, 50.0)), ("warehouse", (200.0, 1500.0, 3000.0))])
 def test_drawn_robots_are_where_the_telemetry_puts_them(browser, pages, name, times):
-    """SPEC §13: at three instants each robot is drawn within a pixel of its telemetry position, its pose
+    """docs/contract.md §13: at three instants each robot is drawn within a pixel of its telemetry position, its pose
     the telemetry's to a nanometre (fleet.js evaluates the leg log as vcran/core/motion.py does)."""
     run, page_file = pages[name]
     page = open_page(browser, file_url(page_file))

@@ -1,4 +1,4 @@
-"""VDA 5050 live over MQTT (SPEC §11; docs/vda5050.md, "Live over MQTT"): the vehicles' transport and the
+"""VDA 5050 live over MQTT (docs/contract.md §11; docs/vda5050.md, "Live over MQTT"): the vehicles' transport and the
 master's client, on paho-mqtt 2.x (the ``vda5050`` extra).
 
 * :mod:`~transports.mqtt.topics`: broker URLs, topic levels, QoS and retained flags (§6.2, §6.3);

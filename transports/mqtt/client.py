@@ -54,7 +54,7 @@ class MqttOptions:
 
 class Tally:
     """Problems a peer caused, counted by kind, each distinct (kind, key) logged once: a master that sends
-    garbage ten times a second gets one log line and a count, never a flood or a crash (SPEC §11)."""
+    garbage ten times a second gets one log line and a count, never a flood or a crash (docs/contract.md §11)."""
 
     #: How many distinct keys are remembered; past it, problems are counted without a log line.
     LIMIT = 1000

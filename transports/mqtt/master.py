@@ -1,5 +1,5 @@
 """The master's side of VDA 5050 over MQTT: what ``vcran manage --mqtt`` will use to run a Python master
-live (SPEC §11), and what tests use to drive vcran's vehicles as any master would.
+live (docs/contract.md §11), and what tests use to drive vcran's vehicles as any master would.
 
 One connection (a master has no last will in VDA 5050), subscribed with wildcards to the ``state``,
 ``connection`` and ``factsheet`` topics of every interface name of its fleet; ``visualization`` too when

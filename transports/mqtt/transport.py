@@ -1,4 +1,4 @@
-"""The vehicles' side of VDA 5050 over MQTT (SPEC §11): a fleet of simulated vehicles that a master drives
+"""The vehicles' side of VDA 5050 over MQTT (docs/contract.md §11): a fleet of simulated vehicles that a master drives
 through a real broker. The edge for the coming ``vcran live --mqtt`` (docs/vda5050.md, "Live over MQTT").
 
 One MQTT connection per vehicle: VDA 5050 gives each vehicle its own last will (§6.14), and MQTT allows

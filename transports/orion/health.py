@@ -1,6 +1,6 @@
 """How live mode reports and paces faults: one log line per distinct cause, capped exponential backoff.
 
-SPEC §7: a fault is logged when it starts and once per distinct cause while it lasts (an Orion that
+docs/contract.md §7: a fault is logged when it starts and once per distinct cause while it lasts (an Orion that
 alternates 404 and dropped connections is two lines, not two a second), and once when Orion is back;
 retries back off, and a ``Retry-After`` from Orion or a proxy in front of it is honoured.
 """

@@ -1,9 +1,9 @@
-"""The one Orion link (SPEC §7; docs/live.md): what either side of live mode keeps with Orion.
+"""The one Orion link (docs/contract.md §7; docs/live.md): what either side of live mode keeps with Orion.
 
 ``vcran live`` (the fleet's side, :class:`transports.orion.transport.OrionTransport`) and ``vcran manage``
 (the fleet manager's side, :class:`transports.orion.manage.OrionManagerLink`) are each an
 :class:`OrionLink`, and differ only in what they read, what they subscribe to, and where what they read
-goes. So both have every guarantee of SPEC §7:
+goes. So both have every guarantee of docs/contract.md §7:
 
 * **outbound**: writes go into an :class:`~transports.orion.outbox.Outbox`, which the
   :class:`~transports.orion.sender.Sender` (a thread of its own) sends as batch updates: coalesced, every
@@ -225,7 +225,7 @@ class OrionLink:
                     self.sender.wake()
                 elif (seen := _failures(shown)) != self._failures[sid]:
                     # Orion could not deliver some notification (a burst, a slow moment): what it
-                    # carried is only in Orion now, so read it (SPEC §7: no loss window).
+                    # carried is only in Orion now, so read it (docs/contract.md §7: no loss window).
                     if seen[0] is not None:
                         log.warning("Orion reports a failed notification (%s, %s failing): reading "
                                     "the entities again", one_line(seen[0], 40), one_line(seen[1], 20))

@@ -1,4 +1,4 @@
-"""The notification listener: where Orion POSTs subscription notifications (SPEC §7).
+"""The notification listener: where Orion POSTs subscription notifications (docs/contract.md §7).
 
 A threaded ``http.server`` (:class:`vcran.io.http_server.Server`: deep listen backlog, idle and request
 deadlines, quiet disconnects) whose handlers take one lock: notifications are handled one at a time, so

@@ -1,11 +1,11 @@
-"""A fleet manager against a real Orion, in real time (SPEC §9, "The same fleet manager, live").
+"""A fleet manager against a real Orion, in real time (docs/contract.md §9, "The same fleet manager, live").
 
 ``vcran manage`` runs the very :class:`~vcran.core.opil.manager.FleetManager` object that
 :func:`vcran.simulate` runs, with the same handle API: :class:`OrionLoop` is
 :class:`vcran.sim.opil.loop.ClosedLoop` on a :class:`~vcran.sim.live.LiveEnvironment` (so ``now``, jobs and
 ``call_at`` timers follow the wall clock, scaled by the speed factor), with :class:`OrionManagerLink` in
 place of the simulated link. That is the :class:`~transports.orion.link.OrionLink` of ``vcran live``
-(transports/orion/link.py), with every guarantee of SPEC §7, reading the robots' published attributes
+(transports/orion/link.py), with every guarantee of docs/contract.md §7, reading the robots' published attributes
 and writing the manager's commands:
 
 * **writes** (assignments and cancels) go into the link's outbox, queued in write order, and its sender
@@ -19,7 +19,7 @@ and writing the manager's commands:
   ``robot_description`` (:data:`~vcran.core.opil.messages.FORCED_UPDATES`) has a subscription of its own:
   ``vcran live`` writes it every period with Orion's forcedUpdate, unchanged, and a notification of the
   whole entity cannot tell such a write from a description that merely rides along; this subscription's
-  notifications can, so the manager is told of each periodic write, as in simulated time (SPEC §2, §9).
+  notifications can, so the manager is told of each periodic write, as in simulated time (docs/contract.md §2, §9).
   Polling tells the manager what the subscription would (the link's reads); a value that changes and
   changes back between two reads is missed, as polling misses it in ``vcran live`` (docs/live.md).
   Either way a batch enters the manager's thread through :meth:`LiveEnvironment.call_soon`: every hook

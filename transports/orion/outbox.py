@@ -1,9 +1,9 @@
-"""What a side of the link still has to tell Orion (SPEC §7 coalescing).
+"""What a side of the link still has to tell Orion (docs/contract.md §7 coalescing).
 
 State attributes (``current_motion``, ``assignment_state``, ``ran_status``, ``robot_description``,
 ``battery_state``) are kept as the latest value per robot and attribute: after an outage Orion receives
 each robot's latest state once, not the backlog of every tick it missed. The :data:`QUEUED` attributes are
-different: each ``ran_error`` reports a distinct rejected input (SPEC §2, "on each rejected input"), and
+different: each ``ran_error`` reports a distinct rejected input (docs/contract.md §2, "on each rejected input"), and
 each command a fleet manager writes (``motion_assignment``, ...) is an input of its own, so they queue in
 order and every one is kept until it is delivered or reported undeliverable, oldest first (a bounded
 queue: past ``QUEUE_MAX`` waiting, the oldest are dropped and counted).

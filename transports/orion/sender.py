@@ -1,4 +1,4 @@
-"""The outbound side of the link: what the outbox holds, to Orion, as batch updates (SPEC §7).
+"""The outbound side of the link: what the outbox holds, to Orion, as batch updates (docs/contract.md §7).
 
 The sender takes the :class:`Outbox` when it is told to (a telemetry tick of the fleet; a fleet manager's
 write) and writes it with ``POST /v2/op/update``, in one request (more only when a body would pass Orion's
@@ -14,7 +14,7 @@ is several elements of its robot.
 
 ``robot_description`` (:data:`~vcran.core.opil.messages.FORCED_UPDATES`) goes in a request of its own, after
 the tick's, with ``options=forcedUpdate``: its value never changes, and Orion notifies only changes, so
-without the option a planner that subscribed after the first write would never get it (SPEC §2). The
+without the option a planner that subscribed after the first write would never get it (docs/contract.md §2). The
 option forces every attribute of its request, hence the separate request: nothing else is notified
 unchanged. It costs one more request per ``description_period`` (every robot's description in it).
 
@@ -50,8 +50,8 @@ from vcran.core.wire import Frame
 
 log = logging.getLogger("vcran.orion")
 
-#: The order of the fleet's state in an entity (every attribute the RAN publishes: battery too, SPEC §4;
-#: a fleet manager reads it from Orion, §9), then the queued values.
+#: The order of the fleet's state in an entity (every attribute the RAN publishes: battery too, docs/contract.md §4;
+#: a fleet manager reads it from Orion, docs/contract.md §9), then the queued values.
 STATE_ORDER = ("current_motion", "assignment_state", "ran_status", "robot_description", "battery_state")
 ORDER = {name: k for k, name in enumerate((*STATE_ORDER, "ran_error", *INBOUND))}
 #: Orion's answers that refuse a request's content (NGSI v2 BadRequest, RequestEntityTooLarge,

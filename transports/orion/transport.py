@@ -1,4 +1,4 @@
-"""The fleet's side of live mode (SPEC §7): a virtual fleet that a real fleet manager drives through Orion.
+"""The fleet's side of live mode (docs/contract.md §7): a virtual fleet that a real fleet manager drives through Orion.
 
 :class:`OrionTransport` is the :class:`~transports.orion.link.OrionLink` (subscription keeper or poller,
 notification listener, sender; docs/live.md) that reads the fleet's commands (``motion_assignment``,

@@ -1,7 +1,7 @@
 """The loops of live mode's worker threads: reading Orion at a period, and a worker that outlives a bug.
 
 The threads of the Orion link (:mod:`transports.orion.link`), which ``vcran live`` and ``vcran manage``
-share, so both pace their reads and ride out an Orion that is down the same way (SPEC §7; docs/live.md,
+share, so both pace their reads and ride out an Orion that is down the same way (docs/contract.md §7; docs/live.md,
 "Faults").
 """
 

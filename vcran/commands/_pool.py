@@ -1,4 +1,4 @@
-"""Where many runs execute, the options shared by ``vcran sweep`` and ``vcran fuzz`` (SPEC §10)."""
+"""Where many runs execute, the options shared by ``vcran sweep`` and ``vcran fuzz`` (docs/contract.md §10)."""
 
 from __future__ import annotations
 

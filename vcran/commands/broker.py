@@ -1,4 +1,4 @@
-"""``vcran broker``: run vcran's own NGSI v2 broker, a stand-in for Orion when none is at hand (SPEC §8)."""
+"""``vcran broker``: run vcran's own NGSI v2 broker, a stand-in for Orion when none is at hand (docs/contract.md §8)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``vcran decode FILE``: an NGSI entity (normalized or keyValues) as plain decoded messages (SPEC §8).
+"""``vcran decode FILE``: an NGSI entity (normalized or keyValues) as plain decoded messages (docs/contract.md §8).
 
 Prints one JSON object keyed by attribute, each the message's plain form (ids as canonical uuid strings
 with their descriptions). Attributes that are not RAN messages are listed on stderr as skipped, so that a

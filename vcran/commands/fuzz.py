@@ -4,20 +4,20 @@ Each example is the scenario with its message script perturbed the way a real fl
 perturb it (reordered within a window, duplicated, delayed, dropped, cancels and malformed payloads
 injected; :mod:`vcran.testing.scripts`). The variant is written as a scenario file, run in a temporary
 folder, and its outputs are checked against the rules (:mod:`vcran.testing.checks`), then run again
-(byte-identical, §5) and replayed (replay verification, §6) unless ``--fast``.
+(byte-identical, docs/contract.md §5) and replayed (replay verification, docs/contract.md §6) unless ``--fast``.
 
 The search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random``
 seeded by ``--seed``, so one seed always tries the same examples and shrinks to the same script. On a
 violation the shrunk, minimal script is printed as a scenario file, saved to ``--save``, and the command
 exits 1; ``vcran run`` on that file reproduces the failure.
 
-A closed-loop scenario (jobs and a fleet manager, SPEC §9), or any scenario with ``--manager
+A closed-loop scenario (jobs and a fleet manager, docs/contract.md §9), or any scenario with ``--manager
 module:Class``, is fuzzed the other way round: the manager is under test, so the workload, the pickup
 stations' stock and the link vary (:mod:`vcran.testing.loop`), and each run is checked against the loop
 properties (every job ends; no protocol error; no robot idles past ``--idle-bound`` while a job waits).
 The shrunk failing scenario is saved the same way, naming its manager.
 
-``--workers K`` or ``--cluster ADDRESS`` (SPEC §10) split the examples, a script's or a manager's, into
+``--workers K`` or ``--cluster ADDRESS`` (docs/contract.md §10) split the examples, a script's or a manager's, into
 searches of at most 25 with consecutive seeds from ``--seed`` (:func:`vcran.testing.campaign.chunks`)
 and run them on a local process pool or a Dask cluster; the first failure stops them all, and its header
 names the one search, ``--seed S --examples M``, that finds it again in a single process.
@@ -55,7 +55,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="most perturbations per example (default 8)")
     parser.add_argument("--fast", action="store_true", help="skip the second run and the replay of each variant")
     add_pool_arguments(parser, "the examples, as searches of at most 25 with consecutive seeds,", "1")
-    loop = parser.add_argument_group("a fleet manager in the loop (SPEC §9)")
+    loop = parser.add_argument_group("a fleet manager in the loop (docs/contract.md §9)")
     loop.add_argument("--manager", metavar="MODULE:CLASS",
                       help="fuzz this fleet manager (default: the scenario's [manager], if it has one)" + MANAGER_OPTIONS)
     loop.add_argument("--jobs", type=int, default=LOOP_OPTIONS["jobs"], metavar="N",
@@ -202,7 +202,7 @@ def _failing_file(base: Scenario, failure: Failure, header: str) -> str:
 
 def _campaign(args: argparse.Namespace, fn: Callable[..., Outcome], text: str,
               options: Options | LoopOptions) -> tuple[Outcome | None, int]:
-    """Searches with consecutive seeds on a pool (SPEC §10); the first failure stops them all.
+    """Searches with consecutive seeds on a pool (docs/contract.md §10); the first failure stops them all.
     Returns the failing outcome (or None) and the examples tried in all searches that finished."""
     from vcran.commands import CommandError
     from vcran.sweep.pool import PoolError

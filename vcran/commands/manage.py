@@ -1,4 +1,4 @@
-"""``vcran manage SCENARIO --orion URL [--notify-url URL]``: a fleet manager against a real Orion (SPEC §9).
+"""``vcran manage SCENARIO --orion URL [--notify-url URL]``: a fleet manager against a real Orion (docs/contract.md §9).
 
 The scenario's fleet manager (its ``[manager]``, or ``--manager module:Class``) runs in real time, scaled
 by ``--factor``, against the robots Orion holds: ``vcran live`` on the same scenario, or a physical fleet.

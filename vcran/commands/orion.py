@@ -1,4 +1,4 @@
-"""``vcran orion init|delete SCENARIO --orion URL``: the seed's "Initialize FOCB" / "Delete FOCB entity"."""
+"""``vcran orion init|delete SCENARIO --orion URL``: the original VC-RAN's "Initialize FOCB" / "Delete FOCB entity"."""
 
 from __future__ import annotations
 

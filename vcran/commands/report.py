@@ -1,4 +1,4 @@
-"""``vcran report DIR --out REPORT_DIR``: figures and KPI tables from a run's output folder (SPEC §8)."""
+"""``vcran report DIR --out REPORT_DIR``: figures and KPI tables from a run's output folder (docs/contract.md §8)."""
 
 from __future__ import annotations
 

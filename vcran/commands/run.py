@@ -1,7 +1,7 @@
 """``vcran run SCENARIO --out DIR [--manager module:Class]``: simulate as fast as possible.
 
 The scenario's message script plays the fleet manager, or, with ``--manager`` or a scenario that names
-its ``[manager]``, a fleet manager runs its jobs in a closed loop (SPEC §9). Both go through
+its ``[manager]``, a fleet manager runs its jobs in a closed loop (docs/contract.md §9). Both go through
 :func:`vcran.api.run`, the path of :func:`vcran.simulate`.
 """
 

@@ -3,7 +3,7 @@
 Each message is sent at its script time, scaled by the factor, but never sooner after the previous one
 than the script spaces them: when a slow answer makes ``send`` fall behind, the rest of the script shifts
 instead of bunching up. Bunched writes to one attribute would be overwritten before a polling RAN reads
-them (SPEC §7), which the original's JMeter file, with its constant timer between requests, never did.
+them (docs/contract.md §7), which the original's JMeter file, with its constant timer between requests, never did.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``vcran sweep SWEEP --out DIR [--workers N] [--cluster ADDRESS] [--keep-runs]`` (SPEC §10, docs/sweeps.md).
+"""``vcran sweep SWEEP --out DIR [--workers N] [--cluster ADDRESS] [--keep-runs]`` (docs/contract.md §10, docs/sweeps.md).
 
 Runs every variant × seed of a sweep file, here (a local process pool sized to the machine) or on a Dask
 cluster, and writes one row per run into ``DIR/runs.csv`` and ``DIR/runs.parquet``, plus comparison
@@ -6,7 +6,7 @@ figures when matplotlib is installed. Exit status: 0 when every run ran, 1 when 
 say why), 2 for a sweep that cannot start or whose Dask scheduler went away part way, 130 on Ctrl-C (143 on
 SIGTERM; in each case the rows done are written all the same, into ``DIR.incomplete``).
 
-``DIR`` is written like a run folder (SPEC §6, vcran.io.runfolder), by the code ``vcran.run_sweep`` and
+``DIR`` is written like a run folder (docs/contract.md §6, vcran.io.runfolder), by the code ``vcran.run_sweep`` and
 ``SweepResult.write`` use too (vcran.sweep.folder): everything, the kept runs of the workers included, goes
 into ``DIR.incomplete``, renamed to ``DIR`` when the sweep has ended. A sweep that is interrupted or fails
 leaves ``DIR.incomplete`` (the rows done are there) and any earlier ``DIR`` as it was; an earlier sweep's (or

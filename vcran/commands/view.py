@@ -1,4 +1,4 @@
-"""``vcran view RUN [--out PAGE.html] [--open]``: a run folder as one page that opens from disk (SPEC §13).
+"""``vcran view RUN [--out PAGE.html] [--open]``: a run folder as one page that opens from disk (docs/contract.md §13).
 
 The page (docs/view.md) holds its scripts, styles and the run's data: it fetches nothing and needs no
 server. By default it is written into the run folder as ``view.html`` (as ``vcran run --view`` does); a

@@ -1,4 +1,4 @@
-"""The pure core (DESIGN.md, layer 1): no SimPy, no httpx, no clock, no files, no global random.
+"""The pure core (README "Layout", layer 1): no SimPy, no httpx, no clock, no files, no global random.
 
 RanLogic is a state machine fed with timestamped inputs that returns effects; the message types, the id
 mapping, the NGSI/OPIL codec, leg kinematics, stations and the scenario data model are plain data and

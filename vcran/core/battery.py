@@ -1,4 +1,4 @@
-"""The battery model (SPEC §4 Battery): charge as a closed-form function of time, like a pose.
+"""The battery model (docs/contract.md §4 Battery): charge as a closed-form function of time, like a pose.
 
 A robot's charge falls linearly with three odometers: simulated time (the base draw, ``per_idle_second``,
 drawn always: it is the whole draw of an idle robot), metres driven (``per_metre``) and seconds of action
@@ -145,7 +145,7 @@ class FleetBattery:
         self.begin(i, t, distance, REST)
 
 
-# --- rules (SPEC §4 Battery): what a robot's body does about its battery -------------------------------------
+# --- rules (docs/contract.md §4 Battery): what a robot's body does about its battery -------------------------------------
 # Shared by every protocol: the body (vcran.sim.body) asks these and does what they say; what a protocol tells
 # its fleet manager about it (OPIL: a cancelled task, a ran_error; VDA 5050: errors in its state) is the protocol's.
 

@@ -1,4 +1,4 @@
-"""Footprint collisions (SPEC §4): when do two robots' footprints start (or stop) overlapping, and where.
+"""Footprint collisions (docs/contract.md §4): when do two robots' footprints start (or stop) overlapping, and where.
 
 A robot's *track* is what it does until its next change: a leg (:class:`vcran.core.motion.Leg`, poses
 closed-form in time) or a rest pose. For two tracks, :func:`first_change` samples both at a step chosen so

@@ -12,7 +12,7 @@ from typing import Any
 class Event:
     """Something to log. ``fields()`` is the event-specific part of its ``events.jsonl`` line.
 
-    The events of every task name their ids as ``ident.description or ident.label``: the label (SPEC §8) is
+    The events of every task name their ids as ``ident.description or ident.label``: the label (docs/contract.md §8) is
     the description when there is one, and ``label`` is a property, a Python call per id that nine events a
     task paid for nothing (issue 30)."""
 

@@ -1,4 +1,4 @@
-"""Injected faults (SPEC §4 Faults): what a scenario says goes wrong, and when. Pure data and a seeded stream.
+"""Injected faults (docs/contract.md §4 Faults): what a scenario says goes wrong, and when. Pure data and a seeded stream.
 
 A fault is given at a time (``[[faults]]``) or drawn from a seeded random source (``[[random_faults]]``:
 exponential times between failures with mean ``mtbf`` and repair times with mean ``mttr``, per robot).

@@ -1,4 +1,4 @@
-"""What happens to a robot on its own (SPEC §4, §12): battery, faults, collisions, blocks and deadlocks, as
+"""What happens to a robot on its own (docs/contract.md §4, §12): battery, faults, collisions, blocks and deadlocks, as
 events for ``events.jsonl``.
 
 RanLogic's events (:mod:`vcran.core.opil.effects`) say what the rules did; these say what the robot went
@@ -86,7 +86,7 @@ class Collision(Event):
         return {"other": self.other, "x": self.x, "y": self.y}
 
 
-# --- traffic (SPEC §12): safety fields, blocks, deadlocks ---------------------------------------------------
+# --- traffic (docs/contract.md §12): safety fields, blocks, deadlocks ---------------------------------------------------
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,7 +116,7 @@ class Unblocked(Event):
 
 @dataclass(frozen=True, slots=True)
 class Deadlock(Event):
-    """The robot is deadlocked (SPEC §12), blocked for ``duration`` seconds by now: ``kind`` "cycle", robots
+    """The robot is deadlocked (docs/contract.md §12), blocked for ``duration`` seconds by now: ``kind`` "cycle", robots
     stopped on one another (this robot, the first in fleet order, waits for the first of ``other``, each of
     ``other`` for the next, the last for this robot), or "bound", blocked for the scenario's bound (``other``:
     the robots in its field). ``other`` lists robot ids separated by ", " (ids hold no whitespace)."""

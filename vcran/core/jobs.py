@@ -1,4 +1,4 @@
-"""Jobs as a run records them: arrival, assignment, outcome, and the fleet KPIs they add up to (SPEC §9).
+"""Jobs as a run records them: arrival, assignment, outcome, and the fleet KPIs they add up to (docs/contract.md §9).
 
 The fleet manager decides what happens to a job; this book only writes down what the run saw (a job
 reaching the manager) and what the manager reported through its handle (a task sent for the job, the job
@@ -19,9 +19,9 @@ if TYPE_CHECKING:  # a type only: the job book serves both protocols, and the sc
 
 COMPLETED, FAILED, OPEN = "completed", "failed", "open"
 
-#: Why a job failed, as a manager reports it: a task's cancellation reason (SPEC §8: ``timeout``,
+#: Why a job failed, as a manager reports it: a task's cancellation reason (docs/contract.md §8: ``timeout``,
 #: ``cancelled``, ``action_failed``; reserved for the realism issue: ``battery_empty``,
-#: ``motion_failed``, ``collision``; SPEC §12: ``deadlock``) or ``unassignable`` (no robot can take it). A
+#: ``motion_failed``, ``collision``; docs/contract.md §12: ``deadlock``) or ``unassignable`` (no robot can take it). A
 #: manager may report a reason of its own; these are the ones vcran's dispatcher and report use.
 FAILURE_REASONS = ("timeout", "cancelled", "action_failed", "battery_empty", "motion_failed", "collision",
                    "deadlock", "unassignable")

@@ -1,4 +1,4 @@
-"""A fleet manager in the loop, whatever the protocol (SPEC §9): its fleet, its hooks, its handle's shared part.
+"""A fleet manager in the loop, whatever the protocol (docs/contract.md §9): its fleet, its hooks, its handle's shared part.
 
 Modelled on SimPy's process functions and pytest's hooks: a few methods with plain arguments, no
 framework to learn. vcran calls two hooks on every :class:`Manager`: :meth:`~Manager.on_start` once,
@@ -25,7 +25,7 @@ from vcran.core.traffic.roadmap import Roadmap
 
 
 class ReadOnlyDict(dict[str, float]):
-    """A dict that refuses every write: the fleet's ``settings.durations`` (SPEC §9). A dict still, so the
+    """A dict that refuses every write: the fleet's ``settings.durations`` (docs/contract.md §9). A dict still, so the
     fleet pickles, deep-copies (a copy read-only too), goes to ``json.dumps`` and ``dataclasses.asdict`` as
     before it was read-only, which a ``MappingProxyType`` could not; ``dict(d)`` is a copy one may change."""
 
@@ -43,7 +43,7 @@ class ReadOnlyDict(dict[str, float]):
 @dataclass(frozen=True)
 class Fleet:
     """What a fleet manager is told at the start: the robots, the stations, the settings, the link, and the
-    roadmap robots drive on (SPEC §12; None: none, robots drive anywhere)."""
+    roadmap robots drive on (docs/contract.md §12; None: none, robots drive anywhere)."""
 
     robots: tuple[RobotConfig, ...]
     stations: tuple[StationConfig, ...]
@@ -107,7 +107,7 @@ class Handle:
     :class:`vcran.sim.loop.InSimTime`); a protocol's handle adds what its manager writes to the robots and
     reads of them (OPIL: :class:`vcran.core.opil.manager.OpilHandle`). ``random`` is seeded from the
     scenario (``random.Random("manager:{seed}")``): draw from it, never from the global generator, and a
-    run stays byte-identical (SPEC §5).
+    run stays byte-identical (docs/contract.md §5).
     """
 
     def __init__(self, fleet: Fleet, jobs: JobBook, rng: random.Random) -> None:

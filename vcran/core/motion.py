@@ -1,4 +1,4 @@
-"""Leg kinematics: where an AGV is at any instant, computed, never stepped (SPEC §4).
+"""Leg kinematics: where an AGV is at any instant, computed, never stepped (docs/contract.md §4).
 
 A leg goes from the AGV's pose to one motion assignment's point in three phases: turn in place to face
 the point, drive a straight line with a trapezoidal speed profile (or a triangle when the leg is too short
@@ -40,7 +40,7 @@ def wrap(angle: float) -> float:
 class Limits:
     """Speed limits of one leg: linear speed, acceleration and deceleration, angular speed.
 
-    A non-positive acceleration, deceleration or angular speed means "instantaneous" (the seed's
+    A non-positive acceleration, deceleration or angular speed means "instantaneous" (the original VC-RAN's
     interpolating AGV has none); the linear speed must be positive.
     """
 
@@ -227,7 +227,7 @@ class FleetKinematics:
         self.rest = [(float(x), float(y), float(wrap(theta))) for x, y, theta in poses]
         self.odometer = [0.0] * len(poses)  # distance of finished legs
         self.current: dict[int, Leg] = {}  # robot index -> running leg, in start order
-        #: robot index -> distance driven on a leg that is held (paused, broken down; SPEC §4)
+        #: robot index -> distance driven on a leg that is held (paused, broken down; docs/contract.md §4)
         self.held: dict[int, float] = {}
         self._changes = 0  # bumped whenever a leg starts or ends, so the sweeps' cache knows
         self._moving_cache: tuple[int, np.ndarray, np.ndarray] | None = None
@@ -258,7 +258,7 @@ class FleetKinematics:
         self.rest[i] = (leg.x1, leg.y1, leg.end_theta)
 
     def stop(self, i: int, t: float) -> tuple[float, float, float]:
-        """Robot ``i`` stops where it is at ``t`` (SPEC §4): its leg ends there, the distance is banked."""
+        """Robot ``i`` stops where it is at ``t`` (docs/contract.md §4): its leg ends there, the distance is banked."""
         leg = self.current.pop(i)
         pose = self._rest_at(i, leg, t)
         self.odometer[i] += leg.distance_at(t)

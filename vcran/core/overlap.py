@@ -1,4 +1,4 @@
-"""The exact footprint test of collision detection (SPEC §4): numpy, and shapely for concave footprints.
+"""The exact footprint test of collision detection (docs/contract.md §4): numpy, and shapely for concave footprints.
 
 :mod:`vcran.core.collisions` decides which pairs of tracks could meet (plain Python: a grid of boxes);
 this module answers when two tracks' footprints start or stop touching and where. It is imported only

@@ -1,4 +1,4 @@
-"""Whether corners given in a scenario make a simple polygon (SPEC §4 footprints, station areas).
+"""Whether corners given in a scenario make a simple polygon (docs/contract.md §4 footprints, station areas).
 
 A footprint or a station area is a polygon, and the geometry behind collisions and reach (shapely, GEOS)
 is defined for valid polygons only: a self-crossing footprint (a bow tie, a pentagram), one with no area

@@ -1,12 +1,12 @@
 """The scenario data model: the fleet, the stations, the settings, and what plays the fleet manager's part.
 
 A scenario is plain data; the model builds the running objects from it, so one scenario can run any number
-of times (fuzzing, determinism tests). The fleet manager's part is either a message script (the seed's
-JMeter file) or, in a closed loop (SPEC §9), a workload of jobs for a fleet manager, the link between
+of times (fuzzing, determinism tests). The fleet manager's part is either a message script (the original VC-RAN's
+JMeter file) or, in a closed loop (docs/contract.md §9), a workload of jobs for a fleet manager, the link between
 that manager and the RAN, and which manager to run. Reading and writing scenario files (TOML) is
 :mod:`vcran.io`'s part: :mod:`vcran.io.scenario_file` loads them strictly, :mod:`vcran.io.scenario_toml`
 writes them back. A scenario speaks one protocol (``Settings.protocol``): OPIL, or VDA 5050, whose robots
-carry a vehicle's identity and whose script sends VDA 5050 messages (SPEC §11).
+carry a vehicle's identity and whose script sends VDA 5050 messages (docs/contract.md §11).
 
 One concept, over 450 lines: the scenario as data, every part a frozen record the others refer to (the
 script's lazy expansion with it, since it is what :meth:`Scenario.messages` returns); its rules are
@@ -37,13 +37,13 @@ if TYPE_CHECKING:  # types only: the shared model imports no protocol package
 
     VdaMessage = Order | InstantActions
 
-#: The actions a scenario names and configures (OPIL's and the seed's); ``charge`` (a vcran extension)
+#: The actions a scenario names and configures (OPIL's and the original VC-RAN's); ``charge`` (a vcran extension)
 #: is not among them: a robot can charge exactly when it has a battery.
 ACTION_KINDS = tuple(k.value for k in ActionKind if k is not ActionKind.CHARGE)
-#: ``collisions =`` (SPEC §4): "report" (default), "stop", or "off" (no detection at all).
+#: ``collisions =`` (docs/contract.md §4): "report" (default), "stop", or "off" (no detection at all).
 COLLISION_MODES = ("report", "stop", "off")
-#: ``[simulation] protocol``: what the robots speak with their fleet manager, OPIL (SPEC §2, the default) or
-#: VDA 5050 (SPEC §11).
+#: ``[simulation] protocol``: what the robots speak with their fleet manager, OPIL (docs/contract.md §2, the default) or
+#: VDA 5050 (docs/contract.md §11).
 OPIL, VDA5050 = "opil", "vda5050"
 PROTOCOLS = (OPIL, VDA5050)
 #: The VDA 5050 versions a vehicle may speak (its ``version``; docs/vda5050.md, "Versions").
@@ -87,9 +87,9 @@ class RobotConfig:
     carrying: int = 0
     vendor: str = "vcran"
     battery: BatteryConfig | None = None
-    #: The robot's protective field (SPEC §12, ``[robots.field]``); None: the fleet's (``[traffic] field``).
+    #: The robot's protective field (docs/contract.md §12, ``[robots.field]``); None: the fleet's (``[traffic] field``).
     field: FieldSpec | None = None
-    #: A VDA 5050 vehicle's identity (SPEC §11; §6.3's topic levels and headers): required in a VDA 5050
+    #: A VDA 5050 vehicle's identity (docs/contract.md §11; §6.3's topic levels and headers): required in a VDA 5050
     #: scenario, refused in an OPIL one. None: not given; ``interface_name`` then is :data:`INTERFACE_NAME`,
     #: ``version`` the first of :data:`VDA5050_VERSIONS` (:meth:`vda5050_identity`).
     manufacturer: str | None = None
@@ -106,7 +106,7 @@ class RobotConfig:
 
     @property
     def moves_parts(self) -> bool:
-        """Configured for a transport job (SPEC §9): to ``load`` and ``unload``, with room for a part."""
+        """Configured for a transport job (docs/contract.md §9): to ``load`` and ``unload``, with room for a part."""
         return "load" in self.actions and "unload" in self.actions and self.capacity >= 1
 
 
@@ -121,12 +121,12 @@ class StationConfig:
     produce_every: float = 0.0
     produce_start: float | None = None
     produce_limit: int = 0
-    #: A charging point: ``charge`` actions in its reach refill the battery (SPEC §4).
+    #: A charging point: ``charge`` actions in its reach refill the battery (docs/contract.md §4).
     charger: bool = False
     #: Where a robot stands to load or unload here, ``(x, y, theta)``; theta None: any heading. A fleet
     #: manager reads it to plan paths (:meth:`vcran.core.manager.Fleet.dock`); None means the position.
     dock: tuple[float, float, float | None] | None = None
-    #: The roadmap node the dock is (SPEC §12: ``dock = "id"`` in a file); ``dock`` then holds its position.
+    #: The roadmap node the dock is (docs/contract.md §12: ``dock = "id"`` in a file); ``dock`` then holds its position.
     dock_node: str | None = None
 
 
@@ -248,7 +248,7 @@ _entry = unchecked(ScriptEntry)
 _inbound = unchecked(Inbound)
 
 
-# --- the closed loop (SPEC §9): jobs, the link, the manager ----------------------------------------------
+# --- the closed loop (docs/contract.md §9): jobs, the link, the manager ----------------------------------------------
 
 
 @dataclass(frozen=True, slots=True)
@@ -311,13 +311,13 @@ class JobStream:
             yield Job(t, f"{self.prefix}_{n}", pickup, dropoff, self.priority, deadline)
 
 
-#: How the RAN learns what the fleet manager wrote (SPEC §7, §9).
+#: How the RAN learns what the fleet manager wrote (docs/contract.md §7, §9).
 SUBSCRIPTION, POLLING = "subscription", "polling"
 
 
 @dataclass(frozen=True, slots=True)
 class LinkSettings:
-    """The link between a fleet manager and the RAN, standing for Orion (SPEC §9, docs/loop.md).
+    """The link between a fleet manager and the RAN, standing for Orion (docs/contract.md §9, docs/loop.md).
 
     Every message takes ``latency`` plus a uniform draw from ``[0, jitter)`` seconds, in order per
     robot and direction. With ``inbound = "subscription"`` every change of an attribute reaches the RAN;
@@ -358,9 +358,9 @@ class Scenario:
     job_stream: JobStream | None = None
     link: LinkSettings = field(default_factory=LinkSettings)
     manager: ManagerSpec | None = None
-    #: The lanes robots may drive (SPEC §12); None: robots drive anywhere.
+    #: The lanes robots may drive (docs/contract.md §12); None: robots drive anywhere.
     roadmap: Roadmap | None = None
-    #: Safety fields and deadlocks (SPEC §12); the default has none.
+    #: Safety fields and deadlocks (docs/contract.md §12); the default has none.
     traffic: TrafficSettings = field(default_factory=TrafficSettings)
 
     def messages(self) -> Script:
@@ -369,7 +369,7 @@ class Scenario:
 
     @property
     def has_workload(self) -> bool:
-        """Jobs listed or generated: the scenario is meant for a fleet manager (SPEC §9)."""
+        """Jobs listed or generated: the scenario is meant for a fleet manager (docs/contract.md §9)."""
         return bool(self.jobs) or self.job_stream is not None
 
     def workload(self) -> Iterator[Job]:
@@ -381,7 +381,7 @@ class Scenario:
     def fleet_dict(self) -> dict[str, Any]:
         """Everything but the script, as JSON that :func:`vcran.io.scenario_file.parse` reads back: a trace header carries it."""
         s = self.settings
-        # Keys added with §4 and §12 appear only when set, so older scenarios keep their exact trace header.
+        # Keys added with docs/contract.md §4 and docs/contract.md §12 appear only when set, so older scenarios keep their exact trace header.
         return _drop_none({
             "simulation": {
                 "name": s.name, "seed": s.seed, "duration": s.duration, "until_idle": s.until_idle,

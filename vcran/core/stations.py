@@ -1,4 +1,4 @@
-"""Stations and what AgvAction does at them (SPEC §4): pure bookkeeping of parts.
+"""Stations and what AgvAction does at them (docs/contract.md §4): pure bookkeeping of parts.
 
 A station has a position, a reach (a circle around it, or an explicit polygon) and a part count, and may
 produce parts at an interval. Load takes a part from the station in reach, unload puts one on it. The
@@ -29,7 +29,7 @@ class Station:
     #: ... at most ``produce_limit`` parts in all (0 = unlimited). A full station skips a production.
     produce_limit: int = 0
     area: tuple[tuple[float, float], ...] = ()
-    #: A charging point (SPEC §4): ``charge`` actions in its reach refill the battery.
+    #: A charging point (docs/contract.md §4): ``charge`` actions in its reach refill the battery.
     charger: bool = False
     produced: int = 0
     _shape: Any = field(default=None, repr=False)
@@ -113,7 +113,7 @@ def attempt(
 ) -> tuple[Outcome, Station | None]:
     """What one action at ``(x, y)`` would do, without doing it: its outcome and, for a load or unload that
     would succeed, the station it would move a part to or from (:func:`transfer` moves it). Apart, so that
-    an action failed for another reason (an injected fault, SPEC §4) moves nothing."""
+    an action failed for another reason (an injected fault, docs/contract.md §4) moves nothing."""
     if kind not in capable:
         return Outcome(False, "action_not_capable", f"this robot is not configured to {kind.value}"), None
     if kind is ActionKind.DUMMY or kind is ActionKind.CHARGE:  # a charge's energy is the battery's part

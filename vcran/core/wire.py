@@ -1,4 +1,4 @@
-"""What crosses the boundary between the simulation and a transport (SPEC §1, §6), and the interface.
+"""What crosses the boundary between the simulation and a transport (docs/contract.md §1, §6), and the interface.
 
 Inbound: an attribute of an entity changed, carrying either a decoded message (scripted, replay) or the
 raw NGSI attribute (live, and scripts that exercise R12), which the RAN decodes. Outbound: a
@@ -74,7 +74,7 @@ class Transport:
 
     #: Whether :meth:`send` takes telemetry :class:`Frame` objects. Sampling the whole fleet every tick
     #: is a good part of a run's cost, so a transport that has no use for them says False and the RAN
-    #: skips them (SPEC §6: the trace's leg log, not the frames, determines the telemetry).
+    #: skips them (docs/contract.md §6: the trace's leg log, not the frames, determines the telemetry).
     wants_frames: bool = True
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
@@ -91,7 +91,7 @@ class Transport:
         return False
 
     def outage(self, robot: str, until: float) -> bool:
-        """SPEC §4 ``link_down``: cut ``robot``'s link from now until ``until`` on the transport's side, if
+        """docs/contract.md §4 ``link_down``: cut ``robot``'s link from now until ``until`` on the transport's side, if
         the transport has a link of its own (a closed loop's :class:`vcran.sim.link.Link`), and say so.
 
         False (the default): the RAN holds the robot's messages itself (:meth:`vcran.sim.opil.ran.Ran.link_down`).

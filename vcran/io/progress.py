@@ -5,7 +5,7 @@ into a file or a CI log the bar would be hundreds of garbled lines. So the bar e
 stream is a terminal, and the status line falls back to whole lines, at a slow rate, elsewhere.
 Redrawing is limited to a few times per wall second, whatever rate the caller updates at, so a fast
 simulation pays one clock read per update and nothing more. Wall-clock figures appear only here, never in
-a run's output files (SPEC §5).
+a run's output files (docs/contract.md §5).
 """
 
 from __future__ import annotations

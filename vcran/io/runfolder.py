@@ -1,4 +1,4 @@
-"""Run folders that are complete or visibly incomplete (SPEC §6, §8).
+"""Run folders that are complete or visibly incomplete (docs/contract.md §6, §8).
 
 A run writes into a sibling of its ``--out`` folder named ``<name>.incomplete`` and renames it to
 ``<name>`` only when every file is closed. A run that is interrupted, crashes or is killed leaves

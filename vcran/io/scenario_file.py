@@ -1,5 +1,5 @@
 """Scenario files (TOML): read the fleet, the stations, the settings and the message script, or the
-closed loop's jobs, link and fleet manager (SPEC §9), into a :class:`~vcran.core.scenario.Scenario`.
+closed loop's jobs, link and fleet manager (docs/contract.md §9), into a :class:`~vcran.core.scenario.Scenario`.
 
 The format is documented with a complete annotated example in docs/scenarios.md. Loading is strict:
 an unknown key, a wrong type or an impossible value fails with :class:`ScenarioError` naming the file,
@@ -237,7 +237,7 @@ def _robot(t: Table) -> RobotConfig:
         vendor=t.text("vendor", "vcran"),
         battery=None if (battery := t.optional_table("battery", BATTERY)) is None else _battery(battery),
         field=None if (field := t.optional_table("field", FIELD)) is None else _field(field),
-        manufacturer=t.string("manufacturer", None),  # a VDA 5050 vehicle's (SPEC §11)
+        manufacturer=t.string("manufacturer", None),  # a VDA 5050 vehicle's (docs/contract.md §11)
         serial_number=t.string("serial_number", None),
         interface_name=t.string("interface_name", None),
         version=t.choice("version", default=None),
@@ -343,7 +343,7 @@ def _random_faults(t: Table) -> RandomFaults:
     return source
 
 
-# --- the closed loop (SPEC §9) --------------------------------------------------------------------------
+# --- the closed loop (docs/contract.md §9) --------------------------------------------------------------------------
 
 
 def _job(t: Table) -> Job:

@@ -34,7 +34,7 @@ from vcran.io.toml_table import _MISSING, _NO_RULES, Rules, Table
 __all__ = ["RecordingTable", "scenario_schema"]
 
 DRAFT = "http://json-schema.org/draft-07/schema#"
-#: A published string: none of the characters Orion refuses in values (SPEC §2).
+#: A published string: none of the characters Orion refuses in values (docs/contract.md §2).
 _PUBLISHABLE = "^[^" + "".join("\\" + c if c in "\\]^-" else c for c in sorted(FORBIDDEN_CHARS)) + "]*$"
 _NUMBER = {"type": "number"}
 _PAIR = {"type": "array", "items": _NUMBER, "minItems": 2, "maxItems": 2}

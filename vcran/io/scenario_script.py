@@ -1,4 +1,4 @@
-"""A scenario file's ``[[script]]`` (the seed's JMeter file as TOML): each entry as the messages it sends,
+"""A scenario file's ``[[script]]`` (the original VC-RAN's JMeter file as TOML): each entry as the messages it sends,
 or as a task cycle (docs/scenarios.md).
 
 An entry names its time, its robot and its ``kind``: one message (``motion``, ``action``, ``cancel``, or a
@@ -133,6 +133,6 @@ def check_in_run(t: Table, entry: list[ScriptEntry] | Cycle | Draft, duration: f
 
 _EXPANDERS: dict[str, Any] = {
     "motion": _motion, "action": _action, "cancel": _cancel, "raw": _raw, "task": _task, "cycle": _cycle,
-    # VDA 5050 (SPEC §11): the topic the message goes on
+    # VDA 5050 (docs/contract.md §11): the topic the message goes on
     "order": partial(draft, topic="order"), "instantActions": partial(draft, topic="instantActions"),
 }

@@ -44,7 +44,7 @@ def scenario_dict(scenario: Scenario, script: Iterable[ScriptEntry]) -> dict[str
 
 
 def loop_dict(scenario: Scenario) -> dict[str, Any]:
-    """A closed-loop scenario (SPEC §9) as parse() reads it: the fleet, its listed jobs, its job stream,
+    """A closed-loop scenario (docs/contract.md §9) as parse() reads it: the fleet, its listed jobs, its job stream,
     the link and the fleet manager. ``vcran fuzz --manager`` saves a shrunk failing scenario this way."""
     data = scenario.fleet_dict()
     if scenario.manager is not None:

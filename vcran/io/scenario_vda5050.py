@@ -1,5 +1,5 @@
-"""A VDA 5050 scenario's ``[[script]]`` (SPEC §11): the master's ``order`` and ``instantActions`` messages
-at given times, the scripted run's analogue of the seed's JMeter list (docs/scenarios.md, "VDA 5050
+"""A VDA 5050 scenario's ``[[script]]`` (docs/contract.md §11): the master's ``order`` and ``instantActions`` messages
+at given times, the scripted run's analogue of the original VC-RAN's JMeter list (docs/scenarios.md, "VDA 5050
 vehicles").
 
 An entry of kind ``order`` or ``instantActions`` gives the message as VDA 5050 writes it, without its

@@ -1,4 +1,4 @@
-"""Where a run's records go: a run folder, or memory (SPEC §8; docs/outputs.md).
+"""Where a run's records go: a run folder, or memory (docs/contract.md §8; docs/outputs.md).
 
 Every entry point that runs something (``vcran run``, ``replay``, ``live``, ``manage``, :func:`vcran.simulate`,
 sweeps, fuzzing) hands its records to one of these, and only to these, so that a folder is always staged,

@@ -176,7 +176,7 @@ class Table:
         return v
 
     def text(self, key: str, default: str) -> str:
-        """A string that will be published: Orion refuses some characters in values (SPEC §2)."""
+        """A string that will be published: Orion refuses some characters in values (docs/contract.md §2)."""
         v = self.raw(key, default)
         if v is default and default is not _MISSING:
             return v

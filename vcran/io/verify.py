@@ -1,4 +1,4 @@
-"""Replay a recorded trace and verify it (SPEC §6): ``vcran replay TRACE --out DIR [--verify]``.
+"""Replay a recorded trace and verify it (docs/contract.md §6): ``vcran replay TRACE --out DIR [--verify]``.
 
 The trace header carries the fleet (the scenario without its script) and the last line when the run
 stopped, so the trace alone is enough: the replay runs the same fleet, feeds the recorded inbound messages
@@ -8,11 +8,11 @@ every tick follows from them) or telemetry row (format 1) and, when the recordin
 every state transition and event; it stops at the first difference and names it. Recordings of either
 format verify against a replay (which writes format 2).
 
-A field added to a published message after a recording was made (``ran_status.carrying``, SPEC §2) is
+A field added to a published message after a recording was made (``ran_status.carrying``, docs/contract.md §2) is
 not in that recording: such a recording verifies with the field left out of the replay's records (and
 compared as format 1 recordings are, record by record in one canonical form).
 
-A closed-loop run (SPEC §9) replays the same way: its inbound records are what the fleet manager wrote,
+A closed-loop run (docs/contract.md §9) replays the same way: its inbound records are what the fleet manager wrote,
 as they reached the RAN. The replay does not run the manager again, so the manager's own events
 (``job_*``) are left out of the comparison; everything the simulation did is compared.
 
@@ -163,9 +163,9 @@ def verify(recorded: Path, replayed: Path) -> Difference | None:
     if header["version"] == 1:
         telemetry_file = recorded.parent / str(header.get("telemetry", {}).get("file", TELEMETRY_FILE))
         if not telemetry_file.exists():
-            raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (SPEC §6)")
+            raise ValueError(f"{telemetry_file}: missing; it holds the recording's current_motion rows (docs/contract.md §6)")
     elif not (recorded.parent / LEGS_FILE).exists():
-        raise ValueError(f"{recorded.parent / LEGS_FILE}: missing; it holds the recording's legs (SPEC §6)")
+        raise ValueError(f"{recorded.parent / LEGS_FILE}: missing; it holds the recording's legs (docs/contract.md §6)")
     _, complete = recorded_end(recorded, header)
     same = header["version"] == read_header(got)["version"]
     return (
@@ -271,7 +271,7 @@ def _compare_samples(expected: Path, got: Path, complete: bool = True) -> Differ
 
 
 def _event_lines(path: Path, as_written: bool) -> Iterator[tuple[bytes, dict[str, Any]]]:
-    """The events the simulation wrote: all but a fleet manager's ``job_*`` events (SPEC §9: the replay
+    """The events the simulation wrote: all but a fleet manager's ``job_*`` events (docs/contract.md §9: the replay
     does not run the manager again), as written or (formats differ) in one canonical form."""
     if as_written:
         with open_input(path) as f:

@@ -1,4 +1,4 @@
-"""Fleet managers that ship with vcran (SPEC §9): subclass one, or write your own :class:`vcran.FleetManager`.
+"""Fleet managers that ship with vcran (docs/contract.md §9): subclass one, or write your own :class:`vcran.FleetManager`.
 
 Like the core they are pure (no SimPy, no clock, no files): they act through their handle only, so the
 same object runs in simulated time and against a real Orion.

@@ -1,4 +1,4 @@
-"""The reference fleet manager: a plain dispatcher (SPEC §9). docs/loop.md walks through it.
+"""The reference fleet manager: a plain dispatcher (docs/contract.md §9). docs/loop.md walks through it.
 
 * Jobs wait in a queue: higher ``priority`` first, then in arrival order (plain FIFO when no job has a
   priority).
@@ -7,16 +7,16 @@
 * A job is two OPIL tasks on that robot: drive to the pickup's dock and ``load``; when that task has
   completed, drive to the drop-off's dock and ``unload``. When the second completes, the job is done.
 * How a task ended comes from the robot's ``ran_status``: the ids of recently completed tasks, and of
-  cancelled ones with the reason (``timeout``, ``action_failed``, ``cancelled``; SPEC §4's
+  cancelled ones with the reason (``timeout``, ``action_failed``, ``cancelled``; docs/contract.md §4's
   ``motion_failed``, ``collision``, ``battery_empty``).
 * A cancelled task costs the job one try. The retry waits ``retry_after`` seconds, doubled for each
   further try (10, 20, 40 s by default): a pickup at an empty station fails within seconds, and
   retrying at once would burn every try before the station produces a part. A failed pickup frees the
   robot at once (it may take other jobs meanwhile) and puts the job back in the queue at its old place
-  when the wait is over. A cancelled task moved no part (SPEC §4: a failed load or unload moves nothing):
+  when the wait is over. A cancelled task moved no part (docs/contract.md §4: a failed load or unload moves nothing):
   a failed drop-off leaves the part on board, so it is sent again to the same robot. After ``max_tries``
   cancelled tasks the job is reported failed.
-* Batteries (SPEC §4): a robot without a job whose published charge is below ``charge_below`` (a
+* Batteries (docs/contract.md §4): a robot without a job whose published charge is below ``charge_below`` (a
   fraction) drives to the nearest ``charger`` station and charges to full instead of taking jobs. A
   robot on a job finishes it first. A robot that ran empty is out of service until its battery is
   swapped (a ``battery_state`` update at or above ``charge_below`` again): its pickup goes back to the queue,
@@ -31,7 +31,7 @@
   at the station nearest to the robot that has not refused it (chargers and the failed drop-off left out),
   one task each (``return{n}_{robot}``); when every station refused it, the robot keeps it and takes no
   more jobs (an operator must unload it).
-* Routing (SPEC §12): with ``routing = "roadmap"`` (the default, ``"auto"``, when the scenario has a
+* Routing (docs/contract.md §12): with ``routing = "roadmap"`` (the default, ``"auto"``, when the scenario has a
   roadmap) robots drive the roadmap's shortest routes under node reservations, one task per stretch
   (:mod:`vcran.managers.routing`); ``"straight"`` sends them straight to the dock, as without a roadmap,
   to show what goes wrong in traffic.

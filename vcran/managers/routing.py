@@ -1,4 +1,4 @@
-"""Driving an OPIL fleet manager's robots along the roadmap under node reservations (SPEC §12, issue 32 item 4).
+"""Driving an OPIL fleet manager's robots along the roadmap under node reservations (docs/contract.md §12, issue 32 item 4).
 
 The Dispatcher's half of traffic (docs/loop.md, "Routing on a roadmap"). The reservations
 (:mod:`vcran.core.traffic.reservations`) decide which robot may drive which nodes; this module turns that

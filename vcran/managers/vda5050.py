@@ -1,4 +1,4 @@
-"""The reference VDA 5050 master: :class:`MasterControl` (SPEC §11). docs/vda5050.md ("The reference master")
+"""The reference VDA 5050 master: :class:`MasterControl` (docs/contract.md §11). docs/vda5050.md ("The reference master")
 walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in orders instead of tasks.
 
 * Jobs wait in a queue: higher ``priority`` first, then in arrival order.

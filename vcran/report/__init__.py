@@ -90,7 +90,7 @@ def write_report(run_dir: Path, out: Path, fmt: str = "png", timeline_pages: int
         files.append(out / name)
         draw_timeline(run, history, chunk, files[-1], note)
 
-    if run.batteries:  # SPEC §4
+    if run.batteries:  # docs/contract.md §4
         from vcran.report.battery import draw_battery
 
         files.append(out / f"battery.{fmt}")

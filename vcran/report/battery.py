@@ -1,4 +1,4 @@
-"""The battery figure (SPEC §4): each robot's published charge over time, with its low level.
+"""The battery figure (docs/contract.md §4): each robot's published charge over time, with its low level.
 
 Drawn from the ``battery_state`` records of the trace, which change on every percent step (docs/robots.md), as
 steps: what a fleet manager reading Orion saw. Runs without batteries get no such figure. Above

@@ -1,4 +1,4 @@
-"""The fleet figure of a closed-loop run (SPEC §9): jobs waiting, jobs done and robots busy over time.
+"""The fleet figure of a closed-loop run (docs/contract.md §9): jobs waiting, jobs done and robots busy over time.
 
 Three step curves from the run's events, each changing only at the instant an event happened:
 

@@ -1,7 +1,7 @@
 """A run's output folder read back into a small data model, the one input of every figure and table.
 
 ``vcran run --out DIR`` writes ``summary.json``, ``events.jsonl.zst``, ``trace.jsonl.zst`` and ``legs.npy``
-(SPEC §8; format 1 folders, with ``telemetry.bin``, are read too). A report needs a little of each: the fleet's geometry from the trace header, where the robots
+(docs/contract.md §8; format 1 folders, with ``telemetry.bin``, are read too). A report needs a little of each: the fleet's geometry from the trace header, where the robots
 were from the telemetry, what happened from the events, the per-robot totals from the summary, and the
 motion areas and targets that only the inbound assignments carry. Everything is checked here, so the
 figures can trust what they get and a broken folder fails with one clear :class:`ReportError`, never a
@@ -40,7 +40,7 @@ EVENT_FIELDS = {
     "task_completed": ("task",),
     "task_cancelled": ("task", "reason"),
     "motion_finished": ("motion",),
-    # SPEC §12 (vcran.core.incidents): the robot that entered the field; a deadlock's kind
+    # docs/contract.md §12 (vcran.core.incidents): the robot that entered the field; a deadlock's kind
     "blocked": ("other",),
     "deadlock": ("kind",),
 }
@@ -79,7 +79,7 @@ class RobotResult:
     parts_moved: int
     errors: int
     final_pose: tuple[float, float, float]
-    #: SPEC §4: charge drawn (Ah; None without a battery) and collisions, from the summary.
+    #: docs/contract.md §4: charge drawn (Ah; None without a battery) and collisions, from the summary.
     energy_used: float | None = None
     collisions: int = 0
 
@@ -110,11 +110,11 @@ class Run:
     motion_areas: tuple[MotionArea, ...] = ()
     #: (robot, motion label) -> the targets received for it, as (receive time, x, y), in arrival order.
     targets: dict[tuple[str, str], list[tuple[float, float, float]]] = field(default_factory=dict)
-    #: robot -> its published ``battery_state`` as (t, percentage) points (SPEC §4), for robots with a battery.
+    #: robot -> its published ``battery_state`` as (t, percentage) points (docs/contract.md §4), for robots with a battery.
     batteries: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     #: A closed-loop run's job KPIs (summary.json's ``jobs``, and the fleet's utilisation); else None.
     jobs: JobFigures | None = None
-    #: SPEC §12: some robot had a protective field (the scenario's ``[traffic]`` or a ``[robots.field]``).
+    #: docs/contract.md §12: some robot had a protective field (the scenario's ``[traffic]`` or a ``[robots.field]``).
     fields: bool = False
 
     @property
@@ -233,7 +233,7 @@ def checked_events(path: Path) -> Iterator[dict[str, Any]]:
 def _assignments(path: Path) -> tuple[tuple[MotionArea, ...], dict[tuple[str, str], list[tuple[float, float, float]]],
                                        dict[str, list[tuple[float, float]]]]:
     """Motion areas and targets from the inbound ``motion_assignment`` records of the trace, and the
-    published ``battery_state`` percentages (SPEC §4), in one pass.
+    published ``battery_state`` percentages (docs/contract.md §4), in one pass.
 
     A live run records its inbound payloads raw, as Orion delivered them; they are decoded here as the RAN
     decoded them, and one that does not decode (the RAN rejected it) is skipped.
@@ -278,7 +278,7 @@ def _decoded(raw: Any) -> dict[str, Any] | None:
 
 
 def _label(ident: dict[str, Any]) -> str:
-    """An id as events and summary name it (SPEC §8): its description, else its canonical uuid."""
+    """An id as events and summary name it (docs/contract.md §8): its description, else its canonical uuid."""
     return str(ident.get("description") or ident["uuid"])
 
 

@@ -1,4 +1,4 @@
-"""SPEC §4 in a report: downtime per robot, and the incidents to mark on the timeline and the layout.
+"""docs/contract.md §4 in a report: downtime per robot, and the incidents to mark on the timeline and the layout.
 
 Downtime is time a robot could not work: held by a breakdown (``fault`` to its end) or a pause (to its
 ``resume``), and out of service with an empty battery (``battery_empty`` to ``battery_swapped``); an
@@ -15,7 +15,7 @@ from vcran.report.style import INCIDENT_STYLE
 
 @dataclass(frozen=True, slots=True)
 class Incident:
-    """A §4 event to mark: ``kind`` (a key of INCIDENT_STYLE) at ``t``, at ``place`` when the event has one."""
+    """A docs/contract.md §4 event to mark: ``kind`` (a key of INCIDENT_STYLE) at ``t``, at ``place`` when the event has one."""
 
     robot: str
     t: float

@@ -29,12 +29,12 @@ class Kpi:
     latency: float | None
     parts_moved: int
     errors: int
-    #: SPEC §4: charge drawn per completed task (Ah; None without a battery or a completed task),
+    #: docs/contract.md §4: charge drawn per completed task (Ah; None without a battery or a completed task),
     #: seconds held or out of service, collisions.
     energy_per_job: float | None = None
     downtime: float = 0.0
     collisions: int = 0
-    #: SPEC §12, with safety fields (else None): blocks, seconds blocked, deadlocks (vcran.report.traffic).
+    #: docs/contract.md §12, with safety fields (else None): blocks, seconds blocked, deadlocks (vcran.report.traffic).
     blocks: int | None = None
     blocked_time: float | None = None
     deadlocks: int | None = None
@@ -51,7 +51,7 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
     busy robot-seconds over all robot-seconds (the mean of the robots' shares), and its latency the mean
     over every completed task, so a robot with many tasks weighs more than one with few. The fleet's
     errors are the run's total, which includes inputs for entities no robot owns (R11). With safety fields
-    (SPEC §12) the fleet's blocks and blocked time are the robots' sums, its deadlocks the ``deadlock``
+    (docs/contract.md §12) the fleet's blocks and blocked time are the robots' sums, its deadlocks the ``deadlock``
     events (a cycle of robots counts once).
     """
     rows = []

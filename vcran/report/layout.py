@@ -213,7 +213,7 @@ def _direction_arrow(ax: Axes, points: np.ndarray, colour: str) -> None:
 
 
 def _incident_places(ax: Axes, run: Run) -> list[Artist]:
-    """SPEC §4 events that have a place: collisions and where batteries ran out."""
+    """docs/contract.md §4 events that have a place: collisions and where batteries ran out."""
     handles: list[Artist] = []
     placed = [i for i in incidents(run) if i.place is not None]
     for kind, (marker, colour, label) in INCIDENT_STYLE.items():

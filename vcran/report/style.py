@@ -27,24 +27,24 @@ REASON_STYLE = {
     "timeout": ("X", "#c0392b"),
     "cancelled": ("D", "#7d3c98"),
     "action_failed": ("^", "#d35400"),
-    # SPEC §4: the robot stopped on its own
+    # docs/contract.md §4: the robot stopped on its own
     "battery_empty": ("v", "#b7950b"),
     "motion_failed": ("s", "#a04000"),
     "collision": ("*", "#e74c3c"),
-    # SPEC §12: the scenario cancels deadlocked robots' tasks (on_deadlock = "cancel")
+    # docs/contract.md §12: the scenario cancels deadlocked robots' tasks (on_deadlock = "cancel")
     "deadlock": ("h", "#1a5276"),
 }
-#: Reasons the legend always lists; the §4 ones are listed when they occur.
+#: Reasons the legend always lists; the docs/contract.md §4 ones are listed when they occur.
 CORE_REASONS = ("timeout", "cancelled", "action_failed")
 
-#: SPEC §4 and §12 incidents -> (marker, colour, legend label), on the timeline's state lane and, where the event
+#: docs/contract.md §4 and §12 incidents -> (marker, colour, legend label), on the timeline's state lane and, where the event
 #: has a place, on the layout.
 INCIDENT_STYLE = {
     "fault": ("P", "#6e2c00", "fault injected"),
     "battery_low": ("d", "#b7950b", "battery low"),
     "battery_empty": ("v", "#b7950b", "battery empty (robot stopped)"),
     "collision": ("*", "#e74c3c", "collision"),
-    # SPEC §12: a robot's protective field entered (where it began to brake), robots stopped on one another
+    # docs/contract.md §12: a robot's protective field entered (where it began to brake), robots stopped on one another
     "blocked": ("o", "#f39c12", "blocked (field entered)"),
     "deadlock": ("h", "#1a5276", "deadlock"),
 }

@@ -48,7 +48,7 @@ COLUMNS = (
     Column("parts moved", "parts_moved", lambda k: k.parts_moved),
     Column("errors", "errors", lambda k: k.errors),
 )
-#: SPEC §4 columns, shown when a run has any battery, downtime, collision or §4 cancel (docs/report.md).
+#: docs/contract.md §4 columns, shown when a run has any battery, downtime, collision or docs/contract.md §4 cancel (docs/report.md).
 S4_COLUMNS = (
     Column("battery empty", "cancelled_battery_empty", lambda k: k.cancelled["battery_empty"]),
     Column("motion failed", "cancelled_motion_failed", lambda k: k.cancelled["motion_failed"]),
@@ -58,7 +58,7 @@ S4_COLUMNS = (
     Column("collisions", "collisions", lambda k: k.collisions),
 )
 
-#: SPEC §12 columns, shown when the run's robots had safety fields (docs/report.md).
+#: docs/contract.md §12 columns, shown when the run's robots had safety fields (docs/report.md).
 S12_COLUMNS = (
     Column("deadlock", "cancelled_deadlock", lambda k: k.cancelled["deadlock"]),
     Column("blocks", "blocks", lambda k: k.blocks),
@@ -68,7 +68,7 @@ S12_COLUMNS = (
 
 
 def columns(rows: list[Kpi]) -> tuple[Column, ...]:
-    """The table's columns: the §4 ones only when the run has something to show in them, the §12 ones when
+    """The table's columns: the docs/contract.md §4 ones only when the run has something to show in them, the docs/contract.md §12 ones when
     its robots had safety fields."""
     s4 = any(k.energy_per_job is not None or k.downtime or k.collisions or any(c.value(k) for c in S4_COLUMNS[:3])
              for k in rows)
@@ -120,7 +120,7 @@ def _plain(value: float | int | str) -> str:
 
 
 def jobs_markdown(jobs: JobFigures) -> str:
-    """A closed-loop run's job KPIs (SPEC §9) as a two-column Markdown table."""
+    """A closed-loop run's job KPIs (docs/contract.md §9) as a two-column Markdown table."""
     def seconds(v: float | None) -> str:
         return "–" if v is None else f"{v:.1f}"
 

@@ -93,7 +93,7 @@ def draw_timeline(run: Run, histories: dict[str, History], robots: tuple[str, ..
         ax.axhline(y0 - PITCH / 2 - GAP / 2, color="#bbbbbb", linewidth=0.6)
     state_lane = {rid: y0 for rid, y0, _ in blocks}
     marked = [i for i in incidents(run) if i.robot in state_lane]
-    for incident in marked:  # SPEC §4: on the robot's state lane, where it happened in time
+    for incident in marked:  # docs/contract.md §4: on the robot's state lane, where it happened in time
         marker, colour, _ = INCIDENT_STYLE[incident.kind]
         marks.point(incident.t, state_lane[incident.robot], marker, colour)
     marks.draw(ax)

@@ -1,4 +1,4 @@
-"""SPEC §12 in a report: each robot's blocks, blocked time and deadlocks, counted from the events.
+"""docs/contract.md §12 in a report: each robot's blocks, blocked time and deadlocks, counted from the events.
 
 A *block* is a ``blocked`` event: another robot entered the robot's empty protective field. It lasts until
 the robot's next ``unblocked`` (its field clear, or new work or a stop from outside); one still open when

@@ -1,4 +1,4 @@
-"""The SimPy model: thin processes around the pure core (DESIGN.md, layer 2).
+"""The SimPy model: thin processes around the pure core (README "Layout", layer 2).
 
 The processes wait on stores and timeouts, hand what arrives to the core and carry out the effects it
 returns; they make no decisions. They import the core only: never a transport implementation, a file

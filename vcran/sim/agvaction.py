@@ -1,4 +1,4 @@
-"""AgvAction: the actions a robot's body performs at stations and chargers (seed §2, SPEC §4).
+"""AgvAction: the actions a robot's body performs at stations and chargers (docs/contract.md §1, docs/contract.md §4).
 
 Two ways to have an action performed, both reporting :class:`Acted` with the action's tag when it ends:
 
@@ -108,7 +108,7 @@ class AgvAction:
 
     def _finish(self, kind: ActionKind) -> Outcome:
         """An action's duration has passed: its outcome, and its effect on parts and battery. An armed
-        action failure fails an action that would have succeeded, and then moves nothing (SPEC §4): the
+        action failure fails an action that would have succeeded, and then moves nothing (docs/contract.md §4): the
         part stays where it was, the robot carries what it carried before."""
         x, y, _ = self.pose
         outcome, station = attempt(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)

@@ -1,4 +1,4 @@
-"""A robot's body: the AGV that drives legs and AgvAction that performs actions (seed §2, SPEC §4), shared by
+"""A robot's body: the AGV that drives legs and AgvAction that performs actions (docs/contract.md §1, docs/contract.md §4), shared by
 every protocol (docs/protocols.md).
 
 The body decides nothing a protocol decides. A protocol's pure vehicle logic (OPIL: RanLogic; VDA 5050: the
@@ -136,7 +136,7 @@ class Body(Holds, Energy, AgvAction):
         self.fail_next_action = False
         #: Observers of "this robot's occupancy changed" (collision detection), called with the body.
         self.on_move: Callable[[Body], None] | None = None
-        #: The fleet's safety fields (SPEC §12; None: none), told of every leg and rest (vcran.sim.traffic).
+        #: The fleet's safety fields (docs/contract.md §12; None: none), told of every leg and rest (vcran.sim.traffic).
         self.fields: SafetyFields | None = None
         # The glue's hooks (module docstring); these defaults serve a body driven without a protocol.
         self.tell: Callable[[object], None] = lambda report: None
@@ -153,7 +153,7 @@ class Body(Holds, Energy, AgvAction):
 
     @property
     def carrying(self) -> int:
-        """The parts on board. A protocol's status shows them (OPIL: ``ran_status``, SPEC §2), so a change
+        """The parts on board. A protocol's status shows them (OPIL: ``ran_status``, docs/contract.md §2), so a change
         is a change of what the body shows: ``changed`` is called."""
         return self._carrying
 
@@ -234,7 +234,7 @@ class Body(Holds, Energy, AgvAction):
                     self._stopped(halt)
                     break
                 self.fleet.finish(self.index)
-                self.pose = self.fleet.rest[self.index]  # the leg's end (or, braked on it, the rest's: SPEC §12)
+                self.pose = self.fleet.rest[self.index]  # the leg's end (or, braked on it, the rest's: docs/contract.md §12)
                 self.tell(Reached(waypoint))
                 if not self.route or self._holds:  # else the next leg starts now, from this pose
                     self._segment(REST)
@@ -245,9 +245,9 @@ class Body(Holds, Energy, AgvAction):
         :data:`ABANDON` (R14: the robot stays where the leg began), or :data:`STOP` (stop_now).
 
         A hold stops the robot where it is and later resumes the same leg shifted in time by the hold's
-        length, so the rest of the leg (and the task) ends exactly that much later (SPEC §4 breakdown).
+        length, so the rest of the leg (and the task) ends exactly that much later (docs/contract.md §4 breakdown).
 
-        With safety fields (SPEC §12, :class:`vcran.sim.traffic.SafetyFields`) a robot blocked brakes: the
+        With safety fields (docs/contract.md §12, :class:`vcran.sim.traffic.SafetyFields`) a robot blocked brakes: the
         running stretch stops where it is and the braked stretch is driven (:meth:`brake`), then the robot
         waits at rest, its leg not done, until it drives the rest of it (:meth:`drive_on`), whose end is the
         leg's. A hold or a stop ends a block (the fields are told the robot rests); a hold released then
@@ -280,7 +280,7 @@ class Body(Holds, Energy, AgvAction):
             cause = yield from self._work(end)
             if cause is RELEASE:
                 continue
-            if type(cause) is Braking:  # SPEC §12: stop this stretch where it is, drive the braked one
+            if type(cause) is Braking:  # docs/contract.md §12: stop this stretch where it is, drive the braked one
                 self.pose = self.fleet.stop(i, env.now)
                 stretch, braked = cause.stop, True
                 if stretch is not None:
@@ -288,7 +288,7 @@ class Body(Holds, Energy, AgvAction):
                 self._segment(REST if stretch is None else DRIVE)
                 self._moved()
                 continue
-            if type(cause) is Leg:  # SPEC §12: drive the rest of the leg
+            if type(cause) is Leg:  # docs/contract.md §12: drive the rest of the leg
                 if i in self.fleet.current:  # the braked stretch ends at this very instant
                     self.fleet.finish(i)
                 stretch, braked = cause, False
@@ -345,12 +345,12 @@ class Body(Holds, Energy, AgvAction):
             return cause
 
     def brake(self, braking: Braking) -> None:
-        """SPEC §12 (:class:`vcran.sim.traffic.Body`): the robot's field was entered; brake now."""
+        """docs/contract.md §12 (:class:`vcran.sim.traffic.Body`): the robot's field was entered; brake now."""
         assert self._agv_process is not None and self._worker is self._agv_process, "braking a robot not driving"
         self._agv_process.interrupt(braking)
 
     def drive_on(self, leg: Leg) -> None:
-        """SPEC §12 (:class:`vcran.sim.traffic.Body`): the field is clear; drive ``leg``, the rest of the leg."""
+        """docs/contract.md §12 (:class:`vcran.sim.traffic.Body`): the field is clear; drive ``leg``, the rest of the leg."""
         assert self._agv_process is not None and self._worker is self._agv_process, "driving on a robot not waiting"
         self._agv_process.interrupt(leg)
 

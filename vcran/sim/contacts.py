@@ -1,4 +1,4 @@
-"""Collision detection in the simulation (SPEC §4 Footprints and collisions): predict, schedule, confirm.
+"""Collision detection in the simulation (docs/contract.md §4 Footprints and collisions): predict, schedule, confirm.
 
 Whenever a robot's track changes (a leg starts or ends, a hold, a stop: :attr:`Body.on_move`), it is
 re-filed in the :class:`~vcran.core.collisions.Grid` and tested against the robots sharing a cell: for

@@ -1,4 +1,4 @@
-"""The body's battery in simulated time (SPEC §4 Battery): segments, the instant it runs out, the swap.
+"""The body's battery in simulated time (docs/contract.md §4 Battery): segments, the instant it runs out, the swap.
 
 Every change of what the body does (a leg, an action, a charge, rest) begins a battery segment of the fleet's
 :class:`~vcran.core.battery.FleetBattery`, which the telemetry tick reads for the whole fleet at once

@@ -1,4 +1,4 @@
-"""Injected faults, carried out at their instants (SPEC §4 Faults; docs/robots.md says what each does).
+"""Injected faults, carried out at their instants (docs/contract.md §4 Faults; docs/robots.md says what each does).
 
 One process plays the scenario's ``[[faults]]`` in time order; one per robot and random source draws that
 robot's seeded stream lazily (:meth:`vcran.core.faults.RandomFaults.stream`), so an hour of faults for a

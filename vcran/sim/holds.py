@@ -1,4 +1,4 @@
-"""Working, holding and stopping: how a robot's body waits out a work and what may cut it short (SPEC §4).
+"""Working, holding and stopping: how a robot's body waits out a work and what may cut it short (docs/contract.md §4).
 
 A *work* is a leg the AGV drives or an action AgvAction performs (:mod:`vcran.sim.body`). While it runs, its
 process waits in :meth:`Holds._work` and is the body's *worker*; SimPy's ``Process.interrupt`` (which costs
@@ -32,10 +32,10 @@ from vcran.sim.timing import COMPLETION, after
 #: the leg ends where the robot is (:meth:`vcran.sim.body.Body.stop_now`).
 HOLD, RELEASE, ABANDON, STOP = "hold", "release", "abandon", "stop"
 
-#: Why a body stops for good (:attr:`Halted.why`; SPEC §4). A protocol maps them onto its own words (OPIL: the
+#: Why a body stops for good (:attr:`Halted.why`; docs/contract.md §4). A protocol maps them onto its own words (OPIL: the
 #: cancel reason and ran_error code of the same name; VDA 5050: the vehicle's ``on_halted``).
 BATTERY_EMPTY, MOTION_FAILED, COLLISION = "battery_empty", "motion_failed", "collision"
-#: SPEC §12: the robot was deadlocked and the scenario cancels its work (``on_deadlock = "cancel"``).
+#: docs/contract.md §12: the robot was deadlocked and the scenario cancels its work (``on_deadlock = "cancel"``).
 DEADLOCK = "deadlock"
 
 
@@ -51,7 +51,7 @@ class Halted:
 
 @dataclass(frozen=True, slots=True)
 class InService:
-    """Body -> logic: a fresh battery; the robot can work again (SPEC §4)."""
+    """Body -> logic: a fresh battery; the robot can work again (docs/contract.md §4)."""
 
 
 Cause = Halted | str | None

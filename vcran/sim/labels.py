@@ -1,4 +1,4 @@
-"""The summary's task lists, compact: :class:`Labels` (summary.json's ``completed`` and ``cancelled``, SPEC §8).
+"""The summary's task lists, compact: :class:`Labels` (summary.json's ``completed`` and ``cancelled``, docs/contract.md §8).
 
 A run ends tens of thousands of tasks per robot-hour at fleet scale, and every one is listed in summary.json;
 kept as Python strings they were most of what a run's memory grew by. Shared by every protocol: a protocol's

@@ -1,4 +1,4 @@
-"""The link between a fleet manager and the RAN in a closed loop: Orion, in simulated time (SPEC §9).
+"""The link between a fleet manager and the RAN in a closed loop: Orion, in simulated time (docs/contract.md §9).
 
 Both directions go through it, as they would through Orion:
 
@@ -8,19 +8,19 @@ Both directions go through it, as they would through Orion:
   nothing and notifies nobody (Orion's default ``entityChange``). Under ``subscription`` every change
   reaches the RAN as it lands; under ``polling`` the RAN reads what Orion holds every ``poll_interval``
   seconds and gets each attribute that differs from what it read last, so a write overwritten before
-  the next read is lost, exactly as in live mode (SPEC §7).
+  the next read is lost, exactly as in live mode (docs/contract.md §7).
 * **RAN -> manager.** Everything the RAN publishes at one instant travels as one batch (one batch
   update, as live mode sends one per tick) and reaches the manager ``latency`` (+ jitter) later, batches
   in order; the protocol's loop turns a batch into the manager's updates (OPIL's
   :class:`vcran.sim.opil.loop.ClosedLoop`: the actual changes, and every write of ``robot_description``,
   which live mode forces through Orion, ``options=forcedUpdate``, so that a planner subscribing late gets
-  it, SPEC §2).
+  it, docs/contract.md §2).
 
 The link knows attributes by name only: which of them are ``periodic`` (published whatever happens, so
 they never keep a run from ending idle) and of which ``every`` value waits out a ``link_down`` (the others
 coalesce to the latest) are the protocol's to say (OPIL: ``robot_description``; ``ran_error``).
 
-``outage`` is the hook for the ``link_down`` fault (SPEC §4): while a robot's link is down nothing
+``outage`` is the hook for the ``link_down`` fault (docs/contract.md §4): while a robot's link is down nothing
 reaches it and nothing it publishes leaves; afterwards it reads what Orion holds (the latest value per
 attribute) and its missed publications go out coalesced (the latest per attribute; every ``ran_error``
 in order, for OPIL), as after an Orion outage in live mode.
@@ -187,7 +187,7 @@ class Link:
     # --- link_down ----------------------------------------------------------------------------------------
 
     def outage(self, robot: str, until: float) -> None:
-        """``robot``'s link is down from now until ``until`` (the ``link_down`` fault's hook, SPEC §4)."""
+        """``robot``'s link is down from now until ``until`` (the ``link_down`` fault's hook, docs/contract.md §4)."""
         if robot not in self.robots:
             raise ValueError(f"no robot {robot!r} on this link")
         end = max(until, self._down.get(robot, until))

@@ -1,4 +1,4 @@
-"""Real time for live mode: SimPy's RealtimeEnvironment that other threads can wake (SPEC §7).
+"""Real time for live mode: SimPy's RealtimeEnvironment that other threads can wake (docs/contract.md §7).
 
 ``simpy.rt.RealtimeEnvironment`` sleeps in the calling thread until the next event is due. In live mode,
 inbound messages arrive on HTTP threads (the notification listener, the poller) at any moment; waiting

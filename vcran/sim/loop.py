@@ -1,4 +1,4 @@
-"""A fleet manager in the loop, in simulated time, whatever the protocol (SPEC §9): jobs, timers, hooks.
+"""A fleet manager in the loop, in simulated time, whatever the protocol (docs/contract.md §9): jobs, timers, hooks.
 
 :class:`Loop` implements the transport interface (:class:`vcran.core.wire.Transport`), so the model is
 the same as under a script or a replay. It starts the manager, hands it the scenario's jobs at their
@@ -8,7 +8,7 @@ which hook raised it and when. What travels between the manager and the robots g
 and how it writes are the protocol's: a protocol's loop subclasses :class:`Loop` with :meth:`notified`,
 :meth:`make_handle` and its link's settings (OPIL: :class:`vcran.sim.opil.loop.ClosedLoop`). Every
 callback runs at a simulated instant with its own priority (vcran/sim/timing.py: updates, then jobs,
-then timers), so the whole loop is deterministic (SPEC §5).
+then timers), so the whole loop is deterministic (docs/contract.md §5).
 
 A closed-loop run is over (``until_idle``) only when nothing is left to do on the manager's side either:
 no job still to come or still open, no timer pending, nothing the manager wrote still on its way, and
@@ -106,7 +106,7 @@ class Loop(Transport):
         self.link.publish(out)
 
     def outage(self, robot: str, until: float) -> bool:
-        """``link_down`` (SPEC §4) is the link's: what was written to the robot waits, and what the robot
+        """``link_down`` (docs/contract.md §4) is the link's: what was written to the robot waits, and what the robot
         publishes (its rows of the fleet's frames too) waits (:meth:`Link.outage`)."""
         if not isinstance(self.link, Link):
             return False

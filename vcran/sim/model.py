@@ -89,7 +89,7 @@ class Model:
         self.contacts = (Contacts(self.env, self.robots, s.collisions, s.collision_resolution)
                          if s.collisions != "off" and len(self.robots) > 1 else None)
         self.fields = SafetyFields.of(self.env, scenario, self._incident)
-        if self.fields is not None:  # SPEC §12: robots brake for what enters their protective field
+        if self.fields is not None:  # docs/contract.md §12: robots brake for what enters their protective field
             for body in self.robots:
                 self.fields.attach(body.index, body)
                 body.fields = self.fields
@@ -181,7 +181,7 @@ class Model:
         return self.busy_seconds[index] + (self.env.now - since if since is not None else 0.0)
 
     def summary(self) -> dict[str, Any]:
-        """summary.json (SPEC §8): deterministic, no wall-clock figures."""
+        """summary.json (docs/contract.md §8): deterministic, no wall-clock figures."""
         t = self.env.now
         robots = {}
         for r in self.robots:

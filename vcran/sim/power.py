@@ -1,4 +1,4 @@
-"""The battery at the telemetry cadence (SPEC §4): which levels to publish, the low warning, idle drain.
+"""The battery at the telemetry cadence (docs/contract.md §4): which levels to publish, the low warning, idle drain.
 
 Levels come from :class:`vcran.core.battery.FleetBattery` in one numpy sweep per tick. A robot's level is
 published when its percentage, rounded to the battery's ``resolution``, changed, or a charge started or ended,

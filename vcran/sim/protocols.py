@@ -44,7 +44,7 @@ class Glue(Protocol):
         """Publish the battery levels that changed at ``t`` (:class:`vcran.sim.power.Power`)."""
 
     def link_down(self, body: Body, duration: float) -> None:
-        """SPEC §4 link_down: for ``duration`` the robot neither receives nor publishes."""
+        """docs/contract.md §4 link_down: for ``duration`` the robot neither receives nor publishes."""
 
     def start(self, telemetry_period: float, description_period: float, after_tick: Callable[[], bool]) -> None:
         """Start the periodic publications; ``after_tick()`` after each says whether the run is over."""
@@ -64,7 +64,7 @@ class Glue(Protocol):
         """The errors robot ``index``'s logic reported (summary.json)."""
 
     def traffic(self) -> Signals:
-        """How the protocol shows safety fields' blocks and deadlocks (SPEC §12; asked only when some robot
+        """How the protocol shows safety fields' blocks and deadlocks (docs/contract.md §12; asked only when some robot
         has a field)."""
 
 

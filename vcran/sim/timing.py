@@ -1,4 +1,4 @@
-"""Event priorities: the documented tie order within one simulated instant (SPEC §5, docs/determinism.md).
+"""Event priorities: the documented tie order within one simulated instant (docs/contract.md §5, docs/determinism.md).
 
 SimPy orders events by ``(time, priority, insertion)``. vcran gives each kind of event its own priority so
 that what happens at one instant does not depend on when the event happened to be scheduled:
@@ -7,11 +7,11 @@ that what happens at one instant does not depend on when the event happened to b
    stores use SimPy's NORMAL priority, 1, so a cause's consequences finish before the next kind starts);
 2. station production;
 3. completions: an AGV reaching a point, AgvAction finishing an action, and the instants computed like
-   them (a battery running out, two footprints starting to overlap; SPEC §4);
+   them (a battery running out, two footprints starting to overlap; docs/contract.md §4);
 4. injected faults, and the ends of their durations (a breakdown at the instant a leg ends finds the
-   robot at the point; SPEC §4), battery swaps;
+   robot at the point; docs/contract.md §4), battery swaps;
 5. R7 deadlines (so a task assembled exactly at its deadline is on time);
-6. in a closed loop (SPEC §9), the fleet manager's callbacks: first the robots' updates reaching it
+6. in a closed loop (docs/contract.md §9), the fleet manager's callbacks: first the robots' updates reaching it
    (so it decides on the freshest state), then jobs reaching it, then its own timers;
 7. telemetry (it sees the state after everything else at that instant);
 8. the end of the run (so the last instant is complete, telemetry included).

@@ -1,11 +1,11 @@
-"""Safety fields in the simulation (SPEC §12): the SimPy side of :class:`vcran.core.traffic.control.Traffic`.
+"""Safety fields in the simulation (docs/contract.md §12): the SimPy side of :class:`vcran.core.traffic.control.Traffic`.
 
 :class:`SafetyFields` decides nothing. The robots' body tells it when a robot starts a leg (:meth:`drive`)
 and when it rests without driving on (:meth:`rest`: a leg's end, a hold, a halt, a cancel); it hands each to
 the pure :class:`~vcran.core.traffic.control.Traffic` and carries out the effects that come back, in order:
 
 - ``Predicted`` and ``Wake``: an event at the instant (priority COMPLETION, like a leg's end and a collision's
-  first contact: SPEC §5), which hands the change back (``due``, ``braked``, ``overdue``); a stale prediction
+  first contact: docs/contract.md §5), which hands the change back (``due``, ``braked``, ``overdue``); a stale prediction
   costs a no-op there;
 - ``Brake``: :meth:`Body.brake` -- the running leg ends now and the braked stretch is driven; the motion is
   not done, the robot waits for ``DriveOn``;
@@ -64,7 +64,7 @@ class Body(Protocol):
 
 
 class Signals(Protocol):
-    """How a protocol shows traffic to its fleet manager (SPEC §12). Robots are fleet indices."""
+    """How a protocol shows traffic to its fleet manager (docs/contract.md §12). Robots are fleet indices."""
 
     def blocked(self, robot: int, other: int) -> None:
         """``other`` entered ``robot``'s empty field (OPIL: a ``ran_error`` warning; VDA 5050:
@@ -144,7 +144,7 @@ class SafetyFields:
                 "deadlocks": self.deadlocks}
 
     def summarise(self, summary: dict[str, Any]) -> None:
-        """Add SPEC §12's figures to ``summary`` (summary.json, docs/outputs.md): each robot's ``blocks`` and
+        """Add docs/contract.md §12's figures to ``summary`` (summary.json, docs/outputs.md): each robot's ``blocks`` and
         ``blocked_time``, and the fleet's ``traffic`` section (:meth:`figures`)."""
         robots = summary["robots"]
         for i, rid in enumerate(self.ids):

@@ -1,4 +1,4 @@
-"""A sweep's folder, complete or visibly incomplete (SPEC §6, §10, docs/sweeps.md).
+"""A sweep's folder, complete or visibly incomplete (docs/contract.md §6, §10, docs/sweeps.md).
 
 ``vcran sweep --out DIR``, ``run_sweep(keep_runs=DIR)`` and ``SweepResult.write(DIR)`` all write it with
 this code, the way a run folder is written (:mod:`vcran.io.runfolder`): :func:`open_folder` checks ``DIR``

@@ -1,4 +1,4 @@
-"""Overrides: set a value at a dotted path inside a scenario's TOML table (SPEC §10, docs/sweeps.md).
+"""Overrides: set a value at a dotted path inside a scenario's TOML table (docs/contract.md §10, docs/sweeps.md).
 
 A sweep varies a scenario by paths into the data a scenario file holds, not by knowing what any field
 means: ``simulation.task_timeout``, ``robots.*.max_velocity``, ``job_stream.rate``, ``manager.class``.
@@ -21,7 +21,7 @@ from typing import Any, NoReturn
 
 from vcran.sweep import fleet
 
-#: Short names a sweep may use for a longer path: the fleet-manager versions of SPEC §10 (``manager =
+#: Short names a sweep may use for a longer path: the fleet-manager versions of docs/contract.md §10 (``manager =
 #: ["vcran.managers:Dispatcher", "mypkg:Mine"]``) are the ``class`` of a scenario's ``[manager]``.
 ALIASES = {"manager": "manager.class"}
 

@@ -1,5 +1,5 @@
 """Where the runs of a sweep or the chunks of a fuzz campaign execute: this process, a local process
-pool, or a Dask cluster (SPEC §10). All three take the same plain-data jobs and yield results as they
+pool, or a Dask cluster (docs/contract.md §10). All three take the same plain-data jobs and yield results as they
 finish; a job's result is whatever the function returned, or the exception that stopped it.
 
 The local pool is :class:`concurrent.futures.ProcessPoolExecutor` with the ``forkserver`` start method

@@ -1,4 +1,4 @@
-"""Run every variant × seed of a sweep on a pool and gather one row per run (SPEC §10).
+"""Run every variant × seed of a sweep on a pool and gather one row per run (docs/contract.md §10).
 
 A row is the run's number, its variant (number, and label if the sweep names its variants), the value of
 every swept parameter, its seed, its error (empty when it ran), the KPIs of its summary and, last, its

@@ -1,4 +1,4 @@
-"""Sweep files (TOML): a scenario, seeds, and the variants to run it as (SPEC §10, docs/sweeps.md).
+"""Sweep files (TOML): a scenario, seeds, and the variants to run it as (docs/contract.md §10, docs/sweeps.md).
 
 ::
 

@@ -1,4 +1,4 @@
-"""One run of a sweep as a pure function of plain data: scenario text, overrides, seed -> row (SPEC §10).
+"""One run of a sweep as a pure function of plain data: scenario text, overrides, seed -> row (docs/contract.md §10).
 
 This is all a worker executes, in a process of the local pool or on a Dask worker on another machine, so
 it takes and returns only strings, numbers, lists and dicts: nothing about pools, clusters or files
@@ -75,20 +75,20 @@ def error_text(exc: BaseException) -> str:
 
 
 #: The KPI columns every row has, in order; a closed-loop run adds ``jobs_*`` and ``utilisation``, a
-#: fleet with batteries ``battery_used``, one with safety fields (SPEC §12) :data:`TRAFFIC`.
+#: fleet with batteries ``battery_used``, one with safety fields (docs/contract.md §12) :data:`TRAFFIC`.
 KPIS = ("sim_time", "tasks_completed", "tasks_cancelled",
         *(f"cancelled_{r.value}" for r in Reason if r is not Reason.DEADLOCK), "distance", "parts_moved", "errors",
         "collisions")
-#: SPEC §12's columns, for runs whose robots had safety fields (summary.json's ``traffic``).
+#: docs/contract.md §12's columns, for runs whose robots had safety fields (summary.json's ``traffic``).
 TRAFFIC = ("cancelled_deadlock", "blocks", "blocked_time", "deadlocks")
 
 
 def kpis(summary: dict[str, Any]) -> dict[str, Any]:
     """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
-    distance, parts moved, errors and collisions (SPEC §4: each involves two robots, and each robot's
-    summary counts it); with batteries the charge drawn (Ah); with a closed loop (SPEC §9) every figure
+    distance, parts moved, errors and collisions (docs/contract.md §4: each involves two robots, and each robot's
+    summary counts it); with batteries the charge drawn (Ah); with a closed loop (docs/contract.md §9) every figure
     of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``; with safety fields
-    (SPEC §12) tasks cancelled for a deadlock and the summary's ``traffic``: blocks, blocked time (s),
+    (docs/contract.md §12) tasks cancelled for a deadlock and the summary's ``traffic``: blocks, blocked time (s),
     deadlocks."""
     robots = summary["robots"].values()
     reasons = [c["reason"] for r in robots for c in r["cancelled"]]

@@ -2,7 +2,7 @@
 
 A search perturbs a scenario's message script and checks the rules (:func:`search`), or varies a
 closed loop's workload, stock and link and checks its fleet manager (:func:`search_loop`). ``vcran fuzz``
-runs one search in this process, or, with ``--workers``/``--cluster`` (SPEC §10), many searches with
+runs one search in this process, or, with ``--workers``/``--cluster`` (docs/contract.md §10), many searches with
 consecutive seeds on a pool, each exactly what ``vcran fuzz --seed S --examples M`` runs alone: a
 campaign's failure is reproduced by its search's command line as well as by the saved scenario. A
 search is hypothesis's :func:`~hypothesis.find` with no example database and a ``random.Random`` seeded

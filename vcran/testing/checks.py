@@ -4,7 +4,7 @@ Used by the whole-simulation fuzz tests and by ``vcran fuzz``. The checks are ab
 "everything completes": a perturbed script legitimately produces rejections, timeouts and cancels. Each
 check returns human-readable violations (empty when the run kept the rules):
 
-* R6: every state change is one of the cycle's transitions (restated here from the SPEC, not taken from
+* R6: every state change is one of the cycle's transitions (restated here from docs/contract.md, not taken from
   RanLogic) and starts where the previous one ended;
 * R1/R8/R9: every queued task ends at most once per life, as completed or cancelled with a known reason;
   with ``finished`` (the run went idle), every queued task ended;
@@ -12,7 +12,7 @@ check returns human-readable violations (empty when the run kept the rules):
   at the request (within R14's tolerance) or at the end of the one leg or action that was running;
   nothing of a task finishes after its end, and at most one leg or action of it finishes after the request;
 * R13: an assignment cancelled on its own is never finished afterwards;
-* §4/R6: the AGV moves only while its robot is in MOTION (telemetry against the state changes).
+* docs/contract.md §4/R6: the AGV moves only while its robot is in MOTION (telemetry against the state changes).
 """
 
 from __future__ import annotations
@@ -254,8 +254,8 @@ _FILES = (TRACE_FILE, LEGS_FILE, EVENTS_FILE, SUMMARY_FILE)
 def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[str]:
     """Run ``scenario`` into ``work/a`` and return every rule violation of the outputs.
 
-    With ``again``, also run it a second time (outputs must be byte-identical, §5) and replay its trace
-    (replay verification must find no difference, §6). A crash is a violation too (R12: the simulation
+    With ``again``, also run it a second time (outputs must be byte-identical, docs/contract.md §5) and replay its trace
+    (replay verification must find no difference, docs/contract.md §6). A crash is a violation too (R12: the simulation
     never crashes on input). When the run went idle, every queued task must have ended.
     """
     from transports.replay import ReplayTransport

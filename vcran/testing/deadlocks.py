@@ -1,10 +1,10 @@
-"""The loop property "no deadlock" (SPEC §12, issue 32 item 4), judged from what a run records.
+"""The loop property "no deadlock" (docs/contract.md §12, issue 32 item 4), judged from what a run records.
 
 A fleet manager that routes robots through shared lanes can let them wait on one another for good: two
 robots head-on in a one-lane aisle, a ring of robots each waiting for the node ahead. What a run shows of
 it depends on what the simulation models:
 
-* **With safety fields** (SPEC §12, coming with issue 30's seam) the simulation itself reports robots
+* **With safety fields** (docs/contract.md §12, coming with issue 30's seam) the simulation itself reports robots
   blocked on one another in a cycle, or one blocked past the scenario's bound, as ``deadlock`` events:
   each is a violation.
 * **Without fields** (today) robots never block one another physically; a manager that reserves lanes
@@ -34,7 +34,7 @@ from vcran.testing.spans import away_spans, idle_spans, minus
 
 #: Default for :func:`check_no_deadlock`: how long a robot may stand idle on an open job (seconds).
 STUCK_BOUND = 600.0
-#: The event the simulation raises for robots blocked on one another (SPEC §12).
+#: The event the simulation raises for robots blocked on one another (docs/contract.md §12).
 DEADLOCK = "deadlock"
 
 

@@ -1,4 +1,4 @@
-"""Fuzzing a fleet manager in the loop (SPEC §9): workload and link strategies, and the properties a
+"""Fuzzing a fleet manager in the loop (docs/contract.md §9): workload and link strategies, and the properties a
 user applies to their own manager. docs/fuzzing.md ("Fuzzing your fleet manager") shows them in a test.
 
 Strategies draw what a fleet manager meets in a warehouse it does not control:
@@ -7,8 +7,8 @@ Strategies draw what a fleet manager meets in a warehouse it does not control:
 * :func:`stocks` — how many parts each pickup station holds at the start (an empty line makes a load
   fail, and its task is cancelled with ``action_failed``: the manager must re-plan or give up);
 * :func:`links` — the link's latency, seeded jitter, and loss: under ``polling`` a write overwritten
-  before the RAN reads it is lost, as with Orion (SPEC §7);
-* :func:`fault_lists` — SPEC §4 faults at random times: breakdowns, motion and action failures,
+  before the RAN reads it is lost, as with Orion (docs/contract.md §7);
+* :func:`fault_lists` — docs/contract.md §4 faults at random times: breakdowns, motion and action failures,
   ``link_down`` (shrinks to none);
 * :func:`loop_variants` — all four applied to a base scenario, as a :class:`~vcran.core.scenario.Scenario`.
 
@@ -26,7 +26,7 @@ the manager behaved); :func:`assert_loop_properties` raises one AssertionError l
   while a job was waiting for a robot. A job waits from its arrival, and again from the cancellation of
   its latest task, until the manager sends a task for it or reports it ended;
 * :func:`~vcran.testing.deadlocks.check_no_deadlock` — where it applies (a roadmap, or ``deadlock``
-  events: SPEC §12): no ``deadlock`` event, and no robot stuck idle on an open job past a bound.
+  events: docs/contract.md §12): no ``deadlock`` event, and no robot stuck idle on an open job past a bound.
 
 :func:`fuzz_manager` is the search behind ``vcran fuzz SCENARIO --manager module:Class``: hypothesis's
 ``find`` over :func:`loop_variants`, seeded, without an example database, shrinking to a minimal failing
@@ -139,7 +139,7 @@ def _tenths_within(horizon: float) -> st.SearchStrategy[float]:
 @st.composite
 def fault_lists(draw: st.DrawFn, robots: Sequence[str], *, max_faults: int = 4, horizon: float = 300.0,
                 kinds: Sequence[str] = RANDOM_KINDS, durations: Sequence[float] = FAULT_DURATIONS) -> list[FaultSpec]:
-    """0..``max_faults`` faults (SPEC §4) in ``[0, horizon]``, in time order. ``kinds`` defaults to what
+    """0..``max_faults`` faults (docs/contract.md §4) in ``[0, horizon]``, in time order. ``kinds`` defaults to what
     breaks without an operator (breakdown, motion_failure, action_failure, link_down; a pause without its
     resume would hold a robot for good, which no manager can mend). Shrinks towards no fault."""
     if max_faults < 0:
@@ -202,7 +202,7 @@ def check_jobs_ended(result: Any) -> list[str]:
 def check_protocol(result: Any) -> list[str]:
     """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly.
 
-    Rejections of a robot while its link is down, up to the instant it is back (§4), are the outage's: what
+    Rejections of a robot while its link is down, up to the instant it is back (docs/contract.md §4), are the outage's: what
     the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out).
     """
     cut_off = fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
@@ -214,7 +214,7 @@ def check_protocol(result: Any) -> list[str]:
 def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[str]:
     """No robot idle (WAITING) for more than ``bound`` seconds at a stretch while a job waited.
 
-    Judged by what the manager could know (SPEC §4): a robot out of its reach (link down) or broken down is
+    Judged by what the manager could know (docs/contract.md §4): a robot out of its reach (link down) or broken down is
     not idle, nor is one out of service (its battery empty, until swapped), and a job whose task was
     cancelled on a robot whose link was down waits, for the manager, only from when that link is back.
     Such spans cut the stretches rather than lengthen them. A robot that cannot move parts (not configured

@@ -1,4 +1,4 @@
-"""A reference model of one robot's RanLogic (SPEC §3, R1–R14), small enough to be obviously right.
+"""A reference model of one robot's RanLogic (docs/contract.md §3, R1–R14), small enough to be obviously right.
 
 :class:`vcran.core.opil.ranlogic.RanLogic` is written for speed and for the SimPy model: it keeps incremental
 bookkeeping (a position map, ``m``, the next action, a running flag). This model is written for the
@@ -65,7 +65,7 @@ Obs = tuple[Any, ...]
 #: R14: instants closer than this are the same instant; the R7 timer fires this long after the deadline.
 TOLERANCE = 1e-6
 
-#: R6 as the SPEC words it, for the checks of this package (not imported from RanLogic, so that a wrong
+#: R6 as docs/contract.md words it, for the checks of this package (not imported from RanLogic, so that a wrong
 #: table there shows): the cycle WAITING -> TASK -> MOTION -> ACTION -> WAITING, and a cancel from any
 #: state but WAITING back to WAITING.
 CYCLE = (State.WAITING, State.TASK, State.MOTION, State.ACTION)

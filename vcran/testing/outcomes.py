@@ -1,4 +1,4 @@
-"""How jobs ended, judged from what the run recorded (SPEC §9): two loop properties a manager that gives up
+"""How jobs ended, judged from what the run recorded (docs/contract.md §9): two loop properties a manager that gives up
 must fail. docs/fuzzing.md defines every term; :mod:`vcran.testing.loop` applies them with the others.
 
 * :func:`check_failures_have_evidence` — a job is reported failed only with evidence: a task sent for it
@@ -113,7 +113,7 @@ def infeasible(scenario: Scenario, jobs: Iterable[Any]) -> list[str]:
 
 
 def disturbances(events: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The events that disturbed the run (SPEC §4): a fault that applied (one with ``applied: false`` did
+    """The events that disturbed the run (docs/contract.md §4): a fault that applied (one with ``applied: false`` did
     nothing), a battery that ran empty, a task cancelled by a collision (``collisions = "stop"``; a
     ``collision`` merely reported stops nobody)."""
     return [e for e in events if (e["event"] == "fault" and e.get("applied", True)) or e["event"] == "battery_empty"

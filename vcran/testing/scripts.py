@@ -133,7 +133,7 @@ def _near_valid() -> tuple[Any, ...]:
     )
 
 
-#: Payloads the RAN must reject (R12) without crashing, recording them exactly for replay (§6): wrong
+#: Payloads the RAN must reject (R12) without crashing, recording them exactly for replay (docs/contract.md §6): wrong
 #: shapes, values no message can hold (NaN, a 100-digit integer, nesting deeper than orjson writes),
 #: and near-valid encodings with one field broken.
 MALFORMED: tuple[Any, ...] = (
@@ -273,7 +273,7 @@ def load_text(text: str, source: str = "<fuzz>") -> Scenario:
 def fleets(draw: st.DrawFn, max_robots: int = 3, max_tasks: int = 4) -> dict[str, Any]:
     """A small scenario as plain data: 1..``max_robots`` robots, a few stations, a few tasks each.
 
-    Robots may lack an action (a failed action, §4); stations may hold or produce parts, so loads and
+    Robots may lack an action (a failed action, docs/contract.md §4); stations may hold or produce parts, so loads and
     unloads succeed or fail; tasks arrive one message at a time or all at once. The run stops when idle.
     """
     n = draw(st.integers(1, max_robots))

@@ -1,4 +1,4 @@
-"""Spans of a run's events (SPEC §4, §9): when robots were idle, away or out of service, for the loop
+"""Spans of a run's events (docs/contract.md §4, §9): when robots were idle, away or out of service, for the loop
 properties of :mod:`vcran.testing.loop` and :mod:`vcran.testing.deadlocks`. Plain Python on the events of a
 run (``result.events``), each span ``(from, to)`` in simulated seconds; one still open at ``end`` lasts
 until then."""

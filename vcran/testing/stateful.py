@@ -1,4 +1,4 @@
-"""A hypothesis state machine that drives RanLogic and the reference model side by side (SPEC §3).
+"""A hypothesis state machine that drives RanLogic and the reference model side by side (docs/contract.md §3).
 
 Every rule applies one input to the real :class:`~vcran.core.opil.ranlogic.RanLogic` and to the
 :class:`~vcran.testing.model.ReferenceRan` and compares what each says must happen. The machine also

@@ -88,7 +88,7 @@ def sequences() -> st.SearchStrategy[Sequence]:
 
 
 def robot_actions(known_only: bool = True) -> st.SearchStrategy[RobotAction]:
-    """A RobotAction; with ``known_only`` its code is one vcran can perform (SPEC §2 action codes)."""
+    """A RobotAction; with ``known_only`` its code is one vcran can perform (docs/contract.md §2 action codes)."""
     if not known_only:
         return cast(st.SearchStrategy[RobotAction], _generic(RobotAction))
     codes = st.one_of(
@@ -140,7 +140,7 @@ _OVERRIDES: dict[tuple[type[Message], str], Callable[[], st.SearchStrategy[Any]]
 }
 
 
-# --- one named strategy per RAN attribute (SPEC §2) ------------------------------------------------------
+# --- one named strategy per RAN attribute (docs/contract.md §2) ------------------------------------------------------
 
 
 def motion_assignments() -> st.SearchStrategy[MotionAssignment]:
@@ -176,5 +176,5 @@ def ran_errors() -> st.SearchStrategy[RanError]:
 
 
 def attribute_messages() -> st.SearchStrategy[tuple[str, Message]]:
-    """An attribute name of SPEC §2 with a message of its type, every attribute equally likely."""
+    """An attribute name of docs/contract.md §2 with a message of its type, every attribute equally likely."""
     return st.sampled_from(sorted(ATTRIBUTES)).flatmap(lambda name: st.tuples(st.just(name), messages_of(ATTRIBUTES[name])))

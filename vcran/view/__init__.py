@@ -1,4 +1,4 @@
-"""``vcran view``: a run folder as one interactive page that opens from disk (SPEC §13, docs/view.md).
+"""``vcran view``: a run folder as one interactive page that opens from disk (docs/contract.md §13, docs/view.md).
 
 :func:`write_page` reads the folder (:mod:`.folder`), turns it into the page's protocol-neutral model
 (:mod:`.build`, :mod:`.model`), packs it (:mod:`.pack`) and writes it into the page (:mod:`.page`)

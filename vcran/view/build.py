@@ -48,7 +48,7 @@ def build_model(files: RunFiles) -> ViewModel:
 
 
 def roadmap_of(fleet: dict[str, Any]) -> dict[str, Any] | None:
-    """The fleet's traffic roadmap as nodes and edges (SPEC §12). Scenarios have none yet: issue 32 adds
+    """The fleet's traffic roadmap as nodes and edges (docs/contract.md §12). Scenarios have none yet: issue 32 adds
     them to the trace header's ``fleet``, and this is where the page takes them from."""
     roadmap = fleet.get("roadmap")
     if not isinstance(roadmap, dict):

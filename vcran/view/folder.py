@@ -1,4 +1,4 @@
-"""A run folder read for the page (SPEC §13): whatever it holds, and a note for each thing it lacks.
+"""A run folder read for the page (docs/contract.md §13): whatever it holds, and a note for each thing it lacks.
 
 Every kind of folder vcran writes is read: ``vcran run`` (scripted or a closed loop), ``vcran replay``,
 ``vcran live`` (finished, or still running in ``<out>.incomplete``, read up to its last whole line and
@@ -220,7 +220,7 @@ def _decoded(attr: str, raw: Any) -> dict[str, Any] | None:
 
 
 def _action_kind(value: dict[str, Any]) -> str | None:
-    """What an assigned action does (its category or code, SPEC §2), None for a code the RAN rejected."""
+    """What an assigned action does (its category or code, docs/contract.md §2), None for a code the RAN rejected."""
     action = value.get("robot_action") or {}
     try:
         return _kind(int(action.get("category", 0)), int(action.get("action", 0)))

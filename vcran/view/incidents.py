@@ -1,7 +1,7 @@
-"""The incidents the page puts on its timeline, each a click away (SPEC §13).
+"""The incidents the page puts on its timeline, each a click away (docs/contract.md §13).
 
 :data:`KINDS` is the one list: an event name, the incident kind it shows as, and how that kind is drawn.
-Traffic (SPEC §12, issue 32) adds its blocks and deadlocks here as rows of their own; an event not listed
+Traffic (docs/contract.md §12, issue 32) adds its blocks and deadlocks here as rows of their own; an event not listed
 is not an incident.
 """
 

@@ -1,4 +1,4 @@
-"""A closed loop's jobs (SPEC §9) from the fleet manager's events: their tasks, robots and lead times.
+"""A closed loop's jobs (docs/contract.md §9) from the fleet manager's events: their tasks, robots and lead times.
 
 ``job_arrived`` opens a job, ``job_assigned`` names a task sent for it to a robot, ``job_completed`` and
 ``job_failed`` end it (docs/outputs.md). A task sent for a job is the first task of that label queued on

@@ -1,4 +1,4 @@
-"""The page of a run as it goes (SPEC §13, issue 33 item 3): ``vcran live``/``vcran manage ... --view PORT``.
+"""The page of a run as it goes (docs/contract.md §13, issue 33 item 3): ``vcran live``/``vcran manage ... --view PORT``.
 
 The interface is the run's recording: a live run writes its folder (``<out>.incomplete`` while it runs,
 ``<out>`` once it has ended) and hands every file to the operating system at each telemetry tick, so that

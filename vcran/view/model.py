@@ -1,4 +1,4 @@
-"""What the page shows, as plain data: protocol-neutral, so any run folder maps onto it (SPEC §13).
+"""What the page shows, as plain data: protocol-neutral, so any run folder maps onto it (docs/contract.md §13).
 
 Nothing here is OPIL's: a robot has a footprint and poses (from legs), and over time a state, a task, a
 load, a battery level and a last error; a task (an OPIL task, a VDA 5050 order) has a robot, a label and
@@ -84,7 +84,7 @@ class Tasks:
 
 @dataclass(frozen=True)
 class Job:
-    """A fleet manager's job (SPEC §9): its tasks are indices into :class:`Tasks`."""
+    """A fleet manager's job (docs/contract.md §9): its tasks are indices into :class:`Tasks`."""
 
     id: str
     arrived: float | None
@@ -122,7 +122,7 @@ class ViewModel:
     stations: list[Station]
     #: (robot index, polygon) of the motion areas the robots were sent
     areas: list[tuple[int, tuple[Point, ...]]]
-    #: nodes and edges of a traffic roadmap (SPEC §12, issue 32), or None: ``{"nodes": [[x, y], ...],
+    #: nodes and edges of a traffic roadmap (docs/contract.md §12, issue 32), or None: ``{"nodes": [[x, y], ...],
     #: "edges": [[i, j], ...]}``
     roadmap: dict[str, Any] | None
     #: the leg log, rows grouped by robot in log order, and where each robot's rows start (robots + 1)

@@ -1,4 +1,4 @@
-"""The model packed into the page: one compressed buffer of a JSON part and binary columns (SPEC §13).
+"""The model packed into the page: one compressed buffer of a JSON part and binary columns (docs/contract.md §13).
 
 A 100-robot, 8-hour run has 127 thousand legs and 250 thousand state changes: as JSON text that is tens
 of megabytes, and slow to parse. So every long column is a little-endian typed array (what JavaScript's

@@ -1,4 +1,4 @@
-"""The page: one HTML file with its styles, scripts and the run's data inline (SPEC §13).
+"""The page: one HTML file with its styles, scripts and the run's data inline (docs/contract.md §13).
 
 The scripts are plain JavaScript, one file per concept under ``assets/`` (readable as they are; no build
 step, no library), concatenated in :data:`SCRIPTS` order into one ``<script>``; the data is

@@ -1,4 +1,4 @@
-"""What each robot carries and each station holds over time, rebuilt from the run (SPEC §4 stations).
+"""What each robot carries and each station holds over time, rebuilt from the run (docs/contract.md §4 stations).
 
 No output file holds these as series: the summary has the final counts only. They follow from what the
 run did, by the rules AgvAction applies (:func:`vcran.core.stations.perform`): an ``action_finished``

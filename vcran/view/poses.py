@@ -12,7 +12,7 @@ concerns one robot), and a robot's pose at ``t`` follows from its last row at or
 * none: the robot's starting pose (theta wrapped, as :class:`FleetKinematics` keeps it).
 
 This is exactly what ``vcran.io.trace.reconstruct._evaluate`` computes at a tick (tests/view/test_view_model.py
-compares it with ``vcran.telemetry_table`` at every tick of the §4 scenarios, the warehouse and a generated fleet).
+compares it with ``vcran.telemetry_table`` at every tick of the docs/contract.md §4 scenarios, the warehouse and a generated fleet).
 """
 
 from __future__ import annotations

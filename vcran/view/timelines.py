@@ -83,5 +83,5 @@ def error_timelines(robots: list[str], events: list[dict[str, Any]]) -> tuple[St
 
 
 def battery_timelines(robots: list[str], batteries: dict[str, list[tuple[float, float]]]) -> Steps:
-    """Each robot's published battery percentage (SPEC §4); robots without a battery have no steps."""
+    """Each robot's published battery percentage (docs/contract.md §4); robots without a battery have no steps."""
     return Steps.build([batteries.get(rid, []) for rid in robots], "float32")

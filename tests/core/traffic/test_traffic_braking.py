@@ -1,4 +1,4 @@
-"""SPEC §12: braking to a stop within the robot's deceleration from any instant of a leg, and driving on.
+"""docs/contract.md §12: braking to a stop within the robot's deceleration from any instant of a leg, and driving on.
 
 The leg of most tests: (0, 0) -> (20, 0), 1 m/s, 0.5 m/s^2 both ways: 2 s up (1 m), 16 s at 1 m/s, 2 s down
 (1 m); it ends at t = 20. At t = 9 the robot is 1 + 7 = 8 m along at 1 m/s.

@@ -1,4 +1,4 @@
-"""SPEC §12 end to end in the pure core: robots brake for what enters their field, wait, drive on when it
+"""docs/contract.md §12 end to end in the pure core: robots brake for what enters their field, wait, drive on when it
 clears, and deadlock head-on; driven by a minimal body (tests/core/traffic/body.py) standing for SimPy.
 
 Robots are 1 m x 1 m squares, 1 m/s with 0.5 m/s^2 ramps, fields of 2 m plus the braking distance (v^2 at

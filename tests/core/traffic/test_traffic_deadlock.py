@@ -1,4 +1,4 @@
-"""SPEC §12 deadlock: cycles of robots stopped on one another, robots blocked longer than a bound, and the
+"""docs/contract.md §12 deadlock: cycles of robots stopped on one another, robots blocked longer than a bound, and the
 deterministic report (robots in wait order from the first in fleet order, the instant)."""
 
 from __future__ import annotations

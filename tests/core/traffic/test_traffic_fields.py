@@ -1,4 +1,4 @@
-"""SPEC §12 safety fields: the field's length and rectangle, and the instants another footprint enters and
+"""docs/contract.md §12 safety fields: the field's length and rectangle, and the instants another footprint enters and
 leaves it along both tracks, each derived by hand in its comment.
 
 Robots are 1 m x 1 m squares around their origin (front at x = 0.5, width -0.5 .. 0.5) driving 1 m/s with

@@ -1,4 +1,4 @@
-"""SPEC §12 / issue 32 item 4: node reservations for a manager's robots. Hand cases, then the property: on
+"""docs/contract.md §12 / issue 32 item 4: node reservations for a manager's robots. Hand cases, then the property: on
 random small roadmaps with random requests, no node is ever held by two robots, the waits never form a
 cycle, some robot can always move while any has a route, and every accepted route is driven to its end."""
 

@@ -1,4 +1,4 @@
-"""SPEC §12 roadmaps: the model's one check (validate) and shortest routes with their documented ties."""
+"""docs/contract.md §12 roadmaps: the model's one check (validate) and shortest routes with their documented ties."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ def test_a_sound_roadmap_has_no_problem() -> None:
     ids=["empty", "duplicate-id", "infinite", "unknown-node", "loop", "zero-length", "speed", "twice"],
 )
 def test_each_problem_names_its_entry_and_field(roadmap: Roadmap, expected: list[tuple[str, str]]) -> None:
-    """SPEC §12 / issue 32 item 1: one line naming the entry."""
+    """docs/contract.md §12 / issue 32 item 1: one line naming the entry."""
     assert validate(roadmap) == expected
 
 

@@ -1,4 +1,4 @@
-"""SPEC §12 FieldWatch: predictions are confirmed only while both tracks hold (versions), a field's contents
+"""docs/contract.md §12 FieldWatch: predictions are confirmed only while both tracks hold (versions), a field's contents
 persist across updates, and the exact test runs only for neighbours (near-linear cost in the fleet)."""
 
 from __future__ import annotations

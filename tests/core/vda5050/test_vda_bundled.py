@@ -47,7 +47,7 @@ def test_the_reference_master_does_every_job_of_the_vda5050_warehouse() -> None:
 
 
 def test_production_in_the_yard_is_the_simulations() -> None:
-    """SPEC §4 (docs/scenarios.md): a part every produce_every from produce_start (default: produce_every), a
+    """docs/contract.md §4 (docs/scenarios.md): a part every produce_every from produce_start (default: produce_every), a
     full station skipping its turn, at most produce_limit parts. Up to t = 24: ticks at 10 and 20 (a, b, c),
     at 5 and 15 (d)."""
     stations = {"a": "capacity = 1", "b": "produce_limit = 1", "c": "parts = 3", "d": "produce_start = 5.0"}

@@ -1,4 +1,4 @@
-"""Fuzzing the VDA 5050 vehicle (SPEC §11, issue 31 item 6): orders, updates, cancels, pauses and
+"""Fuzzing the VDA 5050 vehicle (docs/contract.md §11, issue 31 item 6): orders, updates, cancels, pauses and
 malformed messages in sequences hypothesis chooses, the vehicle's verdicts against the reference model of
 its acceptance rules (vcran.testing.vda5050.model), and its invariants after every step."""
 

@@ -1,4 +1,4 @@
-"""The VDA 5050 master interface (SPEC §11, issue 31 item 5): orders built from routes, the handle's stamping
+"""The VDA 5050 master interface (docs/contract.md §11, issue 31 item 5): orders built from routes, the handle's stamping
 and bookkeeping, the fleet a master is told of, and the hooks a loop calls.
 
 Expected numbering is §6.6.2's, written out by hand: "the first node of an order receives a 0, the first
@@ -149,7 +149,7 @@ def test_the_vehicle_takes_the_orders_the_handle_builds() -> None:
 
 @pytest.mark.parametrize("version", list(Version))
 def test_what_the_handle_sends_validates_against_the_official_schema(version: Version) -> None:
-    """Every message vcran sends validates (SPEC §11): the master's orders, updates and instant actions
+    """Every message vcran sends validates (docs/contract.md §11): the master's orders, updates and instant actions
     too, in the vehicle's version, stamped with its manufacturer, serial number and version."""
     config = VehicleConfig("acme", "agv1", version=version)
     handle = Handle(MasterFleet.of(line(), [config]))
@@ -196,7 +196,7 @@ def test_resend_sends_the_last_order_again_with_a_new_header() -> None:
 
 
 def test_an_order_for_a_job_is_recorded_as_its_work() -> None:
-    """SPEC §9: the job book records the order sent for a job (``job_assigned``, the order as its task)."""
+    """docs/contract.md §9: the job book records the order sent for a job (``job_assigned``, the order as its task)."""
     events: list[dict[str, Any]] = []
     scenario = line()
     handle = Handle(MasterFleet.of(scenario), events)
@@ -272,7 +272,7 @@ class Recorder(Master):
 
 
 def test_the_hooks_hear_what_the_vehicles_publish_after_the_link_s_latency() -> None:
-    """SPEC §9's hooks, for VDA 5050: on_start first with fleet and handle set; then, 50 ms after the vehicle
+    """docs/contract.md §9's hooks, for VDA 5050: on_start first with fleet and handle set; then, 50 ms after the vehicle
     came up (the link's latency), its connection (ONLINE), factsheet and state (§6.14, §6.15: at start);
     the job at t = 1; the state of the accepted order 50 ms after the order reached the vehicle (1.05)."""
     master = Recorder()
@@ -312,7 +312,7 @@ def test_position_is_the_latest_published_else_the_start_pose() -> None:
 
 
 def test_a_failed_action_is_what_the_state_says() -> None:
-    """The Yard's pick at an empty station fails (SPEC §4) and the state says FAILED with actionFailed."""
+    """The Yard's pick at an empty station fails (docs/contract.md §4) and the state says FAILED with actionFailed."""
     class Picker(Master):
         def on_start(self) -> None:
             self.handle.order("agv1", ["p"], actions=[action("pick", "pk", "HARD", stationName="P")])

@@ -1,4 +1,4 @@
-"""The reference VDA 5050 master, vcran.managers.vda5050.MasterControl (SPEC §11, issue 31 item 5), in the pure
+"""The reference VDA 5050 master, vcran.managers.vda5050.MasterControl (docs/contract.md §11, issue 31 item 5), in the pure
 Yard: a job end to end with its base released in stretches, two vehicles whose routes cross waiting on the
 reservations, a failed pick retried, an order given up on the way resumed, a refused order, and charging.
 
@@ -141,7 +141,7 @@ def test_a_failed_pick_is_retried_after_the_back_off() -> None:
 
 def test_a_pick_that_keeps_failing_fails_the_job_after_max_tries() -> None:
     """Tries at 1.0, 16.10 (10 s after 6.10) and 41.20 (20 s after the second failure heard at 21.20); the
-    third fails at 46.25, heard 46.30: the job fails with the action's reason (SPEC §9: with evidence)."""
+    third fails at 46.25, heard 46.30: the job fails with the action's reason (docs/contract.md §9: with evidence)."""
     yard = Yard(line(parts=0), MasterControl(max_tries=3, retry_after=10.0))
     yard.run(80.0)
     assert seen(yard, "job_assigned", "job_failed") == [
@@ -151,7 +151,7 @@ def test_a_pick_that_keeps_failing_fails_the_job_after_max_tries() -> None:
 
 def test_an_order_given_up_on_the_way_resumes_from_where_the_vehicle_stopped() -> None:
     """The body fails at t = 10 on its way p -> w (started 6.15: 2 s up covers 1 m, then 1.85 s at 1 m/s:
-    at x = 2.85). The vehicle gives the order up (motionFailed, SPEC §4), heard 10.05; 10 s later the
+    at x = 2.85). The vehicle gives the order up (motionFailed, docs/contract.md §4), heard 10.05; 10 s later the
     master sends a new order from where it stands over the nodes it still holds (w, then d): 3.15 m from
     rest to rest is 1 m up, 1.15 s at 1 m/s, 1 m down: 5.15 s from 20.10, so w at 25.25, the update at 25.35,
     d at 33.35, dropped 38.35, heard 38.40."""
@@ -324,7 +324,7 @@ def shared(spans: list[tuple[str, float, float, frozenset[str]]]) -> list[tuple[
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_a_fleet_on_a_ladder_does_every_job_and_no_two_vehicles_ever_share_a_node(seed: int) -> None:
-    """SPEC §12: the reference managers reserve nodes so that their vehicles neither meet nor deadlock. Four
+    """docs/contract.md §12: the reference managers reserve nodes so that their vehicles neither meet nor deadlock. Four
     vehicles, about sixty jobs whose routes cross all the time: every job completes, and no node is ever
     occupied by two vehicles at once (a vehicle on a leg occupies both its ends)."""
     yard = Yard(s := ladder(seed), MasterControl())
@@ -336,7 +336,7 @@ def test_a_fleet_on_a_ladder_does_every_job_and_no_two_vehicles_ever_share_a_nod
 
 def test_on_the_ladder_with_halts_and_a_lossy_link_every_job_still_completes() -> None:
     """The same fleet with a link that loses three messages in ten (orders, instant actions and states alike;
-    QoS 0, §6.2) and six halts on the way (SPEC §4: motion failures and collisions give the order up): the
+    QoS 0, §6.2) and six halts on the way (docs/contract.md §4: motion failures and collisions give the order up): the
     master resends what was lost, resumes what was given up, and still completes every job without two
     vehicles on one node."""
     rng = random.Random(7)

@@ -1,4 +1,4 @@
-"""VDA 5050 messages (SPEC §11, issue 31 item 1): every kind, in 2.0.0 and 2.1.0, encodes to JSON that the
+"""VDA 5050 messages (docs/contract.md §11, issue 31 item 1): every kind, in 2.0.0 and 2.1.0, encodes to JSON that the
 official schema accepts and decodes back to the same model; each difference between the versions is
 handled as docs/vda5050.md ("Versions") says; received messages that are not valid come back as an
 ``Invalid`` naming the field, never as an exception."""
@@ -55,7 +55,7 @@ def official_problem(topic: Topic, version: Version, raw: bytes) -> tuple[str, s
 @settings(max_examples=25)
 @given(data=st.data())
 def test_every_kind_validates_and_round_trips(topic: Topic, version: Version, data: st.DataObject) -> None:
-    """SPEC §11: every message vcran sends validates against the official schema of its version, and a
+    """docs/contract.md §11: every message vcran sends validates against the official schema of its version, and a
     received one decodes to what was sent."""
     message = data.draw(messages(topic, version))
     raw = codec.encode(message, version)
@@ -262,7 +262,7 @@ JSON = st.recursive(
 
 @given(st.binary(max_size=40) | JSON.map(orjson.dumps))
 def test_decoding_never_raises(raw: bytes) -> None:
-    """SPEC §11: an invalid message is refused, never a crash."""
+    """docs/contract.md §11: an invalid message is refused, never a crash."""
     for topic in (Topic.ORDER, Topic.INSTANT_ACTIONS):
         for version in Version:
             result = codec.decode(topic, raw, version)

@@ -99,7 +99,7 @@ def test_figure_9_actions_that_cannot_be_interrupted_run_to_their_end() -> None:
 
 def test_a_cancel_at_the_instant_a_leg_begins_stops_the_vehicle_on_its_node() -> None:
     """A vehicle that "should be able to receive a new order" on a node and is still on one (its leg began at
-    this very instant, SPEC R14's reading of instants) does not drive another edge first."""
+    this very instant, R14's reading of instants) does not drive another edge first."""
     bench = Bench()
     bench.order(order("o", 0, [A, B]))
     effects = bench.instant(cancel("x"))

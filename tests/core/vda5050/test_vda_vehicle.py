@@ -1,5 +1,5 @@
-"""The VDA 5050 vehicle beyond the specification's diagrams (SPEC §11, issue 31 item 2): instant actions,
-the body's faults (SPEC §4) as errors, what the state reports, the heartbeat, and the messages it builds
+"""The VDA 5050 vehicle beyond the specification's diagrams (docs/contract.md §11, issue 31 item 2): instant actions,
+the body's faults (docs/contract.md §4) as errors, what the state reports, the heartbeat, and the messages it builds
 validating against the official schemas of its version."""
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def test_pause_holds_the_body_and_its_actions_and_resume_goes_on() -> None:
 
 def test_the_pause_button_pauses_as_start_pause_does() -> None:
     """§6.10.6 paused: "either because of the push of a physical button on the AGV or because of an
-    instantAction" (SPEC §4's pause and resume faults)."""
+    instantAction" (docs/contract.md §4's pause and resume faults)."""
     bench = Bench()
     bench.order(order("o", 0, [A, B]))
     assert Hold("pause") in bench.call("on_pause_button", True)
@@ -192,7 +192,7 @@ def test_a_soft_instant_action_holds_the_vehicle_while_it_runs() -> None:
     assert Release("instant") in effects and bench.last.driving
 
 
-# --- the body's faults (SPEC §4) ---------------------------------------------------------------------------
+# --- the body's faults (docs/contract.md §4) ---------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize(("why", "error_type", "level"), [
@@ -240,7 +240,7 @@ def test_battery_low_and_field_violation_are_reported_while_they_last() -> None:
     bench.call("on_battery_low", True)
     bench.call("on_field_violation", True)
     assert bench.seen()["errors"] == ["batteryLow"] and bench.last.safety_state.field_violation
-    assert not bench.last.driving  # the body brakes for the field (SPEC §12)
+    assert not bench.last.driving  # the body brakes for the field (docs/contract.md §12)
     bench.call("on_field_violation", False)
     bench.call("on_battery_low", False)
     assert bench.seen()["errors"] == [] and bench.last.driving
@@ -308,7 +308,7 @@ def test_misuse_by_the_driver_raises() -> None:
 
 @pytest.mark.parametrize("version", list(Version), ids=lambda v: v.value)
 def test_everything_a_vehicle_sends_validates_against_its_official_schema(version: Version) -> None:
-    """SPEC §11: "Every message vcran sends validates against its schema", in the vehicle's version: a run
+    """docs/contract.md §11: "Every message vcran sends validates against its schema", in the vehicle's version: a run
     through orders, updates, actions, faults and refusals, every state checked."""
     bench = Bench(VehicleConfig(MANUFACTURER, SERIAL, version=version))
     bench.battery = 55.0

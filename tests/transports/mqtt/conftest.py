@@ -16,7 +16,7 @@ def brokers(tmp_path) -> Iterator[Callable[..., Mosquitto]]:
     reason = unavailable()
     if reason is not None:
         if in_ci():
-            pytest.fail(f"CI runs the MQTT tests against Mosquitto (SPEC §11), but {reason}")
+            pytest.fail(f"CI runs the MQTT tests against Mosquitto (docs/contract.md §11), but {reason}")
         pytest.skip(f"the MQTT edge's tests need a broker: {reason}")
     started: list[Mosquitto] = []
 

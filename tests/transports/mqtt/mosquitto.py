@@ -1,4 +1,4 @@
-"""A real Mosquitto on loopback for the MQTT edge's tests (SPEC §11, issue 31 item 4): the system's broker
+"""A real Mosquitto on loopback for the MQTT edge's tests (docs/contract.md §11, issue 31 item 4): the system's broker
 (Debian's ``mosquitto`` package), started on a free port with a minimal configuration bound to 127.0.0.1.
 
 Where no Mosquitto is installed, the tests that need it are skipped with the reason, except in CI (the

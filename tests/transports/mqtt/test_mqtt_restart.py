@@ -1,4 +1,4 @@
-"""The broker goes away and comes back on the same port (SPEC §11: "reconnect with back-off, the simulation
+"""The broker goes away and comes back on the same port (docs/contract.md §11: "reconnect with back-off, the simulation
 goes on, nothing the vehicles publish while it is down corrupts a run"), against a real Mosquitto."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The vehicles' side of VDA 5050 over MQTT against a real Mosquitto (SPEC §11; VDA 5050 §6.2, §6.3,
+"""The vehicles' side of VDA 5050 over MQTT against a real Mosquitto (docs/contract.md §11; VDA 5050 §6.2, §6.3,
 §6.14, §6.15). Expected topics, QoS and retained flags are taken from the specification's text, quoted
 beside each assertion, not from transports/mqtt/topics.py."""
 

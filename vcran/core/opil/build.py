@@ -2,7 +2,7 @@
 
 Ids come from names through the stable mapping of :func:`vcran.core.opil.ids.id_for`. Actions are named by kind
 (``"load"``, ``"unload"``, ``"dummy"``), encoded with OPIL's categories (10, 20, 5), which is what OPIL's
-task planner sends, and ``"charge"``, vcran's extension (category 0, action 3; SPEC §4); a raw
+task planner sends, and ``"charge"``, vcran's extension (category 0, action 3; docs/contract.md §4); a raw
 ``(category, action)`` pair can be given instead.
 """
 
@@ -90,7 +90,7 @@ def _shared(maxsize: int) -> Callable[[Callable[..., _Part]], Callable[..., _Par
     ``lru_cache`` keys floats by value: -0.0 equals 0.0 and hashes alike, so it handed back a part built
     with the other sign. A point written as x = -0.0 became x = 0.0, or the reverse, depending on what
     had been built before in the process (another run of a sweep, say): an input changed and a run's
-    outputs depending on its neighbours (SPEC §5). ``repr`` tells every two floats apart."""
+    outputs depending on its neighbours (docs/contract.md §5). ``repr`` tells every two floats apart."""
 
     def wrap(build: Callable[..., _Part]) -> Callable[..., _Part]:
         memo: dict[str, _Part] = {}
@@ -284,7 +284,7 @@ def _id(name: str | Id) -> Id:
 
 
 def motion_message(stamp: Time, x: float, y: float, theta: float, v: float, w: float) -> Motion:
-    """``current_motion`` of one robot: pose in the map frame and body velocities (SPEC §2)."""
+    """``current_motion`` of one robot: pose in the map frame and body velocities (docs/contract.md §2)."""
     return Motion(
         PoseStamped(Header(0, stamp, "/map"), Pose(Point(x, y, 0.0), Quaternion.from_yaw(theta))),
         Twist(Vector3(v, 0.0, 0.0), Vector3(0.0, 0.0, w)),

@@ -29,16 +29,16 @@ class State(enum.Enum):
 
 
 class Reason(enum.Enum):
-    """Why a task was cancelled (SPEC §8)."""
+    """Why a task was cancelled (docs/contract.md §8)."""
 
     TIMEOUT = "timeout"
     CANCELLED = "cancelled"
     ACTION_FAILED = "action_failed"
-    #: SPEC §4: the robot stopped on its own (battery, an injected motion failure, a collision).
+    #: docs/contract.md §4: the robot stopped on its own (battery, an injected motion failure, a collision).
     BATTERY_EMPTY = "battery_empty"
     MOTION_FAILED = "motion_failed"
     COLLISION = "collision"
-    #: SPEC §12: the robot was deadlocked and the scenario cancels its task (``on_deadlock = "cancel"``).
+    #: docs/contract.md §12: the robot was deadlocked and the scenario cancels its task (``on_deadlock = "cancel"``).
     #: (The last reason a history record's three bits hold: :data:`vcran.core.opil.history._REASONS`.)
     DEADLOCK = "deadlock"
 
@@ -222,14 +222,14 @@ class Rejected(ErrorReport):
 
 @dataclass(frozen=True, slots=True)
 class Failed(ErrorReport):
-    """An action that failed (§4); the task is cancelled with reason ``action_failed``."""
+    """An action that failed (docs/contract.md §4); the task is cancelled with reason ``action_failed``."""
 
     NAME = "failed"
 
 
 @dataclass(frozen=True, slots=True)
 class Published(ErrorReport):
-    """A ``ran_error`` of the robot's own (SPEC §4: battery, faults, collisions) that only goes on the wire:
+    """A ``ran_error`` of the robot's own (docs/contract.md §4: battery, faults, collisions) that only goes on the wire:
     its incident has an event of its own (:mod:`vcran.core.incidents`)."""
 
     NAME = ""

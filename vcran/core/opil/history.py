@@ -36,7 +36,7 @@ _FLOATS = ("float64", "float32")
 
 def _flattener(cls: type, skip: str = "") -> Callable[[Any], tuple[Any, ...]]:
     """A function returning every primitive of a ``cls`` in schema order, ids by their uuid only
-    (SPEC §2), zeros unsigned, without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
+    (docs/contract.md §2), zeros unsigned, without the field ``skip``. Generated once per class from :func:`specs`: a generic walk
     costs several times more, and this runs for every assignment of every ended task."""
     key = (cls, skip)
     found = _FLATTENERS.get(key)

@@ -1,7 +1,7 @@
 """Task, motion, action and robot ids (`mars_common_msgs/Id`).
 
 On the wire an id is sixteen bytes plus a free-text description; two ids are the same id when their
-bytes are equal, whatever their descriptions say (SPEC §2). Scenario files name ids with plain strings, so
+bytes are equal, whatever their descriptions say (docs/contract.md §2). Scenario files name ids with plain strings, so
 this module also owns the one mapping from a name to bytes. That mapping is part of vcran's public
 contract: a recorded trace or a fleet manager's database may hold the uuids, so it must never change.
 
@@ -69,7 +69,7 @@ class Id:
 
     @property
     def label(self) -> str:
-        """How events and summaries name the id: its description, else its canonical uuid (SPEC §8)."""
+        """How events and summaries name the id: its description, else its canonical uuid (docs/contract.md §8)."""
         return self.description or self.canonical
 
     @property

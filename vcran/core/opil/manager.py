@@ -1,10 +1,10 @@
-"""OPIL's fleet manager (SPEC §9): :class:`FleetManager`, what users subclass, and :class:`OpilHandle`, what it acts through.
+"""OPIL's fleet manager (docs/contract.md §9): :class:`FleetManager`, what users subclass, and :class:`OpilHandle`, what it acts through.
 
 On top of the shared hooks (:class:`vcran.core.manager.Manager`: ``on_start``, ``on_job``) vcran calls
 :meth:`~FleetManager.on_update` for every update of a robot's attribute that Orion would notify:
 ``current_motion``, ``assignment_state``, ``ran_status``, ``ran_error``, ``robot_description``,
 ``battery_state``. The manager acts through its :class:`OpilHandle`: it writes motion and action
-assignments and cancels (the messages of SPEC §2), reads what Orion holds, and has the shared handle's
+assignments and cancels (the messages of docs/contract.md §2), reads what Orion holds, and has the shared handle's
 time, timers, random generator and job reports. It never sees RanLogic's insides. The same manager
 object runs in simulated time (:func:`vcran.simulate`, :mod:`vcran.sim.opil.loop`) and against a real
 Orion in wall-clock time (``vcran manage``): only the handle's primitives differ. Pure, like the core.
@@ -55,7 +55,7 @@ class OpilHandle(Handle):
     # --- built on them -----------------------------------------------------------------------------------
 
     def send(self, robot: str, message: Message) -> None:
-        """Write a MotionAssignment, ActionAssignment or CancelTask to ``robot`` (SPEC §2)."""
+        """Write a MotionAssignment, ActionAssignment or CancelTask to ``robot`` (docs/contract.md §2)."""
         attribute = ATTRIBUTE_OF.get(type(message))
         if attribute is None:
             known = ", ".join(c.__name__ for c in ATTRIBUTE_OF)
@@ -90,7 +90,7 @@ class OpilHandle(Handle):
         """Send a whole OPIL task to ``robot`` and return its id.
 
         ``path`` is a list of ``(x, y)`` or ``(x, y, theta)`` points (a theta on the last one: end facing
-        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``, ``"charge"`` (SPEC §4). The task is named ``task``, or
+        it), ``actions`` a list of ``"load"``, ``"unload"``, ``"dummy"``, ``"charge"`` (docs/contract.md §4). The task is named ``task``, or
         ``task_1``, ``task_2``, ... in the order sent; its motions ``{task}_m1``, ... and actions
         ``{task}_a1``, ... carry sequence numbers ``1..length`` (:func:`vcran.core.opil.build.task`). With
         ``every`` > 0 the messages go out that many seconds apart (under polling, a write overwritten

@@ -1,11 +1,11 @@
-"""Every message the RAN exchanges with a fleet manager, as frozen dataclasses (SPEC §2).
+"""Every message the RAN exchanges with a fleet manager, as frozen dataclasses (docs/contract.md §2).
 
 Field names and order follow the ROS messages of OPIL (``mars_agent_physical_robot_msgs``,
 ``mars_common_msgs``, ``geometry_msgs``, ``std_msgs``) so that the NGSI codec is a mechanical walk over
 :func:`vcran.core.opil.schema.specs`. ``RanStatus``, ``TaskEnd`` and ``RanError`` are vcran's own extensions
 (``vcran_msgs``). Every message validates itself on construction (:class:`vcran.core.opil.schema.Message`).
 
-One concept in one module longer than 450 lines (issue 30): OPIL's message vocabulary, SPEC §2 as data, one
+One concept in one module longer than 450 lines (issue 30): OPIL's message vocabulary, docs/contract.md §2 as data, one
 short class per ROS message and the tables of which attribute carries which (:data:`INBOUND`,
 :data:`OUTBOUND`, :data:`RENAMED`); it is read as a reference, a class at a time. The machinery they share
 is :mod:`vcran.core.opil.schema`'s, their wire form :mod:`vcran.core.opil.codec`'s.
@@ -220,11 +220,11 @@ class Sequence(Message):
             )
 
 
-#: OPIL ``RobotAction.category`` constants (category first, SPEC §2).
+#: OPIL ``RobotAction.category`` constants (category first, docs/contract.md §2).
 CATEGORY_CODES: dict[int, ActionKind] = {5: ActionKind.DUMMY, 10: ActionKind.LOAD, 20: ActionKind.UNLOAD}
-#: The seed's action codes, used when ``category`` is 0 (undefined).
+#: The original VC-RAN's action codes, used when ``category`` is 0 (undefined).
 ACTION_CODES: dict[int, ActionKind] = {0: ActionKind.DUMMY, 1: ActionKind.LOAD, 2: ActionKind.UNLOAD}
-#: vcran's extension codes, outside OPIL's categories and the seed's codes (docs/wire-format.md):
+#: vcran's extension codes, outside OPIL's categories and the original VC-RAN's codes (docs/wire-format.md):
 #: ``charge`` is category 200, or action 3 with category 0.
 EXTENSION_CATEGORIES: dict[int, ActionKind] = {200: ActionKind.CHARGE}
 EXTENSION_ACTIONS: dict[int, ActionKind] = {3: ActionKind.CHARGE}
@@ -348,7 +348,7 @@ class RobotAgentProperties(Message):
 
 @dataclass(frozen=True, slots=True)
 class Motion(Message):
-    """Pose and velocity (produced: ``current_motion``, every second: the seed's "RAN-state")."""
+    """Pose and velocity (produced: ``current_motion``, every second: the original VC-RAN's "RAN-state")."""
 
     ROS_TYPE = "mars_agent_physical_robot_msgs.Motion"
     current_position: PoseStamped = field(default_factory=PoseStamped)
@@ -395,7 +395,7 @@ class RanStatus(Message):
     queued: UInt32 = 0
     completed: tuple[Id, ...] = ()
     cancelled: tuple[TaskEnd, ...] = ()
-    #: The parts the robot carries now (SPEC §2): a fleet manager must see a load that a failed action
+    #: The parts the robot carries now (docs/contract.md §2): a fleet manager must see a load that a failed action
     #: left where it was. Last, as a field added to a ROS message goes, so older readers keep their order.
     carrying: UInt32 = 0
 
@@ -420,7 +420,7 @@ class RanError(Message):
 
 @dataclass(frozen=True, slots=True)
 class BatteryState(Message):
-    """The battery (produced: ``battery_state``, SPEC §4), ROS 1 ``sensor_msgs/BatteryState``.
+    """The battery (produced: ``battery_state``, docs/contract.md §4), ROS 1 ``sensor_msgs/BatteryState``.
 
     ``charge`` and ``capacity`` in Ah, ``percentage`` 0..1; vcran fills the fields its battery model
     knows and leaves the rest at ROS's "unknown" values (NaN is not JSON, so 0 stands for unmeasured).
@@ -449,7 +449,7 @@ class BatteryState(Message):
     STATUS_FULL: ClassVar[int] = 4
 
 
-#: Attribute name -> message type, for both directions (SPEC §2).
+#: Attribute name -> message type, for both directions (docs/contract.md §2).
 INBOUND: dict[str, type[Message]] = {
     "motion_assignment": MotionAssignment,
     "action_assignment": ActionAssignment,
@@ -464,13 +464,13 @@ OUTBOUND: dict[str, type[Message]] = {
     "battery_state": BatteryState,
 }
 ATTRIBUTES: dict[str, type[Message]] = {**INBOUND, **OUTBOUND}
-#: Attributes whose every write reaches subscribers, changed or not (SPEC §2): ``robot_description`` goes out
+#: Attributes whose every write reaches subscribers, changed or not (docs/contract.md §2): ``robot_description`` goes out
 #: every ``description_period`` so that a planner subscribing late still gets it, but it never changes, and
 #: Orion notifies only changes. Live, it is written with Orion's ``options=forcedUpdate``, in a request of
 #: its own (the option forces every attribute of a request); a closed loop's link notifies each write.
 FORCED_UPDATES: frozenset[str] = frozenset({"robot_description"})
 #: Attributes published under another name before vcran took OPIL's own (the OPIL RAN's launch file and the
-#: Motion Task Planner's FIROS configuration read ``assignment_state`` and ``battery_state``; SPEC §2, §4).
+#: Motion Task Planner's FIROS configuration read ``assignment_state`` and ``battery_state``; docs/contract.md §2, §4).
 #: Traces recorded before are read with the new names; a fleet manager naming an old one is told the new.
 RENAMED: dict[str, str] = {"assignment_status": "assignment_state", "battery": "battery_state"}
 

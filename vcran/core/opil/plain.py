@@ -1,4 +1,4 @@
-"""Messages as plain JSON values: the "decoded value" of traces (SPEC §6) and of ``vcran decode``.
+"""Messages as plain JSON values: the "decoded value" of traces (docs/contract.md §6) and of ``vcran decode``.
 
 A message becomes an object with its fields in ROS order; an id becomes
 ``{"uuid": "<canonical uuid>", "description": "..."}``; arrays become lists. ``from_plain`` is the exact

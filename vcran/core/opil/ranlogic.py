@@ -1,4 +1,4 @@
-"""RanLogic: one robot's task queue and state machine (SPEC §3, R1–R10 and R12–R14), as a pure object.
+"""RanLogic: one robot's task queue and state machine (docs/contract.md §3, R1–R10 and R12–R14), as a pure object.
 
 Inputs are method calls carrying the simulated time ``now``; outputs are the returned effects
 (:mod:`vcran.core.opil.effects`), in order. Nothing here knows SimPy, HTTP or a clock, so the rules can be tested by
@@ -139,7 +139,7 @@ class RanLogic:
         self.doomed: OrderedDict[tuple[Id, str, Id], CancelTask] = OrderedDict()
         #: Bumped whenever anything ``ran_status`` or ``assignment_state`` shows changes.
         self.version = 0
-        #: Why the robot takes no tasks (SPEC §4: "battery_empty"), or "" when it does.
+        #: Why the robot takes no tasks (docs/contract.md §4: "battery_empty"), or "" when it does.
         self.out_of_service = ""
         self._now = float("-inf")
         self._arrivals = 0
@@ -206,7 +206,7 @@ class RanLogic:
     def on_action_finished(
         self, now: float, action_id: Id, ok: bool = True, code: str = "", message: str = ""
     ) -> list[Effect]:
-        """AgvAction finished ``action_id``; a failure carries the error ``code`` and ``message`` (§4)."""
+        """AgvAction finished ``action_id``; a failure carries the error ``code`` and ``message`` (docs/contract.md §4)."""
         self._begin(now)
         task = self._head
         if task is None or not task.action_running:
@@ -230,7 +230,7 @@ class RanLogic:
             self._advance(now)
         return self._end()
 
-    # --- the robot stops on its own (SPEC §4: battery, faults, collisions) -------------------------------
+    # --- the robot stops on its own (docs/contract.md §4: battery, faults, collisions) -------------------------------
 
     def on_halt(self, now: float, reason: Reason, code: str, message: str, out_of_service: bool = False) -> list[Effect]:
         """The robot stopped where it is: its running leg or action is over and no completion follows.
@@ -257,7 +257,7 @@ class RanLogic:
         return self._end()
 
     def count_error(self) -> int:
-        """Count one ``ran_error`` the model publishes itself (a §4 incident); returns the running count."""
+        """Count one ``ran_error`` the model publishes itself (a docs/contract.md §4 incident); returns the running count."""
         self.error_count += 1
         return self.error_count
 

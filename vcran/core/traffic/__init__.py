@@ -1,4 +1,4 @@
-"""Traffic (SPEC §12): roadmaps, safety fields that stop robots, blocking and deadlocks, routing. Pure.
+"""Traffic (docs/contract.md §12): roadmaps, safety fields that stop robots, blocking and deadlocks, routing. Pure.
 
 Shared by both protocols (OPIL and VDA 5050): nothing here knows a message or a process. One concept a
 module:

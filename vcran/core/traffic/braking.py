@@ -1,8 +1,8 @@
-"""Braking to a stop from any instant of a leg, and driving on from rest (SPEC §12 safety fields).
+"""Braking to a stop from any instant of a leg, and driving on from rest (docs/contract.md §12 safety fields).
 
 A robot whose field is entered brakes at its deceleration ``d`` from the speed ``v`` it has at that
 instant, straight on along its leg: it stops ``v^2 / (2 d)`` further on, ``v / d`` later. A robot turning
-in place (speed 0) stops turning at once (turns have no angular ramps in vcran: SPEC §4). A robot whose
+in place (speed 0) stops turning at once (turns have no angular ramps in vcran: docs/contract.md §4). A robot whose
 deceleration is not limited (0, "instantaneous", as :class:`vcran.core.motion.Limits` says) stops where it
 is. It never stops beyond its leg's end: a leg that brakes harder than ``d`` at its end (its own
 deceleration unlimited) is cut there.

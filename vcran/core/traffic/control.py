@@ -1,4 +1,4 @@
-"""What robots do about their safety fields (SPEC §12): brake, wait, drive on; blocks and deadlocks.
+"""What robots do about their safety fields (docs/contract.md §12): brake, wait, drive on; blocks and deadlocks.
 
 :class:`Traffic` is a pure state machine for the whole fleet, shaped like the rest of vcran's logic: inputs
 carry ``now``, outputs are effects as data. The SimPy body (issue 32's integration, after issue 30) only

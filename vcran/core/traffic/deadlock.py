@@ -1,4 +1,4 @@
-"""Deadlock (SPEC §12): robots stopped on one another in a cycle, or a robot blocked longer than a bound.
+"""Deadlock (docs/contract.md §12): robots stopped on one another in a cycle, or a robot blocked longer than a bound.
 
 Input: who is blocked by whom since when (a *wait-for* graph: robot ``r`` waits for every robot in its
 safety field, :mod:`vcran.core.traffic.watch`), and which blocked robots have come to rest. A blocked robot

@@ -1,4 +1,4 @@
-"""A robot's protective field (SPEC §12): a rectangle ahead of its footprint whose length grows with speed.
+"""A robot's protective field (docs/contract.md §12): a rectangle ahead of its footprint whose length grows with speed.
 
 Geometry. In the robot frame (x forward) the field spans ``x`` from the footprint's front (its largest
 ``x``) to that front plus the field's length, and ``y`` across the footprint's width (its smallest to its

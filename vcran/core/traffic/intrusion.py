@@ -1,4 +1,4 @@
-"""When another robot's footprint enters a robot's safety field, and when it leaves (SPEC §12): numpy.
+"""When another robot's footprint enters a robot's safety field, and when it leaves (docs/contract.md §12): numpy.
 
 Computed, not stepped, exactly as first contact between footprints is (:mod:`vcran.core.overlap`, whose
 sampling this reuses with another test): both tracks are sampled so that no point of the field (whose far

@@ -1,4 +1,4 @@
-"""Shortest routes on a roadmap (SPEC §12): what the reference managers drive their robots along.
+"""Shortest routes on a roadmap (docs/contract.md §12): what the reference managers drive their robots along.
 
 :class:`Graph` is a validated :class:`~vcran.core.traffic.roadmap.Roadmap` made ready for searching: each
 node's outgoing arcs (a both-ways edge is two arcs). :meth:`Graph.route` is Dijkstra's search.

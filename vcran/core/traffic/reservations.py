@@ -1,4 +1,4 @@
-"""Node reservations for one fleet manager's robots on a roadmap (SPEC §12): they neither meet nor deadlock.
+"""Node reservations for one fleet manager's robots on a roadmap (docs/contract.md §12): they neither meet nor deadlock.
 
 Any manager can use it (OPIL's Dispatcher sends each granted stretch as a path of motion assignments; a
 VDA 5050 master as an order's base, the rest of the route as its horizon). Robots and nodes are ids.

@@ -1,4 +1,4 @@
-"""A roadmap (SPEC §12): the nodes robots stop at and the edges they drive between, and its one check.
+"""A roadmap (docs/contract.md §12): the nodes robots stop at and the edges they drive between, and its one check.
 
 A roadmap is plain data. A :class:`Node` has an id and a position; a *waiting* node is a bay off the lanes
 where a robot may wait for others to pass (the reservation planner parks robots there:

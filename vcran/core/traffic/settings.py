@@ -1,4 +1,4 @@
-"""A scenario's traffic settings (SPEC §12, ``[traffic]``): the fleet's protective field, the deadlock bound,
+"""A scenario's traffic settings (docs/contract.md §12, ``[traffic]``): the fleet's protective field, the deadlock bound,
 and what a deadlock does. Plain data for :class:`vcran.core.scenario.Scenario`; the rules are
 :mod:`vcran.core.validity.safety`'s, the simulation's part :mod:`vcran.sim.traffic`'s."""
 

@@ -1,4 +1,4 @@
-"""Which robot's safety field holds which others, and when that changes next (SPEC §12): pure bookkeeping.
+"""Which robot's safety field holds which others, and when that changes next (docs/contract.md §12): pure bookkeeping.
 
 The same predict, schedule, confirm scheme as collision detection (vcran/sim/contacts.py), without SimPy:
 the simulation tells :class:`FieldWatch` every change of a robot's track (:meth:`FieldWatch.update`: a leg

@@ -125,7 +125,7 @@ def string_problem(v: Any) -> str | None:
 
 
 def publishable_problem(v: str) -> str | None:
-    """A string that will be published: Orion refuses some characters in values (SPEC §2)."""
+    """A string that will be published: Orion refuses some characters in values (docs/contract.md §2)."""
     bad = sorted(set(v) & FORBIDDEN_CHARS)
     return f"contains {' '.join(bad)}, which Orion refuses in values" if bad else None
 

@@ -77,12 +77,12 @@ def _robot_id(v: str) -> str | None:
 
 def _footprint(v: Any) -> str | None:
     problem = polygon_problem(v) if v else None  # [] is no footprint: it never touches
-    return f"{problem} (SPEC §4: a footprint is a simple polygon)" if problem else None
+    return f"{problem} (docs/contract.md §4: a footprint is a simple polygon)" if problem else None
 
 
 #: ``charge`` is an action a script sends, not one a robot lists: it has a battery or not.
 _CHARGE = ("'charge' is not listed among a robot's actions: a robot with [robots.battery] can charge "
-           f"(SPEC §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
+           f"(docs/contract.md §4, docs/robots.md); the actions listed here are {', '.join(ACTION_KINDS)}")
 
 #: What an MQTT topic level cannot hold: the separator, the wildcards, ``$`` (topics of the broker's own),
 #: NUL. A VDA 5050 vehicle's identity is three levels of its topics (§6.3).
@@ -97,7 +97,7 @@ def _topic_level(v: str) -> str | None:
     return None
 
 
-#: A VDA 5050 vehicle's identity (SPEC §11): required or refused by the scenario's protocol
+#: A VDA 5050 vehicle's identity (docs/contract.md §11): required or refused by the scenario's protocol
 #: (:func:`vcran.core.validity.protocol.vehicle_problems`), so absent (None) here.
 VEHICLE: dict[str, Rule] = {
     "manufacturer": Text(absent=None, then=_topic_level),

@@ -1,4 +1,4 @@
-"""The rules of a scenario's protocol (SPEC §11, docs/scenarios.md "VDA 5050 vehicles"): which robots'
+"""The rules of a scenario's protocol (docs/contract.md §11, docs/scenarios.md "VDA 5050 vehicles"): which robots'
 fields and which script entries it allows.
 
 A scenario speaks one protocol (``[simulation] protocol``). In a VDA 5050 scenario every robot names its
@@ -52,7 +52,7 @@ def vehicle_problems(robots: Sequence[Any], protocol: str) -> list[Problem]:
 
 
 def link_problems(link: Any, protocol: str) -> list[Problem]:
-    """Polling is how OPIL's RAN reads what Orion holds (SPEC §9); a VDA 5050 vehicle gets each message as
+    """Polling is how OPIL's RAN reads what Orion holds (docs/contract.md §9); a VDA 5050 vehicle gets each message as
     it is sent (MQTT, §6.2), so a VDA 5050 scenario that asks for polling asks for what cannot be."""
     if protocol == VDA5050 and isinstance(link, LinkSettings) and link.inbound == POLLING:
         return [Problem("link.inbound", f"{POLLING!r} is how OPIL's RAN reads Orion; a VDA 5050 vehicle gets each "

@@ -1,4 +1,4 @@
-"""The rules of a scenario's safety fields and deadlock settings (SPEC §12): ``[traffic]`` and ``[robots.field]``.
+"""The rules of a scenario's safety fields and deadlock settings (docs/contract.md §12): ``[traffic]`` and ``[robots.field]``.
 
 A field's own rules (:data:`FIELD`) are those of :class:`vcran.core.traffic.fields.FieldSpec`, told with the
 field's path (``robots[1].field.margin``) rather than raised; :data:`TRAFFIC` holds the fleet's settings. What
@@ -45,7 +45,7 @@ def traffic_problems(sc: Scenario, fields_too: bool = True) -> list[Problem]:
     for key, unset in (("deadlock_bound", None), ("on_deadlock", "continue")):
         if getattr(t, key) != unset:
             out.append(Problem(f"traffic.{key}", "no robot has a protective field ([traffic.field] or "
-                                                 "[robots.field]), so none can block or deadlock (SPEC §12)"))
+                                                 "[robots.field]), so none can block or deadlock (docs/contract.md §12)"))
     return out
 
 

@@ -1,5 +1,5 @@
 """The rules of what happens in a scenario: injected and random faults, the closed loop's jobs, job stream,
-link and manager (SPEC §9), and the message script with its cycles (issue 30 item 3).
+link and manager (docs/contract.md §9), and the message script with its cycles (issue 30 item 3).
 
 Each part has its fields' rules (keyed as a file names the fields, in the order a file's reader reads them)
 and a function for its problems: its own fields (``fields_too``), then what relates it to the rest of the
@@ -45,9 +45,9 @@ from vcran.core.validity.fields import (
     shown,
 )
 
-#: Actions a script may send: the configurable ones and ``charge`` (SPEC §4, a robot with a battery).
+#: Actions a script may send: the configurable ones and ``charge`` (docs/contract.md §4, a robot with a battery).
 SCRIPT_ACTIONS = (*ACTION_KINDS, "charge")
-#: The latest time a message can be stamped with: ROS time stamps hold int32 seconds (SPEC §2).
+#: The latest time a message can be stamped with: ROS time stamps hold int32 seconds (docs/contract.md §2).
 LAST_STAMP = 2**31 - 1
 
 
@@ -79,7 +79,7 @@ def in_time_order(section: str, items: Sequence[Any]) -> list[Problem]:
     return []
 
 
-# --- faults (SPEC §4) -----------------------------------------------------------------------------------
+# --- faults (docs/contract.md §4) -----------------------------------------------------------------------------------
 
 FAULT: dict[str, Rule] = {
     "t": Number(minimum=0.0),
@@ -164,7 +164,7 @@ def paused_forever(faults: Sequence[FaultSpec]) -> list[Problem]:
                         "or a duration") for robot, t in paused.items()]
 
 
-# --- the closed loop (SPEC §9) --------------------------------------------------------------------------
+# --- the closed loop (docs/contract.md §9) --------------------------------------------------------------------------
 
 JOB: dict[str, Rule] = {
     "t": Number(minimum=0.0),

@@ -1,4 +1,4 @@
-"""Orders built from routes, as a master writes them (SPEC §11; VDA 5050 §6.6): one call per order or update.
+"""Orders built from routes, as a master writes them (docs/contract.md §11; VDA 5050 §6.6): one call per order or update.
 
 A route is the nodes a vehicle is to pass, in order, each a :class:`Stop` (a node id, where it is, what to
 do there). :class:`OrderLine` keeps what one vehicle was last sent, so that each message is numbered as

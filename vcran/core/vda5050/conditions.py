@@ -1,12 +1,12 @@
-"""What the body tells a VDA 5050 vehicle about itself (SPEC §4, §12); part of
+"""What the body tells a VDA 5050 vehicle about itself (docs/contract.md §4, §12); part of
 :class:`~vcran.core.vda5050.vehicle.Vehicle`.
 
-SPEC §4's faults as VDA 5050 sees them (docs/vda5050.md, "Errors"): a breakdown is a FATAL error while
+docs/contract.md §4's faults as VDA 5050 sees them (docs/vda5050.md, "Errors"): a breakdown is a FATAL error while
 it lasts and the order resumes after it; an empty battery is FATAL until the vehicle is serviced; a
 motion failure and a collision are warnings; in those three halts the vehicle gives its order up. The
-pause button (SPEC §4's pause and resume) is the hardware side of startPause (§6.10.6 ``paused``: "either
+pause button (docs/contract.md §4's pause and resume) is the hardware side of startPause (§6.10.6 ``paused``: "either
 because of the push of a physical button on the AGV or because of an instantAction"). A protective field
-violation (SPEC §12) is reported in ``safetyState``; the body brakes by itself.
+violation (docs/contract.md §12) is reported in ``safetyState``; the body brakes by itself.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from vcran.core.vda5050.effects import NodeTag
     from vcran.core.vda5050.path import Path
 
-#: Why a body halts for good (SPEC §4), and the error each is reported as.
+#: Why a body halts for good (docs/contract.md §4), and the error each is reported as.
 HALTS: dict[str, tuple[str, ErrorLevel]] = {
     "battery_empty": (errors.BATTERY_EMPTY, ErrorLevel.FATAL),
     "motion_failed": (errors.MOTION_FAILED, ErrorLevel.WARNING),
@@ -69,7 +69,7 @@ class ConditionsMixin:
         def _cleared(self, e: Error | None) -> None: ...
 
     def on_halted(self, now: float, why: str, message: str = "") -> list[Effect]:
-        """The body stopped for good (SPEC §4): ``battery_empty``, ``motion_failed`` or ``collision``. Its
+        """The body stopped for good (docs/contract.md §4): ``battery_empty``, ``motion_failed`` or ``collision``. Its
         running leg and actions are over; the order is given up: what had not ended FAILED, nodeStates and
         edgeStates emptied, orderId kept. An empty battery is FATAL until :meth:`on_serviced`."""
         self._begin(now)
@@ -102,7 +102,7 @@ class ConditionsMixin:
         return self._end()
 
     def on_breakdown(self, now: float, message: str = "") -> list[Effect]:
-        """The body broke down (SPEC §4): it holds where it is until :meth:`on_repaired`; FATAL meanwhile."""
+        """The body broke down (docs/contract.md §4): it holds where it is until :meth:`on_repaired`; FATAL meanwhile."""
         self._begin(now)
         self.broken = True
         self.actions.hold(True)
@@ -120,7 +120,7 @@ class ConditionsMixin:
         return self._end()
 
     def on_battery_low(self, now: float, low: bool) -> list[Effect]:
-        """The battery fell below (``low``) or rose above the scenario's warning level (SPEC §4)."""
+        """The battery fell below (``low``) or rose above the scenario's warning level (docs/contract.md §4)."""
         self._begin(now)
         if low:
             self._raised(self.errors.set_condition(errors.error(errors.BATTERY_LOW, "battery low")))
@@ -137,14 +137,14 @@ class ConditionsMixin:
 
     def on_field_violation(self, now: float, violated: bool) -> list[Effect]:
         """Another robot entered (left) the protective field: the body brakes (drives on) by itself
-        (SPEC §12); the state says ``safetyState.fieldViolation``."""
+        (docs/contract.md §12); the state says ``safetyState.fieldViolation``."""
         self._begin(now)
         self.field_violation = violated
         return self._end()
 
     def on_pause_button(self, now: float, pressed: bool) -> list[Effect]:
         """The pause button was pressed (released): the vehicle pauses (goes on) as on startPause
-        (stopPause), without an actionState (SPEC §4's pause and resume faults)."""
+        (stopPause), without an actionState (docs/contract.md §4's pause and resume faults)."""
         self._begin(now)
         self.set_paused(pressed)
         self._advance(now)

@@ -1,10 +1,10 @@
-"""What a VDA 5050 master is told at the start (SPEC §11, §9): the vehicles, the stations, the roadmap.
+"""What a VDA 5050 master is told at the start (docs/contract.md §11, §9): the vehicles, the stations, the roadmap.
 
 :class:`MasterFleet` is the master's counterpart of OPIL's ``vcran.Fleet`` with what a VDA 5050 master
 needs besides: each vehicle's identity and capabilities (:class:`~vcran.core.vda5050.config.VehicleConfig`:
 manufacturer, serialNumber, version, map, action catalogue; what its factsheet says) next to its body
 (:class:`~vcran.core.scenario.RobotConfig`: start pose, speed, battery), and the layout's roadmap, on which
-orders travel natively (SPEC §12). Vehicles are named by serial number, as in the topics.
+orders travel natively (docs/contract.md §12). Vehicles are named by serial number, as in the topics.
 """
 
 from __future__ import annotations

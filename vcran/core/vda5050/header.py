@@ -3,7 +3,7 @@
 On the wire the header is five top-level fields, not an object; in vcran's models it is one ``header``
 field, flattened by the codec. A vehicle stamps what it sends with a :class:`Stamper`: ``headerId`` counts
 per topic ("incremented by 1 with each sent message", §6.4) and the timestamp is simulated time read on a
-fixed calendar (``epoch``), so a run's messages are the same bytes on every machine (SPEC §5).
+fixed calendar (``epoch``), so a run's messages are the same bytes on every machine (docs/contract.md §5).
 """
 
 from __future__ import annotations

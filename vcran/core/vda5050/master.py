@@ -1,4 +1,4 @@
-"""The VDA 5050 master interface (SPEC §11, §9): what users subclass, and the handle their master acts through.
+"""The VDA 5050 master interface (docs/contract.md §11, §9): what users subclass, and the handle their master acts through.
 
 The counterpart of OPIL's :class:`vcran.FleetManager`, built the same way: a few hooks with plain arguments.
 vcran calls them on a :class:`Master`:
@@ -71,7 +71,7 @@ class MasterHandle:
     :attr:`now`, :meth:`call_at` and :meth:`_publish`; everything else is built on them.
 
     ``random`` is seeded from the scenario (``random.Random("manager:{seed}")``): draw from it, never from
-    the global generator, and a run stays byte-identical (SPEC §5).
+    the global generator, and a run stays byte-identical (docs/contract.md §5).
     """
 
     def __init__(self, fleet: MasterFleet, jobs: JobBook, rng: random.Random) -> None:

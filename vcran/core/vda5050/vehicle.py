@@ -1,4 +1,4 @@
-"""A VDA 5050 vehicle (SPEC §11, chapter 6 of VDA 5050 2.x) as a pure state machine, beside OPIL's RanLogic.
+"""A VDA 5050 vehicle (docs/contract.md §11, chapter 6 of VDA 5050 2.x) as a pure state machine, beside OPIL's RanLogic.
 
 Inputs are method calls carrying the simulated time ``now``: messages from the master (already decoded, or
 the :class:`~vcran.core.vda5050.codec.Invalid` the decoder returned), what the body reports (a waypoint

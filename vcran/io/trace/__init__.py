@@ -1,4 +1,4 @@
-"""Run files (SPEC §6, §8): the trace, the events, the leg log; written compressed as they happen.
+"""Run files (docs/contract.md §6, §8): the trace, the events, the leg log; written compressed as they happen.
 
 Format 2 (docs/outputs.md), what :class:`TraceWriter` and :class:`EventWriter` write:
 

@@ -25,16 +25,16 @@ TELEMETRY_FILE = "telemetry.bin"
 #: them (and a test fails until it is listed).
 EVENT_KEYS = ("t", "robot", "event", "task", "motion", "action", "from", "to", "reason", "ok",
               "code", "severity", "message",
-              # a fleet manager's job events (closed loop, SPEC §9: vcran.core.jobs)
+              # a fleet manager's job events (closed loop, docs/contract.md §9: vcran.core.jobs)
               "job", "pickup", "dropoff", "priority", "deadline", "lead_time", "tasks",
-              # a robot on its own (SPEC §4: vcran.core.incidents)
+              # a robot on its own (docs/contract.md §4: vcran.core.incidents)
               "kind", "duration", "applied", "charge", "percentage", "other", "x", "y")
 
 #: One row of ``legs.npy``. A leg: robot ``robot`` (index in the header's / summary's robot order) started,
 #: at ``t``, the leg from ``(x0, y0, theta0)`` to ``(x, y)`` ending at heading ``theta`` (NaN: facing the
 #: direction of travel) with its speed limits, timed from ``t0`` (``t`` itself, except for a leg resumed
 #: after a hold: the held leg shifted by the hold's length). A halt (pause, breakdown, a stop on its own;
-#: SPEC §4): every column but ``t`` and ``robot`` NaN; the robot rests where its leg had brought it at ``t``.
+#: docs/contract.md §4): every column but ``t`` and ``robot`` NaN; the robot rests where its leg had brought it at ``t``.
 #: An abandon (R14: the leg began at the instant of a cancel or deadline, and does not happen): a halt
 #: with ``x0``, ``y0``, ``theta0`` set, where the robot rests (where the leg began).
 LEG_COLUMNS = (("t", "<f8"), ("robot", "<u4"), ("t0", "<f8"), ("x0", "<f8"), ("y0", "<f8"),

@@ -171,7 +171,7 @@ class TraceWriter:
         self._legs.write(t, robot, (math.nan, *pose, *_HALT[4:]))
 
     def end(self, t: float) -> None:
-        """The last line: when the run stopped, so a replay stops at the same instant (SPEC §6)."""
+        """The last line: when the run stopped, so a replay stops at the same instant (docs/contract.md §6)."""
         self._jsonl.write(json_line({"t": t, "dir": "end"}))
 
     def flush(self) -> None:

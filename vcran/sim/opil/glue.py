@@ -92,11 +92,11 @@ class Opil:
         return self.nodes[index].logic.error_count
 
     def traffic(self) -> OpilTraffic:
-        """SPEC §12: a blocked robot publishes a ``ran_error`` warning; a deadlock cancel halts it."""
+        """docs/contract.md §12: a blocked robot publishes a ``ran_error`` warning; a deadlock cancel halts it."""
         return OpilTraffic(self.model.robots)
 
     def battery_states(self, t: float, levels: list[Level]) -> None:
-        """``battery_state`` (a ``sensor_msgs.BatteryState``) of each robot whose level changed (SPEC §4)."""
+        """``battery_state`` (a ``sensor_msgs.BatteryState``) of each robot whose level changed (docs/contract.md §4)."""
         assert self.ran is not None
         header = Header(0, Time.from_seconds(t), "")
         publish = self.ran.publish

@@ -1,4 +1,4 @@
-"""OPIL's closed loop in simulated time (SPEC §9): what an OPIL fleet manager hears of the robots, and its handle.
+"""OPIL's closed loop in simulated time (docs/contract.md §9): what an OPIL fleet manager hears of the robots, and its handle.
 
 :class:`ClosedLoop` is the shared :class:`vcran.sim.loop.Loop` (jobs, timers, hooks, the link) for an
 :class:`vcran.FleetManager`: the RAN's publications reach it as Orion would notify them (``on_update``
@@ -48,7 +48,7 @@ class ClosedLoop(Loop):
         """One batch of the RAN's publications reaches the manager: Orion's view changes, and the
         manager is notified of each actual change of an attribute it subscribed to, and of every write
         of an attribute in ``forced``, changed or not: the periodic ``robot_description``, which live
-        mode writes with Orion's forcedUpdate so that it reaches every subscriber (SPEC §2). The link of
+        mode writes with Orion's forcedUpdate so that it reaches every subscriber (docs/contract.md §2). The link of
         ``vcran manage`` passes an empty ``forced`` for what a notification of the whole entity carries
         (there an unchanged value is no write of it)."""
         assert self.handle is not None

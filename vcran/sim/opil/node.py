@@ -1,4 +1,4 @@
-"""RanLogic's process for one robot: OPIL's vehicle logic around the shared body (seed §2, docs/protocols.md).
+"""RanLogic's process for one robot: OPIL's vehicle logic around the shared body (docs/contract.md §1, docs/protocols.md).
 
 The process decides nothing. It hands each arriving signal (an inbound message routed by the RAN, the body's
 reports, a due R7 deadline) to the pure :class:`~vcran.core.opil.ranlogic.RanLogic` and carries out the effects it
@@ -125,7 +125,7 @@ class RanNode:
         return Leg(self.env.now, x, y, theta, m.point.x, m.point.y, goal, limits)
 
     def report(self, code: str, message: str, severity: str = "warning") -> None:
-        """Publish a ``ran_error`` for a §4 incident RanLogic does not see itself."""
+        """Publish a ``ran_error`` for a docs/contract.md §4 incident RanLogic does not see itself."""
         count = self.logic.count_error()
         self._log(self.body, Published(code, message, severity, count=count))
 

@@ -1,4 +1,4 @@
-"""The RAN: routes inbound messages to robots by entity id, and publishes the fleet's state (seed §3.1).
+"""The RAN: routes inbound messages to robots by entity id, and publishes the fleet's state (docs/contract.md §1).
 
 One RAN serves the whole fleet. Inbound, it decodes raw NGSI payloads (R12) and puts each message into
 the mailbox of the RanLogic that owns the entity, or reports and drops it (R11); routing is a lookup at
@@ -62,7 +62,7 @@ class Ran:
         #: tick sorts plain ints (fleet order, robot i is ``robots[i]``) instead of robots by a key lambda.
         self._dirty: set[int] = set()
         self._published: dict[tuple[int, str], Message] = {}
-        #: SPEC §4 link_down: robots whose link is down -> what they missed (latest value per inbound
+        #: docs/contract.md §4 link_down: robots whose link is down -> what they missed (latest value per inbound
         #: attribute, as Orion holds it) and what they could not publish (latest per attribute, every ran_error).
         self._down: dict[str, tuple[dict[str, Inbound], dict[str, Publish], list[Publish]]] = {}
         #: ... and when each of those links is back: the end of the latest-ending link_down in force.
@@ -118,7 +118,7 @@ class Ran:
             down[1][out.attribute] = out
 
     def link_down(self, robot: Body, duration: float) -> None:
-        """SPEC §4 link_down: for ``duration`` the robot neither receives nor publishes.
+        """docs/contract.md §4 link_down: for ``duration`` the robot neither receives nor publishes.
 
         Back up, it reads what Orion holds (the latest value of each attribute written meanwhile, in the order
         they were last written), and publishes what it could not: the latest of each attribute, then every

@@ -1,4 +1,4 @@
-"""How OPIL shows safety fields to its fleet manager (SPEC §12): :class:`vcran.sim.traffic.Signals` for OPIL.
+"""How OPIL shows safety fields to its fleet manager (docs/contract.md §12): :class:`vcran.sim.traffic.Signals` for OPIL.
 
 OPIL's RAN interface has no field for a protective field. A blocked robot shows it as a ``ran_error``
 warning (code ``blocked``, naming the robot in its field: the body's ``report`` hook, which OPIL publishes),
@@ -7,7 +7,7 @@ while it waits; its task stays current (the motion is not done). Nothing is publ
 clears: the robot drives on, and its velocity says so. With ``on_deadlock = "cancel"`` a deadlocked robot
 stops for good where it stands (the body halts, why ``deadlock``): RanLogic reports it (``failed``, code
 ``deadlock``) and cancels the current task with reason ``deadlock``, as for a robot that stopped on its own
-(SPEC §4); queued tasks then start, so a fleet manager that re-plans cancels them.
+(docs/contract.md §4); queued tasks then start, so a fleet manager that re-plans cancels them.
 """
 
 from __future__ import annotations

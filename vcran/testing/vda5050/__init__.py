@@ -1,4 +1,4 @@
-"""Test helpers for VDA 5050 vehicles and masters (SPEC §11, docs/vda5050.md).
+"""Test helpers for VDA 5050 vehicles and masters (docs/contract.md §11, docs/vda5050.md).
 
 * :mod:`vcran.testing.vda5050.strategies` — hypothesis strategies for every message kind, in 2.0.0 and 2.1.0;
 * :mod:`vcran.testing.vda5050.plans` — orders a vehicle can drive, and the updates, cancels and pauses

@@ -1,5 +1,5 @@
 """A VDA 5050 vehicle on a bench: the pure vehicle plus a body that does exactly what it is told, when the
-test says so (SPEC §11). For tests of the vehicle's rules, a user's master in pure Python, and the
+test says so (docs/contract.md §11). For tests of the vehicle's rules, a user's master in pure Python, and the
 acceptance tests derived from the specification's diagrams.
 
 The bench keeps what the effects ask for: the waypoints to drive, the actions running, the holds, the

@@ -1,5 +1,5 @@
 """A reference model of a VDA 5050 vehicle's acceptance rules, written from the specification, not from
-vcran's vehicle (SPEC §11, issue 31 item 6).
+vcran's vehicle (docs/contract.md §11, issue 31 item 6).
 
 It decides what a vehicle must do with an order, an order update or a cancelOrder from what a master can
 see: the vehicle's last ``state`` message, where the vehicle is, and which actions the master sent as

@@ -1,4 +1,4 @@
-"""Orders, updates and instant actions built in one call, as a master writes them (SPEC §11).
+"""Orders, updates and instant actions built in one call, as a master writes them (docs/contract.md §11).
 
 ``order("o1", 0, [("a", 0, 0), ("b", 1, 0), ("c", 2, 0)], base=2)`` is the order of §6.6.2's pseudocode:
 nodes at those positions with sequenceIds 0, 2, 4, edges ``a-b`` (1) and ``b-c`` (3) between them, the first

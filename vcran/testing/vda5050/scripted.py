@@ -37,7 +37,7 @@ class ScriptedMaster(Master):
 
 
 def produce(yard: Yard, until: float) -> None:
-    """Each station of the Yard's scenario produces its parts up to ``until`` as the simulation does (SPEC §4,
+    """Each station of the Yard's scenario produces its parts up to ``until`` as the simulation does (docs/contract.md §4,
     :meth:`vcran.core.stations.Station.produce`: every ``produce_every`` seconds from ``produce_start``, a full
     station skipping its turn, at most ``produce_limit`` parts), injected into the Yard's stock."""
     for s in yard.scenario.stations:

@@ -1,5 +1,5 @@
 """A hypothesis state machine that drives the VDA 5050 vehicle on a bench and checks it against the
-reference model of its acceptance rules (SPEC §11, issue 31 item 6; the OPIL twin is
+reference model of its acceptance rules (docs/contract.md §11, issue 31 item 6; the OPIL twin is
 :mod:`vcran.testing.stateful`).
 
 A master sends orders (walks on a 3 x 3 grid of nodes, some with a horizon, some with actions, some with a

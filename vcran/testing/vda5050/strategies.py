@@ -1,4 +1,4 @@
-"""Hypothesis strategies for every VDA 5050 message kind, in either version (SPEC §11, docs/vda5050.md).
+"""Hypothesis strategies for every VDA 5050 message kind, in either version (docs/contract.md §11, docs/vda5050.md).
 
 :func:`messages` draws any model of a topic as its version allows it (2.1.0-only fields only in 2.1.0,
 the value ranges of the official schemas): what the codec must encode into schema-valid JSON and decode

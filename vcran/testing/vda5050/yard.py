@@ -1,4 +1,4 @@
-"""VDA 5050 vehicles and a master in simulated time, without SimPy: a pure harness for masters (SPEC §11).
+"""VDA 5050 vehicles and a master in simulated time, without SimPy: a pure harness for masters (docs/contract.md §11).
 
 A :class:`Yard` runs a :class:`~vcran.core.vda5050.master.Master` against a scenario's robots, each one the
 pure :class:`~vcran.core.vda5050.vehicle.Vehicle` with a plain body:
@@ -121,7 +121,7 @@ class Yard:
 
     def halt(self, serial: str, why: str, message: str = "") -> None:
         """The body of ``serial`` stops for good where it is (``battery_empty``, ``motion_failed``,
-        ``collision``: SPEC §4), its leg and actions over."""
+        ``collision``: docs/contract.md §4), its leg and actions over."""
         body = self.bodies[serial]
         body.stop_leg()
         body.route.clear()

@@ -1,5 +1,5 @@
 "use strict";
-// Leg kinematics, line for line as vcran/core/motion.py computes them (SPEC §4): turn in place to face
+// Leg kinematics, line for line as vcran/core/motion.py computes them (docs/contract.md §4): turn in place to face
 // the point, drive a straight line with a trapezoidal (or triangular) speed profile, turn to the goal
 // heading if there is one. Same operations in the same order, so the page draws what the telemetry says.
 

@@ -1,4 +1,4 @@
-"""The OPIL/FIROS NGSI v2 codec: RAN messages to and from Orion's entity format (SPEC §2, R12).
+"""The OPIL/FIROS NGSI v2 codec: RAN messages to and from Orion's entity format (docs/contract.md §2, R12).
 
 On the wire every attribute is ``{"type": "<pkg>.<Msg>", "value": {...}, "metadata": {"dataType": ...}}``
 and every field inside ``value`` is again a ``{"type", "value"}`` wrapper, down to single uuid bytes
