@@ -100,7 +100,7 @@ def test_the_orders_are_recorded_as_sent_and_states_answer_each_event(run):
 
 
 def test_a_vda5050_run_is_deterministic_and_its_replay_verifies(run, tmp_path, capsys):
-    """SPEC §5: the same scenario twice gives byte-identical files; ``vcran replay --verify`` re-runs the
+    """docs/contract.md §5: the same scenario twice gives byte-identical files; ``vcran replay --verify`` re-runs the
     recorded orders (fed raw, decoded and validated by the vehicle as a broker's would be) to the same
     outbound records, legs and events."""
     again = tmp_path / "again"
@@ -225,7 +225,7 @@ footprint = [[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]]
 
 
 def test_safety_fields_show_as_field_violation_and_a_deadlock_cancel_gives_the_orders_up(tmp_path):
-    """SPEC §12 on VDA 5050 vehicles (vcran/sim/vda5050/traffic.py): the bundled corridor, derived by hand in
+    """docs/contract.md §12 on VDA 5050 vehicles (vcran/sim/vda5050/traffic.py): the bundled corridor, derived by hand in
     its file, as orders sent at t = 0: the fields touch the other vehicle at t = 9 (A at 8, B at 12), both
     report ``safetyState.fieldViolation`` (§6.10.6) and brake 1 m in 2 s, to 9 and 11; at t = 11 they are
     deadlocked and, with ``on_deadlock = "cancel"``, stop for good: each order given up (``deadlock``), a
@@ -283,7 +283,7 @@ kind = "resume"
 
 
 def test_spec_4_faults_reach_the_vehicle(tmp_path):
-    """SPEC §4 on a VDA 5050 vehicle (docs/vda5050.md, "Choices"): a breakdown from 3 to 7 holds the 6 m leg
+    """docs/contract.md §4 on a VDA 5050 vehicle (docs/vda5050.md, "Choices"): a breakdown from 3 to 7 holds the 6 m leg
     (8 s from 1) and is a FATAL ``breakdown`` error while it lasts; the pause fault at 10 and the resume at 12
     are the pause button (``paused`` true between, no actionState); b is reached 4 + 2 s late, at 15. A
     startPause after that is an instant action as usual (FINISHED)."""

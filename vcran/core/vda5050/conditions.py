@@ -28,7 +28,7 @@ HALTS: dict[str, tuple[str, ErrorLevel]] = {
     "battery_empty": (errors.BATTERY_EMPTY, ErrorLevel.FATAL),
     "motion_failed": (errors.MOTION_FAILED, ErrorLevel.WARNING),
     "collision": (errors.COLLISION, ErrorLevel.WARNING),
-    "deadlock": ("deadlock", ErrorLevel.WARNING),  # SPEC §12's on_deadlock = "cancel"
+    "deadlock": ("deadlock", ErrorLevel.WARNING),  # docs/contract.md §12's on_deadlock = "cancel"
 }
 
 

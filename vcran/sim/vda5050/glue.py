@@ -56,7 +56,7 @@ class Vda5050:
         self._by_id: dict[str, VehicleNode] = {}
         self.transport: Transport | None = None
         self._after_tick: Callable[[float], None] | None = None
-        #: SPEC §4 link_down: robot -> (when its link is back, what it could not publish: the latest of each
+        #: docs/contract.md §4 link_down: robot -> (when its link is back, what it could not publish: the latest of each
         #: topic, as the MQTT edge holds it while its broker is away). What reaches it meanwhile is lost (§6.2).
         self._down: dict[str, tuple[float, dict[str, Publish]]] = {}
 
@@ -134,7 +134,7 @@ class Vda5050:
         self.transport.send(out)
 
     def link_down(self, body: Body, duration: float) -> None:
-        """SPEC §4 link_down: for ``duration`` the vehicle neither receives (MQTT's QoS 0: what is sent to it
+        """docs/contract.md §4 link_down: for ``duration`` the vehicle neither receives (MQTT's QoS 0: what is sent to it
         meanwhile is lost, §6.2) nor publishes; back up, it publishes the latest of each topic it held."""
         end = self.env.now + duration
         assert self.transport is not None
@@ -175,7 +175,7 @@ class Vda5050:
         return self.nodes[index].errors
 
     def traffic(self) -> VdaTraffic:
-        """SPEC §12: a blocked vehicle reports ``safetyState.fieldViolation``; a deadlock cancel halts it."""
+        """docs/contract.md §12: a blocked vehicle reports ``safetyState.fieldViolation``; a deadlock cancel halts it."""
         return VdaTraffic(self.nodes)
 
     # --- the Vehicle's events ---------------------------------------------------------------------------------

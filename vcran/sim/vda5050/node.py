@@ -37,12 +37,12 @@ if TYPE_CHECKING:
 
 Process = Generator[simpy.events.Event, Any, None]
 
-#: The body's actions for the Vehicle's pick and drop (SPEC §4's load and unload, at the station in reach).
+#: The body's actions for the Vehicle's pick and drop (docs/contract.md §4's load and unload, at the station in reach).
 PERFORMED = {"pick": ActionKind.LOAD, "drop": ActionKind.UNLOAD}
 #: The body's holds are counted by kind: the Vehicle's own (pause, a blocking instant action) are kept apart
-#: from the faults' (a SPEC §4 pause or breakdown), which the Vehicle also hears of as inputs.
+#: from the faults' (a docs/contract.md §4 pause or breakdown), which the Vehicle also hears of as inputs.
 HOLD_PREFIX = "vda5050."
-#: SPEC §4's faults the Vehicle hears of when they start (a breakdown's end too): the pause button and a breakdown.
+#: docs/contract.md §4's faults the Vehicle hears of when they start (a breakdown's end too): the pause button and a breakdown.
 VEHICLE_FAULTS = ("breakdown", "pause", "resume")
 
 
@@ -69,7 +69,7 @@ class Incident:
 
 @dataclass(frozen=True, slots=True)
 class FieldViolation:
-    """Safety fields -> Vehicle: another robot is in (out of) this one's protective field (SPEC §12)."""
+    """Safety fields -> Vehicle: another robot is in (out of) this one's protective field (docs/contract.md §12)."""
 
     violated: bool
 
@@ -186,7 +186,7 @@ class VehicleNode:
         return self.vehicle.on_acted(now, item.tag, item.ok, item.message)
 
     def _incident(self, body: Body, event: Any) -> None:
-        """Every incident goes to the run's log; those the Vehicle takes as inputs (SPEC §4's breakdown and its
+        """Every incident goes to the run's log; those the Vehicle takes as inputs (docs/contract.md §4's breakdown and its
         repair, the pause and resume faults, the battery's warning level) go to it too, through the inbox (the
         body reports them from within its own processes)."""
         self.glue.log_incident(self, event)

@@ -1,9 +1,9 @@
-"""How VDA 5050 shows safety fields to its master (SPEC §12): :class:`vcran.sim.traffic.Signals` for VDA 5050.
+"""How VDA 5050 shows safety fields to its master (docs/contract.md §12): :class:`vcran.sim.traffic.Signals` for VDA 5050.
 
 A blocked vehicle reports ``safetyState.fieldViolation`` true (§6.10.6: "Protective field violation") until its
 field is clear, each change an event that publishes a state; the body brakes and waits by itself, the order
 stays as it is. With ``on_deadlock = "cancel"`` a deadlocked vehicle stops for good where it stands (the body
-halts, why ``deadlock``): the Vehicle gives its order up as for any halt (SPEC §4), with a ``deadlock``
+halts, why ``deadlock``): the Vehicle gives its order up as for any halt (docs/contract.md §4), with a ``deadlock``
 warning in its state.
 """
 
