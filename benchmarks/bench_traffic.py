@@ -27,7 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench_s4 import run
+from bench_s4 import run_variant
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -55,13 +55,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         for name in ("off", "on", "on", "off"):
-            scenario = work / f"{name}.toml"
-            scenario.write_text(texts[name])
-            out = work / f"out-{name}"
-            wall, cpu = run(scenario, out)
-            walls[name].append(wall)
-            cpus[name].append(cpu)
-            robots = json.loads((out / "summary.json").read_text())["robots"].values()
+            robots = run_variant(work, name, texts[name], walls, cpus)["robots"].values()
             facts[name] = {
                 "tasks": sum(len(r["completed"]) for r in robots),
                 "collisions": sum(r.get("collisions", 0) for r in robots),
