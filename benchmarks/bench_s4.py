@@ -26,6 +26,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from vcran.io.trace import records, trace_in
 
@@ -59,6 +60,19 @@ def run(scenario: Path, out: Path) -> tuple[float, float]:
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def run_variant(work: Path, name: str, text: str, walls: dict[str, list[float]],
+                cpus: dict[str, list[float]]) -> dict[str, Any]:
+    """Run ``text`` as variant ``name`` in ``work``, add its times, and return its summary.json (its folder
+    is ``work / f"out-{name}"``)."""
+    scenario = work / f"{name}.toml"
+    scenario.write_text(text)
+    out = work / f"out-{name}"
+    wall, cpu = run(scenario, out)
+    walls[name].append(wall)
+    cpus[name].append(cpu)
+    return json.loads((out / "summary.json").read_text())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robots", type=int, default=1000)
@@ -81,14 +95,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         for name in [n for n in ("base", "collisions", "battery", "battery", "collisions", "base") if n in texts]:
-            scenario = work / f"{name}.toml"
-            scenario.write_text(texts[name])
-            out = work / f"out-{name}"
-            wall, cpu = run(scenario, out)
-            walls[name].append(wall)
-            cpus[name].append(cpu)
-            summary = json.loads((out / "summary.json").read_text())
-            batteries = sum(1 for _ in records(trace_in(out), ("out",), ("battery",)))
+            summary = run_variant(work, name, texts[name], walls, cpus)
+            batteries = sum(1 for _ in records(trace_in(work / f"out-{name}"), ("out",), ("battery",)))
             facts[name] = {
                 "tasks": sum(len(r["completed"]) for r in summary["robots"].values()),
                 "collisions": sum(r.get("collisions", 0) for r in summary["robots"].values()),

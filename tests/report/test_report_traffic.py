@@ -7,10 +7,14 @@ from __future__ import annotations
 import csv
 import io
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pytest
 
-from vcran.report.folder import RobotResult, RobotSpec, Run
+from vcran.cli import main
+from vcran.io.scenario_file import load
+from vcran.report.folder import RobotResult, RobotSpec, Run, read_run
 from vcran.report.incidents import incidents
 from vcran.report.kpi import kpis
 from vcran.report.spans import histories
@@ -18,6 +22,9 @@ from vcran.report.tables import csv_text, markdown
 from vcran.report.traffic import Blocking, blocking
 from vcran.sweep import worker
 from vcran.sweep.table import columns
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 SQUARE = ((0.5, 0.5), (-0.5, 0.5), (-0.5, -0.5), (0.5, -0.5))
 
@@ -111,3 +118,48 @@ def test_s12_a_deadlock_cancel_is_a_reason_of_the_report() -> None:
              event(11.0, "A", "state", **{"from": "MOTION", "to": "WAITING"})])
     rows = {k.robot: k for k in kpis(r, histories(r))}
     assert rows["A"].cancelled[reason] == 1 and rows["fleet"].cancelled[reason] == 1
+
+
+def drawn_layout(folder: Path, monkeypatch: pytest.MonkeyPatch) -> Figure:
+    """The layout figure `vcran report` draws for ``folder``, caught before it is saved."""
+    from vcran.report import layout
+
+    caught: list[Figure] = []
+    monkeypatch.setattr(layout, "save", lambda fig, path: caught.append(fig))
+    r = read_run(folder)
+    layout.draw_layout(r, histories(r), folder / "layout.png")
+    (fig,) = caught
+    return fig
+
+
+def roadmap_artists(fig: Figure) -> dict[str, Any]:
+    return {a.get_gid(): a for a in fig.axes[0].get_children() if (a.get_gid() or "").endswith(("lane", "node"))}
+
+
+@pytest.mark.slow
+def test_s12_the_layout_draws_the_warehouses_roadmap(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 32 item 1, "Reports draw it": every edge of warehouse-traffic's roadmap, read from the scenario
+    file (not from the run), is one segment of the drawn lanes, and every node one drawn point."""
+    pytest.importorskip("matplotlib")
+    folder = tmp_path / "run"
+    assert main(["run", "warehouse-traffic", "--out", str(folder), "--quiet"]) == 0
+    roadmap = load("warehouse-traffic").roadmap
+    assert roadmap is not None
+    at = {n.id: (n.x, n.y) for n in roadmap.nodes}
+    drawn = roadmap_artists(drawn_layout(folder, monkeypatch))
+    segments = [tuple(map(tuple, seg)) for name in ("roadmap lane", "one-way lane") if name in drawn
+                for seg in drawn[name].get_segments()]
+    assert sorted(segments) == sorted((at[e.start], at[e.end]) for e in roadmap.edges)
+    points = [tuple(p) for name in ("roadmap node", "waiting node") if name in drawn for p in drawn[name].get_offsets()]
+    assert sorted(points) == sorted(at.values())
+
+
+def test_s12_a_layout_without_a_roadmap_draws_none(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run whose scenario has no roadmap (the demo) gets no lane and no node on its layout."""
+    pytest.importorskip("matplotlib")
+    folder = tmp_path / "run"
+    assert main(["run", "demo", "--out", str(folder), "--quiet"]) == 0
+    assert load("demo").roadmap is None
+    fig = drawn_layout(folder, monkeypatch)
+    assert fig.axes[0].lines or fig.axes[0].collections  # the figure did draw (paths, stations)
+    assert roadmap_artists(fig) == {}

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from vcran.core.traffic.roadmap import Edge, Node, Roadmap
 from vcran.io.trace import (
     LEGS_FILE,
     TRACE_FILE,
@@ -116,6 +117,8 @@ class Run:
     jobs: JobFigures | None = None
     #: docs/contract.md §12: some robot had a protective field (the scenario's ``[traffic]`` or a ``[robots.field]``).
     fields: bool = False
+    #: docs/contract.md §12: the scenario's roadmap (from the trace header), drawn under the paths; None without one.
+    roadmap: Roadmap | None = None
 
     @property
     def robot_ids(self) -> tuple[str, ...]:
@@ -145,6 +148,7 @@ def read_run(path: Path) -> Run:
         robots = tuple(_robot(configs[rid]) for rid in ids)
         stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
         fields = "traffic" in header["fleet"] or any("field" in r for r in header["fleet"]["robots"])
+        roadmap = _roadmap(header["fleet"].get("roadmap"))
     with reading(path / "summary.json"):
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
         results = {rid: _result(summary["robots"][rid]) for rid in ids}
@@ -156,7 +160,17 @@ def read_run(path: Path) -> Run:
     events = list(checked_events(events_beside(trace)))
     areas, targets, batteries = _assignments(trace)
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
-               sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs, fields)
+               sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs, fields,
+               roadmap)
+
+
+def _roadmap(data: dict[str, Any] | None) -> Roadmap | None:
+    """The header's roadmap (:meth:`Roadmap.as_dict`'s form) as the model's, or None for a run without one."""
+    if not data:
+        return None
+    nodes = tuple(Node(n["id"], float(n["x"]), float(n["y"]), bool(n.get("waiting", False))) for n in data["nodes"])
+    edges = tuple(Edge(e["from"], e["to"], bool(e.get("one_way", False)), e.get("speed")) for e in data.get("edges", []))
+    return Roadmap(nodes, edges)
 
 
 @dataclass(frozen=True, slots=True)

@@ -156,6 +156,7 @@ def _floor(ax: Axes, run: Run, labels: list[Label]) -> list[Artist]:
         else:
             ax.add_patch(Circle(st.position, st.reach, facecolor="#f3eee4", edgecolor="#6b5b3e",
                                 linestyle="--", zorder=1))
+    handles += _roadmap(ax, run)
     if run.stations:
         ax.scatter([st.position[0] for st in run.stations], [st.position[1] for st in run.stations], marker="s",
                    s=18, color="#6b5b3e", zorder=2)
@@ -166,6 +167,31 @@ def _floor(ax: Axes, run: Run, labels: list[Label]) -> list[Artist]:
             top = max((p[1] for p in st.area), default=st.position[1] + st.reach)
             bottom = min((p[1] for p in st.area), default=st.position[1] - st.reach)
             labels.append(Label(st.id, ((st.position[0], top, True), (st.position[0], bottom, False))))
+    return handles
+
+
+def _roadmap(ax: Axes, run: Run) -> list[Artist]:
+    """docs/contract.md §12: the roadmap's lanes (one-way ones dashed) and nodes (waiting bays hollow), over the
+    stations and under the paths; no artist at all for a run without a roadmap."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+
+    if run.roadmap is None:
+        return []
+    at = {n.id: (n.x, n.y) for n in run.roadmap.nodes}
+    handles: list[Artist] = []
+    for one_way, style, label in ((False, "-", "roadmap lane"), (True, "--", "one-way lane")):
+        lanes = [(at[e.start], at[e.end]) for e in run.roadmap.edges if e.one_way == one_way]
+        if lanes:
+            ax.add_collection(LineCollection(lanes, colors="#9aa5b1", linewidths=2.5, linestyles=style, zorder=1.5,
+                                             gid=label))
+            handles.append(Line2D([], [], color="#9aa5b1", linewidth=2.5, linestyle=style, label=label))
+    for waiting, face, label in ((False, "#9aa5b1", "roadmap node"), (True, "white", "waiting node")):
+        nodes = [(n.x, n.y) for n in run.roadmap.nodes if n.waiting == waiting]
+        if nodes:
+            ax.scatter(*zip(*nodes), s=14, marker="o", facecolor=face, edgecolor="#6e7b88", zorder=1.6, gid=label)
+            handles.append(Line2D([], [], marker="o", color="#6e7b88", markerfacecolor=face, linestyle="",
+                                  label=label))
     return handles
 
 
