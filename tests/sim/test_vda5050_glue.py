@@ -151,7 +151,7 @@ message = '{{"actions": [{{"actionType": "{action_type}", "actionId": "{action_i
 """
 
 
-LINE = """
+ONE_VEHICLE = """
 [simulation]
 protocol = "vda5050"
 until_idle = true
@@ -164,7 +164,9 @@ serial_number = "7"
 pose = [0.0, 0.0, 0.0]
 max_velocity = 1.0
 max_acceleration = 0.5
-""" + order(1.0, "agv", "o1", [("a", 0.0), ("b", 6.0)]) + instant(3.0, "agv", "startPause", "pause_1", "HARD") + """
+"""
+
+LINE = ONE_VEHICLE + order(1.0, "agv", "o1", [("a", 0.0), ("b", 6.0)]) + instant(3.0, "agv", "startPause", "pause_1", "HARD") + """
 [[script]]
 t = 4.0
 robot = "agv"
@@ -250,20 +252,7 @@ def test_safety_fields_show_as_field_violation_and_a_deadlock_cancel_gives_the_o
     assert poses == pytest.approx({"A": 9.0, "B": 11.0})
 
 
-FAULTY = """
-[simulation]
-protocol = "vda5050"
-until_idle = true
-duration = 100.0
-
-[[robots]]
-id = "agv"
-manufacturer = "acme"
-serial_number = "7"
-pose = [0.0, 0.0, 0.0]
-max_velocity = 1.0
-max_acceleration = 0.5
-
+FAULTY = ONE_VEHICLE + """
 [[faults]]
 t = 3.0
 robot = "agv"
