@@ -20,7 +20,6 @@ from vcran.io.trace import read_header, records
 from vcran.sim.timing import INBOUND as INBOUND_PRIORITY
 from vcran.sim.timing import at
 
-
 #: What a VDA 5050 vehicle receives (docs/vda5050.md), recorded raw: its glue decodes and validates it.
 VDA5050_TOPICS = ("order", "instantActions")
 

@@ -26,13 +26,13 @@ WHITE = (255, 255, 255)
 def pages(tmp_path_factory):
     """Run folders and their pages, written once for the module."""
     base = tmp_path_factory.mktemp("pages")
-    runs = {name: bundled(name, base / name) for name in ("demo", "warehouse", "faults", "battery")}
+    runs = {name: bundled(name, base / name) for name in ("demo", "warehouse", "faults", "battery", "vda5050")}
     runs["manage"] = managed(runs["warehouse"], base / "manage")
     runs["live"] = still_running(runs["warehouse"], base / "live.incomplete", cut=500)
     return {name: (run, write_page(run, base / f"{name}.html")) for name, run in runs.items()}
 
 
-@pytest.mark.parametrize("name", ["demo", "warehouse", "faults", "battery", "manage", "live"])
+@pytest.mark.parametrize("name", ["demo", "warehouse", "faults", "battery", "vda5050", "manage", "live"])
 def test_the_page_loads_from_disk_without_errors_or_any_request(browser, pages, name):
     """Issue 33 items 1 and 4: self-contained (the one request is the file itself) and clean."""
     run, page_file = pages[name]
@@ -54,7 +54,8 @@ def telemetry_at(run, t: float) -> dict[str, tuple[float, float, float]]:
     return {str(r["robot"]): (float(r["x"]), float(r["y"]), float(r["theta"])) for r in rows}
 
 
-@pytest.mark.parametrize(("name", "times"), [("demo", (10.0, 25.0, 50.0)), ("warehouse", (200.0, 1500.0, 3000.0))])
+@pytest.mark.parametrize(("name", "times"), [("demo", (10.0, 25.0, 50.0)), ("warehouse", (200.0, 1500.0, 3000.0)),
+                                             ("vda5050", (10.0, 25.0, 50.0))])  # docs/contract.md §11: a VDA 5050 run
 def test_drawn_robots_are_where_the_telemetry_puts_them(browser, pages, name, times):
     """docs/contract.md §13: at three instants each robot is drawn within a pixel of its telemetry position, its pose
     the telemetry's to a nanometre (fleet.js evaluates the leg log as vcran/core/motion.py does)."""
