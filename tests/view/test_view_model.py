@@ -33,7 +33,7 @@ pytestmark = pytest.mark.slow  # every bundled scenario and a generated fleet ru
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("runs")
-    out = {name: bundled(name, base / name) for name in ("demo", "warehouse", "faults", "battery", "crossing")}
+    out = {name: bundled(name, base / name) for name in ("demo", "warehouse", "faults", "battery", "crossing", "corridor")}
     out["generated"] = generated(6, 0.25, base / "generated")
     out["manage"] = managed(out["warehouse"], base / "manage")
     return out
@@ -118,6 +118,29 @@ def test_faults_scenario_incidents_are_its_faults_failures_and_cancels(runs):
     k = robots.index("robot_2")
     assert value_at(model.errors, k, failed["t"] - 0.01, -1) == -1
     assert model.error_texts[value_at(model.errors, k, failed["t"], -1)].startswith(failed["code"] + ": ")
+
+
+def test_the_corridors_blocks_and_deadlock_are_incidents(runs):
+    """docs/robots.md derives the corridor by hand (docs/contract.md §12): A and B block each other at 9, and
+    A's deadlock with B is raised at 11; the page lists them as incidents of their own kinds."""
+    model = build_model(read_folder(runs["corridor"]))
+    robots = [r.id for r in model.robots]
+    got = [(i.t, i.kind, robots[i.robot], i.text) for i in model.incidents if i.kind in ("block", "deadlock")]
+    assert [(t, kind, robot) for t, kind, robot, _ in got] == [
+        (pytest.approx(9.0), "block", "A"), (pytest.approx(9.0), "block", "B"), (pytest.approx(11.0), "deadlock", "A")]
+    assert got[0][3].startswith("A blocked by B") and got[2][3].startswith("A: deadlock with B")
+
+
+def test_the_corridors_roadmap_is_drawn_from_its_scenario_file(runs):
+    """The page's roadmap (nodes as [x, y], edges as node indices) is scenarios/corridor.toml's, read from the
+    file here, not from the run."""
+    road = tomllib.loads((ROOT / "scenarios" / "corridor.toml").read_text())["roadmap"]
+    model = build_model(read_folder(runs["corridor"]))
+    assert model.roadmap is not None
+    ids = [n["id"] for n in road["nodes"]]
+    assert model.roadmap["nodes"] == [[float(n["x"]), float(n["y"])] for n in road["nodes"]]
+    assert model.roadmap["edges"] == [[ids.index(e["from"]), ids.index(e["to"])] for e in road["edges"]]
+    assert build_model(read_folder(runs["demo"])).roadmap is None
 
 
 def test_battery_levels_are_the_published_battery_states(runs):

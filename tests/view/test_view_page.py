@@ -26,13 +26,13 @@ WHITE = (255, 255, 255)
 def pages(tmp_path_factory):
     """Run folders and their pages, written once for the module."""
     base = tmp_path_factory.mktemp("pages")
-    runs = {name: bundled(name, base / name) for name in ("demo", "warehouse", "faults", "battery", "vda5050")}
+    runs = {name: bundled(name, base / name) for name in ("demo", "warehouse", "faults", "battery", "vda5050", "corridor")}
     runs["manage"] = managed(runs["warehouse"], base / "manage")
     runs["live"] = still_running(runs["warehouse"], base / "live.incomplete", cut=500)
     return {name: (run, write_page(run, base / f"{name}.html")) for name, run in runs.items()}
 
 
-@pytest.mark.parametrize("name", ["demo", "warehouse", "faults", "battery", "vda5050", "manage", "live"])
+@pytest.mark.parametrize("name", ["demo", "warehouse", "faults", "battery", "vda5050", "corridor", "manage", "live"])
 def test_the_page_loads_from_disk_without_errors_or_any_request(browser, pages, name):
     """Issue 33 items 1 and 4: self-contained (the one request is the file itself) and clean."""
     run, page_file = pages[name]

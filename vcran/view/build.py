@@ -48,12 +48,17 @@ def build_model(files: RunFiles) -> ViewModel:
 
 
 def roadmap_of(fleet: dict[str, Any]) -> dict[str, Any] | None:
-    """The fleet's traffic roadmap as nodes and edges (docs/contract.md §12). Scenarios have none yet: issue 32 adds
-    them to the trace header's ``fleet``, and this is where the page takes them from."""
+    """The fleet's traffic roadmap (docs/contract.md §12) as the page draws it: nodes as ``[x, y]`` and edges as
+    pairs of node indices. The trace header's ``fleet.roadmap`` names its nodes by id (``{"id", "x", "y"}``) and
+    its edges by those ids (``{"from", "to"}``); an edge naming no node is left out."""
     roadmap = fleet.get("roadmap")
     if not isinstance(roadmap, dict):
         return None
-    return {"nodes": roadmap.get("nodes", []), "edges": roadmap.get("edges", [])}
+    nodes = [n for n in roadmap.get("nodes", []) if isinstance(n, dict)]
+    index = {n.get("id"): k for k, n in enumerate(nodes)}
+    edges = [[index[e["from"]], index[e["to"]]] for e in roadmap.get("edges", [])
+             if isinstance(e, dict) and e.get("from") in index and e.get("to") in index]
+    return {"nodes": [[float(n["x"]), float(n["y"])] for n in nodes], "edges": edges}
 
 
 def _robot(rid: str, config: dict[str, Any] | None) -> Robot:

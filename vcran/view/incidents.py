@@ -20,6 +20,8 @@ KINDS: dict[str, tuple[str, str]] = {
     "battery": ("battery", "#bcbd22"),
     "cancel": ("cancelled tasks", "#7f7f7f"),
     "job_failed": ("failed jobs", "#e377c2"),
+    "block": ("blocks", "#17becf"),
+    "deadlock": ("deadlocks", "#1f1f1f"),
 }
 
 #: event name -> incident kind
@@ -34,6 +36,8 @@ EVENTS: dict[str, str] = {
     "battery_swapped": "battery",
     "task_cancelled": "cancel",
     "job_failed": "job_failed",
+    "blocked": "block",
+    "deadlock": "deadlock",
 }
 
 
@@ -62,6 +66,10 @@ def describe(e: dict[str, Any]) -> str:
         return f"{who} {name}: {e.get('code', '')}: {e.get('message', '')}".rstrip(": ")
     if name == "task_cancelled":
         return f"{who}: task {e.get('task', '?')} cancelled ({e.get('reason', '?')})"
+    if name == "blocked":
+        return f"{who} blocked by {e.get('other', '?')}{at}"
+    if name == "deadlock":
+        return f"{who}: deadlock with {e.get('other', '?')} ({e.get('kind', '?')})"
     if name == "job_failed":
         return f"job {e.get('job', '?')} failed ({e.get('reason', '?')})"
     pct = f" ({e['percentage']:.0f}%)" if isinstance(e.get("percentage"), int | float) else ""
