@@ -24,20 +24,19 @@ What the loop that hosts a master provides (a subclass of :class:`MasterHandle`,
   then ``on_job``); each message that reaches the master: ``handle._heard(serial, message)``, then the hook
   :data:`HOOKS` names for its topic, if :meth:`Master.hears` it; timers as they fall due.
 
-The time-based helpers and job reports (``call_later``, ``job_done``, ``job_failed``) and ``_bind`` are
-OPIL's handle's, written again here because VDA 5050 may import nothing of OPIL's and ``vcran.core.manager``
-is still OPIL's: once issue 30 makes a shared manager and handle, :class:`Master` and :class:`MasterHandle`
-subclass them and keep only what is VDA 5050's.
+The time-based helpers and job reports (``call_later``, ``job_done``, ``job_failed``) and the hooks
+``on_start``, ``on_job`` and ``_bind`` are the shared manager's and handle's (:mod:`vcran.core.manager`,
+every protocol's); :class:`Master` and :class:`MasterHandle` add only what is VDA 5050's.
 """
 
 from __future__ import annotations
 
-import math
 import random
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, ClassVar
 
+from vcran.core.manager import Handle, Manager
 from vcran.core.vda5050.builder import OrderLine, Stop, action
 from vcran.core.vda5050.enums import ConnectionState, Topic
 from vcran.core.vda5050.factsheet import Factsheet
@@ -48,7 +47,6 @@ from vcran.core.vda5050.state import Connection, State, Visualization
 
 if TYPE_CHECKING:  # types only: VDA 5050 imports nothing of OPIL's, which the scenario module still does
     from vcran.core.jobs import JobBook
-    from vcran.core.manager import Timer
     from vcran.core.scenario import Job
 
 #: What a vehicle publishes to its master.
@@ -66,18 +64,18 @@ def topic_of(message: Heard) -> Topic:
     return _TOPIC_OF[type(message)]
 
 
-class MasterHandle:
+class MasterHandle(Handle):
     """How a master acts on its fleet. Subclasses (simulated, live) provide the three primitives
-    :attr:`now`, :meth:`call_at` and :meth:`_publish`; everything else is built on them.
+    :attr:`now`, :meth:`call_at` (the shared handle's) and :meth:`_publish`; everything else is built on them.
 
     ``random`` is seeded from the scenario (``random.Random("manager:{seed}")``): draw from it, never from
     the global generator, and a run stays byte-identical (docs/contract.md §5).
     """
 
+    fleet: MasterFleet  # type: ignore[assignment]  # a VDA 5050 master's fleet: vehicles by serial number
+
     def __init__(self, fleet: MasterFleet, jobs: JobBook, rng: random.Random) -> None:
-        self.fleet = fleet
-        self.random = rng
-        self._jobs = jobs
+        super().__init__(fleet, jobs, rng)  # type: ignore[arg-type]
         self._lines = {s: OrderLine(fleet.vehicle(s).config.map_id) for s in fleet.serials}
         self._header_ids: dict[tuple[str, Topic], int] = {}
         self._latest: dict[tuple[str, Topic], Heard] = {}
@@ -86,15 +84,6 @@ class MasterHandle:
         self._assigned: set[str] = set()  # orderIds recorded as a job's work
 
     # --- primitives --------------------------------------------------------------------------------------
-
-    @property
-    def now(self) -> float:
-        """The current simulated time, in seconds."""
-        raise NotImplementedError
-
-    def call_at(self, when: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
-        """Call ``fn(*args, **kwargs)`` at simulated time ``when`` (not before :attr:`now`)."""
-        raise NotImplementedError
 
     def _publish(self, serial: str, topic: Topic, message: Order | InstantActions) -> None:
         """Send ``message`` on ``topic`` (``order`` or ``instantActions``) of vehicle ``serial``."""
@@ -106,12 +95,6 @@ class MasterHandle:
         self._latest[(self._serial(serial), topic_of(message))] = message
 
     # --- sending -----------------------------------------------------------------------------------------
-
-    def call_later(self, delay: float, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Timer:
-        """Call ``fn(*args, **kwargs)`` ``delay`` seconds from now."""
-        if not (delay >= 0 and math.isfinite(delay)):
-            raise ValueError(f"call_later: the delay must be a finite number of seconds >= 0, got {delay}")
-        return self.call_at(self.now + delay, fn, *args, **kwargs)
 
     def order(self, serial: str, route: Sequence[str | Stop], *, base: int | None = None,
               actions: Sequence[Action] = (), order_id: str | None = None, job: Job | str | None = None) -> Order:
@@ -204,19 +187,6 @@ class MasterHandle:
         """What ``serial`` was last sent: orderId, orderUpdateId, decision point."""
         return self._lines[self._serial(serial)]
 
-    # --- jobs --------------------------------------------------------------------------------------------
-
-    def job_done(self, job: Job | str) -> None:
-        """Report ``job`` completed (a ``job_completed`` event; its lead time ends now)."""
-        self._jobs.completed(self.now, job)
-
-    def job_failed(self, job: Job | str, reason: str) -> None:
-        """Report ``job`` failed for ``reason`` (a ``job_failed`` event); one of
-        :data:`vcran.core.jobs.FAILURE_REASONS` where one fits."""
-        if not isinstance(reason, str):
-            raise TypeError(f"job_failed: reason must be a string, got {type(reason).__name__}")
-        self._jobs.failed(self.now, job, reason)
-
     # --- helpers -----------------------------------------------------------------------------------------
 
     def _header(self, serial: str, topic: Topic) -> Header:
@@ -243,7 +213,7 @@ class MasterHandle:
         return serial
 
 
-class Master:
+class Master(Manager):
     """Subclass this and override the hooks you need; the defaults do nothing.
 
     vcran sets :attr:`fleet` and :attr:`handle` before it calls :meth:`on_start`. Hooks run at simulated
@@ -257,14 +227,8 @@ class Master:
     #: The topics whose messages call a hook (``state``, ``connection``, ``factsheet``, ``visualization``).
     topics: ClassVar[frozenset[str]] = frozenset({"state", "connection", "factsheet"})
 
-    fleet: MasterFleet
-    handle: MasterHandle
-
-    def on_start(self) -> None:
-        """The run starts (simulated time 0): ``self.fleet`` and ``self.handle`` are set."""
-
-    def on_job(self, job: Job) -> None:
-        """``job`` has arrived: it is the master's to assign (and to report done or failed)."""
+    fleet: MasterFleet  # type: ignore[assignment]
+    handle: MasterHandle  # type: ignore[assignment]
 
     def on_state(self, serial: str, state: State) -> None:
         """Vehicle ``serial`` published ``state`` (on every event of §6.10, and at least every 30 s)."""
@@ -281,6 +245,3 @@ class Master:
     def hears(self, topic: Topic) -> bool:
         """Whether a message on ``topic`` calls this master's hook."""
         return topic.value in self.topics
-
-    def _bind(self, fleet: MasterFleet, handle: MasterHandle) -> None:
-        self.fleet, self.handle = fleet, handle
