@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from vcran.core.traffic.roadmap import Edge, Node, Roadmap
+from vcran.core.traffic.roadmap import Roadmap
 from vcran.io.trace import (
     LEGS_FILE,
     TRACE_FILE,
@@ -166,11 +166,7 @@ def read_run(path: Path) -> Run:
 
 def _roadmap(data: dict[str, Any] | None) -> Roadmap | None:
     """The header's roadmap (:meth:`Roadmap.as_dict`'s form) as the model's, or None for a run without one."""
-    if not data:
-        return None
-    nodes = tuple(Node(n["id"], float(n["x"]), float(n["y"]), bool(n.get("waiting", False))) for n in data["nodes"])
-    edges = tuple(Edge(e["from"], e["to"], bool(e.get("one_way", False)), e.get("speed")) for e in data.get("edges", []))
-    return Roadmap(nodes, edges)
+    return Roadmap.from_dict(data) if data else None
 
 
 @dataclass(frozen=True, slots=True)

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from vcran.core.motion import wrap
+from vcran.core.traffic.roadmap import Roadmap
 from vcran.view.folder import RunFiles
 from vcran.view.incidents import incidents_of
 from vcran.view.jobs import jobs_of
@@ -49,16 +50,18 @@ def build_model(files: RunFiles) -> ViewModel:
 
 def roadmap_of(fleet: dict[str, Any]) -> dict[str, Any] | None:
     """The fleet's traffic roadmap (docs/contract.md §12) as the page draws it: nodes as ``[x, y]`` and edges as
-    pairs of node indices. The trace header's ``fleet.roadmap`` names its nodes by id (``{"id", "x", "y"}``) and
-    its edges by those ids (``{"from", "to"}``); an edge naming no node is left out."""
-    roadmap = fleet.get("roadmap")
-    if not isinstance(roadmap, dict):
+    pairs of node indices, read from the trace header's ``fleet.roadmap`` (:meth:`Roadmap.from_dict`, as
+    reports read it). A header whose roadmap cannot be read (a damaged folder) draws none."""
+    data = fleet.get("roadmap")
+    if not isinstance(data, dict):
         return None
-    nodes = [n for n in roadmap.get("nodes", []) if isinstance(n, dict)]
-    index = {n.get("id"): k for k, n in enumerate(nodes)}
-    edges = [[index[e["from"]], index[e["to"]]] for e in roadmap.get("edges", [])
-             if isinstance(e, dict) and e.get("from") in index and e.get("to") in index]
-    return {"nodes": [[float(n["x"]), float(n["y"])] for n in nodes], "edges": edges}
+    try:
+        roadmap = Roadmap.from_dict(data)
+    except (KeyError, TypeError, ValueError):
+        return None
+    index = {n.id: k for k, n in enumerate(roadmap.nodes)}
+    return {"nodes": [[n.x, n.y] for n in roadmap.nodes],
+            "edges": [[index[e.start], index[e.end]] for e in roadmap.edges if e.start in index and e.end in index]}
 
 
 def _robot(rid: str, config: dict[str, Any] | None) -> Robot:

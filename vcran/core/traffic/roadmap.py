@@ -69,6 +69,16 @@ class Roadmap:
                   **({"speed": e.speed} if e.speed is not None else {})} for e in self.edges]
         return {"nodes": nodes, **({"edges": edges} if edges else {})}
 
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Roadmap:
+        """:meth:`as_dict`'s form read back, as a run's trace header holds it (``fleet.roadmap``): what reports
+        and the view draw. Unchecked (:func:`validate` checked it when the scenario was read); a missing key
+        raises KeyError."""
+        nodes = tuple(Node(n["id"], float(n["x"]), float(n["y"]), bool(n.get("waiting", False))) for n in data["nodes"])
+        edges = tuple(Edge(e["from"], e["to"], bool(e.get("one_way", False)), e.get("speed"))
+                      for e in data.get("edges", []))
+        return cls(nodes, edges)
+
 
 class Docked(Protocol):
     """What :func:`validate` reads of a station (:class:`vcran.core.scenario.StationConfig`)."""
