@@ -1,11 +1,9 @@
 """A VDA 5050 run in a report (docs/report.md "VDA 5050 runs"): orders as the unit of work.
 
 The figures and the KPI table are the same code for both protocols; this module is the part that reads
-what is VDA 5050's. A vehicle holds one order at a time (§6.6.2, Figure 8), so an order's life is simple:
-it is *current* from the ``order_accepted`` that opened it (not an update) to its ``order_ended``, which says
-how it ended (``completed``, ``cancelled``, or the docs/contract.md §4/§12 halt that gave it up). An order
-that ended ``completed`` but one of whose own actions (sent in an ``order``, not an instant action)
-ended FAILED is reported as ``action_failed``, OPIL's name for a task lost to a failed action: a failed
+what is VDA 5050's. How each order ended is :mod:`vcran.core.vda5050.outcomes`' (shared with `vcran sweep`):
+an order is current from its acceptance to its end, and one that ended ``completed`` while one of its own
+actions FAILED is reported as ``action_failed``, OPIL's name for a task lost to a failed action: a failed
 pick completes a VDA 5050 order (the vehicle drives on, §6.11), it moves no part.
 
 The state lane comes from two sources at once: the events say whether an order is open, the trace's
@@ -22,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from vcran.core.vda5050.outcomes import Ended, Opened, OrderLog
 from vcran.io.trace import records
 from vcran.report.spans import Band, History, TaskSpan
 
@@ -44,24 +43,16 @@ class VdaTrace:
     points: dict[str, list[tuple[float, float, float]]] = field(default_factory=dict)
     #: (t, driving, acting) of every published state.
     motion: dict[str, list[tuple[float, bool, bool]]] = field(default_factory=dict)
-    #: The actionIds the vehicle was sent in orders (an order's actions, as against instant actions).
-    order_actions: dict[str, set[str]] = field(default_factory=dict)
     #: (t, ``batteryState.batteryCharge``) for the robots that have a battery (docs/contract.md §4).
     batteries: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
 
 
 def read_trace(path: Path, with_battery: set[str]) -> VdaTrace:
-    """The trace's ``state`` and inbound ``order`` records; KeyError/TypeError on a record that is none."""
+    """The trace's published ``state`` records; KeyError/TypeError on a record that is none."""
     out = VdaTrace()
-    for _, record in records(path, attrs=("state", "order")):
+    for _, record in records(path, dirs=("out",), attrs=("state",)):
         robot, message, t = record["robot"], record.get("raw"), float(record["t"])
-        if not isinstance(message, dict):
-            continue
-        if record["attr"] == "order" and record.get("dir") == "in":
-            ids = out.order_actions.setdefault(robot, set())
-            for element in (*message.get("nodes", ()), *message.get("edges", ())):
-                ids.update(a["actionId"] for a in element.get("actions", ()) if isinstance(a, dict) and "actionId" in a)
-        elif record["attr"] == "state" and record.get("dir") == "out":
+        if isinstance(message, dict):
             position = message.get("agvPosition")
             if position is not None:
                 out.points.setdefault(robot, []).append((t, float(position["x"]), float(position["y"])))
@@ -75,7 +66,7 @@ def read_trace(path: Path, with_battery: set[str]) -> VdaTrace:
 def order_histories(run: Run) -> dict[str, History]:
     """Every vehicle's state bands and orders (module docstring), robots in fleet order."""
     assert run.vda is not None
-    builders = {rid: _Orders(rid, run.vda.order_actions.get(rid, set())) for rid in run.robot_ids}
+    builders = {rid: _Orders(rid) for rid in run.robot_ids}
     for t, robot, kind, item in _merged(run):
         builder = builders.get(robot)
         if builder is not None:
@@ -96,32 +87,25 @@ def _merged(run: Run) -> Iterator[tuple[float, str, str, Any]]:
 
 
 class _Orders:
-    def __init__(self, robot: str, order_actions: set[str]) -> None:
+    def __init__(self, robot: str) -> None:
         self.history = History(robot, idle=IDLE)
-        self.order_actions = order_actions
+        self.orders = OrderLog()
         self.current: TaskSpan | None = None
-        self.failed = False
         self.driving = self.acting = False
         self.state, self.since = IDLE, 0.0
 
     def feed(self, t: float, kind: str, item: Any) -> None:
         if kind == "state":
             self.driving, self.acting = item
-        elif kind == "order_accepted":
-            if self.current is None:  # a new order, or an update of one that had ended (§6.6.2)
-                self.current = TaskSpan(self.history.robot, str(item["order_id"]), t, t)
-                self.failed = False
+        else:
+            change = self.orders.feed(item)
+            if isinstance(change, Opened):
+                self.current = TaskSpan(self.history.robot, change.order_id, t, t)
                 self.history.tasks.append(self.current)
-        elif kind == "order_ended" and self.current is not None:
-            how = str(item["how"])
-            self.current.end = t
-            self.current.outcome = "action_failed" if how == "completed" and self.failed else how
-            self.current = None
-        elif kind == "action_changed" and self.current is not None:
-            if item.get("status") == "FAILED" and item.get("action_id") in self.order_actions:
-                self.failed = True
-        elif kind == "order_rejected":
-            self.history.rejected += 1
+            elif isinstance(change, Ended) and self.current is not None:
+                self.current.end, self.current.outcome = t, change.outcome
+                self.current = None
+            self.history.rejected = self.orders.rejected
         self._to(t, self._now())
 
     def _now(self) -> str:
