@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.sim.test_vda5050_glue import ONE_VEHICLE
 from vcran.cli import main
 from vcran.core.vda5050 import acceptance
 from vcran.io.scenario_file import load
@@ -23,21 +24,7 @@ from vcran.testing.vda5050_runs import perturbed_toml, run_variant
 #: One vehicle at (0, 0), order o1 (orderUpdateId 2) at t = 1 to (10, 0): a 10 m leg at 1 m/s with 0.5 m/s^2
 #: up and down takes 2 + 8 + 2 = 12 s, so the order executes from 1 to 13 and a re-send of it with
 #: orderUpdateId 1 between those is stale: rejected with an orderUpdateError (§6.6.4.3).
-LONG = """
-[simulation]
-name = "long"
-protocol = "vda5050"
-until_idle = true
-duration = 100.0
-
-[[robots]]
-id = "agv"
-manufacturer = "acme"
-serial_number = "7"
-pose = [0.0, 0.0, 0.0]
-max_velocity = 1.0
-max_acceleration = 0.5
-
+LONG = ONE_VEHICLE + """
 [[script]]
 t = 1.0
 robot = "agv"

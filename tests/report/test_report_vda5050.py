@@ -28,7 +28,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.sim.test_vda5050_glue import END_100, END_200, END_300
+from tests.sim.test_vda5050_glue import END_100, END_200, END_300, ONE_VEHICLE
 from vcran.cli import main
 from vcran.report import read_run, write_report
 from vcran.report.kpi import kpis
@@ -53,21 +53,7 @@ def order(t: float, order_id: str, update: int, nodes: list[tuple[str, float, st
             f"message.orderUpdateId = {update}\nmessage.nodes = [\n{node_rows}\n]\nmessage.edges = [\n{edge_rows}\n]\n")
 
 
-MIXED = """
-[simulation]
-name = "mixed"
-protocol = "vda5050"
-until_idle = true
-duration = 100.0
-
-[[robots]]
-id = "agv"
-manufacturer = "acme"
-serial_number = "7"
-pose = [0.0, 0.0, 0.0]
-max_velocity = 1.0
-max_acceleration = 0.5
-capacity = 1
+MIXED = ONE_VEHICLE + """capacity = 1
 
 [[stations]]
 id = "empty"

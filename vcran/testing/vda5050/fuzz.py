@@ -4,8 +4,8 @@ docs/fuzzing.md "VDA 5050 scenarios"; the OPIL twin is :mod:`vcran.testing.scrip
 A master re-sends (QoS 1 delivers at least once), sends late, out of order or not at all; it sends order
 updates with a stale, equal or skipped orderUpdateId, cancels and pauses at any moment, and now and then
 writes garbage. :func:`perturbations` draws such mishaps for a script as a list of small frozen operations
-(:class:`Delay`, :class:`Swap`, :class:`Duplicate`, :class:`Drop`, :class:`Resend`, :class:`Instant`,
-:class:`Malformed`) that name entries by index, so hypothesis shrinks a failure to the few that matter.
+(:class:`Delay`, :class:`Swap`, :class:`Duplicate`, :class:`Drop` of :mod:`vcran.testing.delivery`, and
+:class:`Resend`, :class:`Instant`, :class:`Malformed`) that name entries by index, so hypothesis shrinks a failure to the few that matter.
 
 They are played on the script as its ``[[script]]`` tables (the messages without their headers): the
 scenario loader stamps every message again, ``headerId`` counting in the order they are now sent (§6.4), and
@@ -29,39 +29,9 @@ require_hypothesis(__name__)
 from hypothesis import strategies as st
 
 from vcran.core.scenario import Scenario
+from vcran.testing.delivery import Delay, Drop, Duplicate, Swap
 
 Table = dict[str, Any]
-
-
-@dataclass(frozen=True, slots=True)
-class Delay:
-    """Entry ``index`` arrives ``by`` seconds late (it may overtake later entries)."""
-
-    index: int
-    by: float
-
-
-@dataclass(frozen=True, slots=True)
-class Swap:
-    """Entries ``index`` and ``index + offset`` arrive in each other's time slots."""
-
-    index: int
-    offset: int
-
-
-@dataclass(frozen=True, slots=True)
-class Duplicate:
-    """Entry ``index`` arrives again ``after`` seconds later, unchanged (an order: §6.6.4.3's duplicate)."""
-
-    index: int
-    after: float
-
-
-@dataclass(frozen=True, slots=True)
-class Drop:
-    """Entry ``index`` never arrives."""
-
-    index: int
 
 
 @dataclass(frozen=True, slots=True)
