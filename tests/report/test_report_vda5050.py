@@ -31,6 +31,7 @@ import pytest
 from tests.sim.test_vda5050_glue import END_100, END_200, END_300, ONE_VEHICLE
 from vcran.cli import main
 from vcran.report import read_run, write_report
+from vcran.report.incidents import incidents
 from vcran.report.kpi import kpis
 from vcran.report.layout import corners_by_robot, path_pieces
 from vcran.report.spans import Band, histories
@@ -156,3 +157,9 @@ def test_the_kpi_files_name_orders_columns(mixed: Path, tmp_path: Path) -> None:
     assert [(r["robot"], r["rejected"], r["cancelled_cancelled"], r["mean_latency_s"], r["busy_share"])
             for r in table] == [("agv", "1", "1", "", "0.75"), ("fleet", "1", "1", "", "0.75")]
     assert (tmp_path / "report" / "kpi.csv").read_text() == csv_text(report.kpis)
+
+
+def test_a_rejected_order_is_marked_on_the_state_lane(mixed: Path) -> None:
+    """The stale update at t = 3 never becomes a bar: it is an incident of the timeline, at 3, on agv."""
+    run = read_run(mixed)
+    assert [(i.robot, i.t, i.kind) for i in incidents(run)] == [("agv", 3.0, "order_rejected")]

@@ -51,6 +51,8 @@ INCIDENT_STYLE = {
     # docs/contract.md §12: a robot's protective field entered (where it began to brake), robots stopped on one another
     "blocked": ("o", "#f39c12", "blocked (field entered)"),
     "deadlock": ("h", "#1a5276", "deadlock"),
+    # VDA 5050: an order or order update the vehicle refused (§6.6.4), which never becomes a bar
+    "order_rejected": ("X", "#922b21", "order rejected"),
 }
 
 #: matplotlib's tab10 without its grey, which the states and "no task" use.
