@@ -163,3 +163,24 @@ def test_a_rejected_order_is_marked_on_the_state_lane(mixed: Path) -> None:
     """The stale update at t = 3 never becomes a bar: it is an incident of the timeline, at 3, on agv."""
     run = read_run(mixed)
     assert [(i.robot, i.t, i.kind) for i in incidents(run)] == [("agv", 3.0, "order_rejected")]
+
+
+ROADMAP = """
+[roadmap]
+nodes = [{ id = "a", x = 0.0, y = 0.0 }, { id = "b", x = 6.0, y = 0.0 }, { id = "c", x = 12.0, y = 0.0 },
+         { id = "d", x = 18.0, y = 0.0 }]
+edges = [{ from = "a", to = "b" }, { from = "b", to = "c" }, { from = "c", to = "d" }]
+"""
+
+
+def test_the_layout_of_a_vda_run_draws_its_roadmap(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/contract.md §12 on a VDA 5050 run: MIXED with the roadmap its orders' nodes lie on (the station
+    docked at b); its three lanes and four nodes, from the file above, are drawn."""
+    from tests.report.test_report_traffic import drawn_layout, roadmap_artists
+
+    (tmp_path / "mixed.toml").write_text(MIXED.replace("parts = 0\n", 'parts = 0\ndock = "b"\n', 1) + ROADMAP)
+    assert main(["run", str(tmp_path / "mixed.toml"), "--out", str(tmp_path / "run"), "--quiet"]) == 0
+    drawn = roadmap_artists(drawn_layout(tmp_path / "run", monkeypatch))
+    assert sorted(tuple(map(tuple, s)) for s in drawn["roadmap lane"].get_segments()) == [
+        ((0.0, 0.0), (6.0, 0.0)), ((6.0, 0.0), (12.0, 0.0)), ((12.0, 0.0), (18.0, 0.0))]
+    assert sorted(tuple(p) for p in drawn["roadmap node"].get_offsets()) == [(0.0, 0.0), (6.0, 0.0), (12.0, 0.0), (18.0, 0.0)]
