@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 from jsonschema import Draft202012Validator
 
-from tests.transports.mqtt.support import Watcher, retained, wait_until
+from tests.transports.mqtt.support import Watcher, retained, vehicle_scenario, wait_until
 from vcran.io.trace import read_header, records, trace_in
 
 pytestmark = pytest.mark.slow
@@ -124,3 +124,46 @@ def test_a_paho_master_drives_vcran_live_mqtt_and_the_run_replays(broker, live_f
     verified = replay_verify(live.out)
     assert verified.returncode == 0, verified.stdout + verified.stderr
     assert "verify: every outbound record, leg (telemetry) and event matches the recording" in verified.stdout
+
+
+def test_the_broker_gone_mid_run_the_run_goes_on_reconnects_and_replays(broker, live_fleet, tmp_path):
+    """docs/contract.md §11, "reconnect with back-off, the simulation goes on": Mosquitto stops while the vehicle
+    drives an order and starts again on the same port (without persistence: it forgot everything). The
+    vehicle connects again (ONLINE with headerId 2: 0 was the first ONLINE, 1 the last will that went down
+    with the broker, docs/vda5050.md "The connection topic"), the order is finished, SIGTERM ends the run
+    normally, and its folder replays with --verify: the outage is nowhere in the trace."""
+    vehicle = "uagv/v2/vcran/outage-1"
+    live = live_fleet(broker.url, vehicle_scenario(tmp_path, "outage-1"), vehicle, factor=2.0)
+    master = Watcher(broker.url, (f"{vehicle}/#",))
+    try:
+        order = {"headerId": 0, "timestamp": "2026-11-27T18:00:00.00Z", "version": "2.1.0", "manufacturer": "vcran",
+                 "serialNumber": "outage-1", "orderId": "o1", "orderUpdateId": 0, "nodes": [
+                     {"nodeId": "a", "sequenceId": 0, "released": True, "actions": [],
+                      "nodePosition": {"x": 0.0, "y": 0.0, "mapId": "map"}},
+                     {"nodeId": "b", "sequenceId": 2, "released": True, "actions": [],
+                      "nodePosition": {"x": 4.0, "y": 0.0, "mapId": "map"}}],
+                 "edges": [{"edgeId": "a-b", "sequenceId": 1, "released": True, "startNodeId": "a",
+                            "endNodeId": "b", "actions": []}]}
+        master.publish(f"{vehicle}/order", json.dumps(order).encode())
+        assert wait_until(lambda: any(s.doc["orderId"] == "o1" and s.doc["driving"] for s in master.of("state")))
+
+        broker.stop()
+        assert wait_until(lambda: not master.subscribed.is_set())
+        broker.start()
+
+        def reconnected() -> bool:
+            return any(s.doc["connectionState"] == "ONLINE" and s.doc["headerId"] == 2 for s in master.of("connection"))
+
+        def finished() -> bool:
+            return any(s.doc["lastNodeId"] == "b" and not s.doc["nodeStates"] and not s.doc["driving"]
+                       for s in master.of("state"))
+
+        assert wait_until(reconnected, timeout=30), [s.doc for s in master.of("connection")]
+        assert wait_until(finished, timeout=30), [s.doc for s in master.of("state")]
+        code, out, err = live.stop()
+        assert code == 0, err
+    finally:
+        master.close()
+    assert "1 order(s) completed, 0 error(s)" in out and " 1 reconnects;" in out, out  # the end-of-run figures
+    verified = replay_verify(live.out)
+    assert verified.returncode == 0, verified.stdout + verified.stderr
