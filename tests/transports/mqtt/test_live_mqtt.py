@@ -167,3 +167,42 @@ def test_the_broker_gone_mid_run_the_run_goes_on_reconnects_and_replays(broker, 
     assert "1 order(s) completed, 0 error(s)" in out and " 1 reconnects;" in out, out  # the end-of-run figures
     verified = replay_verify(live.out)
     assert verified.returncode == 0, verified.stdout + verified.stderr
+
+
+def test_a_killed_live_mqtt_run_keeps_its_recording_up_to_its_last_tick(broker, live_fleet, tmp_path):
+    """docs/outputs.md, "A run killed outright": a VDA 5050 run sends no telemetry frame, so ``vcran live --mqtt``
+    hands its files to the operating system at each telemetry tick itself. Killed with SIGKILL after the
+    vehicle finished an order, its ``<out>.incomplete`` holds that order (its arrival and the vehicle's
+    states) and replays as an incomplete recording that verifies as far as it goes."""
+    vehicle = "uagv/v2/vcran/kill-1"
+    live = live_fleet(broker.url, vehicle_scenario(tmp_path, "kill-1"), vehicle, factor=4.0)
+    master = Watcher(broker.url, (f"{vehicle}/state",))
+    try:
+        header = {"timestamp": "2026-11-27T18:00:00.00Z", "version": "2.1.0", "manufacturer": "vcran",
+                  "serialNumber": "kill-1"}
+        master.publish(f"{vehicle}/order", json.dumps(header | {"headerId": 0, "orderId": "o1", "orderUpdateId": 0, "nodes": [
+            {"nodeId": "a", "sequenceId": 0, "released": True, "actions": [],
+             "nodePosition": {"x": 0.0, "y": 0.0, "mapId": "map"}},
+            {"nodeId": "b", "sequenceId": 2, "released": True, "actions": [],
+             "nodePosition": {"x": 1.0, "y": 0.0, "mapId": "map"}}],
+            "edges": [{"edgeId": "a-b", "sequenceId": 1, "released": True, "startNodeId": "a", "endNodeId": "b",
+                       "actions": []}]}).encode())
+        assert wait_until(lambda: any(s.doc["lastNodeId"] == "b" and not s.doc["driving"] for s in master.of("state")))
+        growing = live.out.with_name(live.out.name + ".incomplete")
+
+        def recorded() -> bool:  # the order's end, flushed at a tick since (no wall-clock wait)
+            try:
+                return any(r.get("attr") == "state" and r["raw"]["lastNodeId"] == "b" and not r["raw"]["driving"]
+                           for _, r in records(growing / "trace.jsonl.zst", ("out",)) if "raw" in r)
+            except Exception:  # noqa: BLE001 - a file being written: its last block may be cut off
+                return False
+
+        assert wait_until(recorded)
+        live.process.kill()
+        assert live.stop()[0] == -9
+    finally:
+        master.close()
+    assert not live.out.exists()
+    verified = replay_verify(growing)
+    assert verified.returncode == 0, verified.stdout + verified.stderr
+    assert "(as far as it goes)" in verified.stdout and "incomplete recording" in verified.stderr
