@@ -101,7 +101,7 @@ def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     anything runs (or any folder is made, or anything is connected to). ``mode`` None: a scripted run or a
     replay, which host every protocol of :mod:`vcran.sim.protocols`; ``vcran live`` hosts each protocol on its own
     edge (:data:`LIVE`); else what the caller runs (a closed loop ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf
-    to their orders (issue 31: their live transport and closed loop are still to come)."""
+    to their orders (issue 31: their closed loop is still to come)."""
     protocol = scenario.settings.protocol
     if mode in LIVE:  # docs/contract.md §11: each protocol's live edge (vcran live --orion, vcran live --mqtt)
         if protocol != LIVE[mode]:

@@ -76,11 +76,10 @@ class MqttEdge:
                 f"in {delivered / wall:.1f} messages/s ({delivered} delivered)")
 
     def latency(self) -> str | None:
-        lat = self.transport.answer_stats()
-        if not lat:
-            return None
-        return (f"arrival to the state it caused: median {lat['median'] * 1000:.1f} ms, "
-                f"p99 {lat['p99'] * 1000:.1f} ms ({lat['count']:.0f} order and instantActions messages)")
+        from vcran.commands.live import latency_line
+
+        return latency_line("arrival to the state it caused", self.transport.answer_stats(),
+                            "order and instantActions messages")
 
     def close(self) -> None:
         self.transport.close()

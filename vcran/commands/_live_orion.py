@@ -51,11 +51,9 @@ class OrionEdge:
         return f"outbound {sent.attempts / wall:.1f} requests/s ({sent.accepted} of {sent.attempts} accepted)"
 
     def latency(self) -> str | None:
-        lat = self.transport.latency_stats()
-        if not lat:
-            return None
-        return (f"inbound to effect: median {lat['median'] * 1000:.1f} ms, p99 {lat['p99'] * 1000:.1f} ms "
-                f"({lat['count']:.0f} messages)")
+        from vcran.commands.live import latency_line
+
+        return latency_line("inbound to effect", self.transport.latency_stats(), "messages")
 
     def close(self) -> None:
         self.transport.close()

@@ -48,6 +48,14 @@ class Edge(Protocol):
     def close(self) -> None: ...
 
 
+def latency_line(what: str, stats: dict[str, float], messages: str) -> str | None:
+    """An end-of-run figure: median and 99th percentile of wall seconds, in ms (None without any)."""
+    if not stats:
+        return None
+    return (f"{what}: median {stats['median'] * 1000:.1f} ms, p99 {stats['p99'] * 1000:.1f} ms "
+            f"({stats['count']:.0f} {messages})")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scenario_argument(parser, "; its [[script]] is not played")
     to = parser.add_mutually_exclusive_group(required=True)
