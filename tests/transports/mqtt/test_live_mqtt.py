@@ -41,7 +41,7 @@ class Master:
     """A VDA 5050 2.1.0 master in a few lines of paho: headerIds counted per topic (§6.4), all it gets kept."""
 
     def __init__(self, url: str) -> None:
-        self.watcher = Watcher(url, (f"{VEHICLE}/state", f"{VEHICLE}/connection"))
+        self.watcher = Watcher(url, (f"{VEHICLE}/state", f"{VEHICLE}/visualization", f"{VEHICLE}/connection"))
         self.header_ids = {"order": 0, "instantActions": 0}
         self.sent: list[bytes] = []
 
@@ -97,14 +97,15 @@ def test_a_paho_master_drives_vcran_live_mqtt_and_the_run_replays(broker, live_f
     finally:
         master.watcher.close()
 
-    # Every state and connection message the master saw is valid against the official 2.1.0 schemas, and
-    # counts its headerId on its own topic (§6.4) without gaps.
+    # Every state, visualization (every telemetry period: the vehicle drove at least 2 s simulated) and
+    # connection message the master saw is valid against the official 2.1.0 schemas, and counts its headerId
+    # on its own topic (§6.4) without gaps.
     seen = master.watcher.of()
-    assert len(seen) >= 4
+    assert {m.kind for m in seen} == {"state", "visualization", "connection"}
     for message in seen:
         problems = [e.message for e in schema(message.kind).iter_errors(message.doc)]
         assert not problems, (problems, message.doc)
-    for kind in ("state", "connection"):
+    for kind in ("state", "visualization", "connection"):
         ids = [m.doc["headerId"] for m in seen if m.kind == kind]
         assert ids == list(range(ids[0], ids[0] + len(ids))), (kind, ids)
     # What a newcomer gets: the retained OFFLINE (a graceful end, not the last will's CONNECTIONBROKEN).
@@ -136,8 +137,9 @@ def test_the_broker_gone_mid_run_the_run_goes_on_reconnects_and_replays(broker, 
     live = live_fleet(broker.url, vehicle_scenario(tmp_path, "outage-1"), vehicle, factor=2.0)
     master = Watcher(broker.url, (f"{vehicle}/#",))
     try:
-        order = {"headerId": 0, "timestamp": "2026-11-27T18:00:00.00Z", "version": "2.1.0", "manufacturer": "vcran",
-                 "serialNumber": "outage-1", "orderId": "o1", "orderUpdateId": 0, "nodes": [
+        header = {"headerId": 0, "timestamp": "2026-11-27T18:00:00.00Z", "version": "2.1.0", "manufacturer": "vcran",
+                  "serialNumber": "outage-1"}
+        order = header | {"orderId": "o1", "orderUpdateId": 0, "nodes": [
                      {"nodeId": "a", "sequenceId": 0, "released": True, "actions": [],
                       "nodePosition": {"x": 0.0, "y": 0.0, "mapId": "map"}},
                      {"nodeId": "b", "sequenceId": 2, "released": True, "actions": [],
@@ -159,7 +161,12 @@ def test_the_broker_gone_mid_run_the_run_goes_on_reconnects_and_replays(broker, 
                        for s in master.of("state"))
 
         assert wait_until(reconnected, timeout=30), [s.doc for s in master.of("connection")]
+        # The held state went out right after ONLINE, maybe before this watcher was back: ask for one (§6.8.1).
+        assert master.subscribed.wait(10)
+        master.publish(f"{vehicle}/instantActions", json.dumps(header | {"actions": [
+            {"actionId": "ask", "actionType": "stateRequest", "blockingType": "NONE"}]}).encode())
         assert wait_until(finished, timeout=30), [s.doc for s in master.of("state")]
+        assert not any(s.doc["errors"] for s in master.of("state"))  # the stateRequest was valid
         code, out, err = live.stop()
         assert code == 0, err
     finally:
