@@ -89,7 +89,7 @@ def test_a_vda5050_scenario_with_a_master_is_refused_until_the_closed_loop_hosts
     ["send", "vda5050", "--orion", "http://127.0.0.1:9"],
     ["manage", "vda5050-warehouse", "--orion", "http://127.0.0.1:9"],
     ["orion", "init", "vda5050", "--orion", "http://127.0.0.1:9"],
-    ["fuzz", "vda5050"],
+    ["fuzz", "vda5050", "--manager", "vcran.managers:Dispatcher"],  # its script fuzzes: tests/commands/test_fuzz_vda5050.py
 ])
 def test_every_scenario_command_refuses_a_vda5050_scenario_before_it_connects(tmp_path, capsys, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)
