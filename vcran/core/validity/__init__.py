@@ -26,7 +26,7 @@ from vcran.core.validity.fields import Problem, is_number
 from vcran.core.validity.fleet import robot_problems, settings_problems, station_problems
 from vcran.core.validity.protocol import link_problems as protocol_link_problems
 from vcran.core.validity.protocol import script_problems as protocol_script_problems
-from vcran.core.validity.protocol import vehicle_problems
+from vcran.core.validity.protocol import trigger_problems, vehicle_problems
 from vcran.core.validity.safety import traffic_problems
 from vcran.core.validity.workload import (
     fault_problems,
@@ -92,6 +92,8 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
     script = script_problems(sc.script, sc.cycles, robots, end, own)
     if protocol is not None and not script:
         script = protocol_script_problems(sc.script, sc.cycles, protocol)
+    if protocol is not None and not script and not faults:
+        script = trigger_problems(sc.script, sc.faults, protocol, endless=sc.settings.duration is None)
     out += script
     return out + _whole(sc, faults_sound=not faults)
 
