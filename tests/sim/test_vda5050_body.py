@@ -202,3 +202,16 @@ def test_a_wait_a_trigger_or_a_cancel_ends_loads(tmp_path):
         path = tmp_path / "scenario.toml"
         path.write_text(bare + ending)
         load(path)
+
+
+def test_a_swapped_battery_clears_battery_low_and_battery_empty(tmp_path):
+    """A swap lifts the battery too (docs/contract.md §4): drawing 0.25 Ah/s at rest, the 1 Ah run out at 4
+    (``batteryEmpty``, FATAL, §6.10.6 errors), the swap 3 s later gives a full battery at 7, the vehicle is in
+    service again (batteryEmpty cleared) and the tick at 7, after the swap in that instant (faults before
+    telemetry, docs/determinism.md), finds 10 Ah >= 2 Ah: batteryLow cleared at 7."""
+    drawing = CHARGING.replace("charge_rate = 0.125, low = 0.2", "per_idle_second = 0.25, low = 0.2, swap_after = 3.0")
+    events, _ = run(tmp_path, drawing + instant(20.0, "stateRequest", "ask"))
+    raised = [(e["t"], e["error"]["errorType"]) for e in events if e["event"] == "error_raised"]
+    cleared = [(e["t"], e["error"]["errorType"]) for e in events if e["event"] == "error_cleared"]
+    assert raised == [(0.0, "batteryLow"), (4.0, "batteryEmpty")]
+    assert cleared == [(7.0, "batteryEmpty"), (7.0, "batteryLow")]
