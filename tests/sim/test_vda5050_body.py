@@ -13,21 +13,11 @@ from __future__ import annotations
 
 import pytest
 
+from tests.sim.test_vda5050_glue import ONE_VEHICLE
 from vcran.cli import main
 from vcran.io.trace import event_records, trace_records
 
-CHARGING = """
-[simulation]
-protocol = "vda5050"
-until_idle = true
-duration = 200.0
-
-[[robots]]
-id = "agv"
-manufacturer = "acme"
-serial_number = "7"
-pose = [0.0, 0.0, 0.0]
-battery = { capacity = 10.0, initial = 1.0, charge_rate = 0.125, low = 0.2 }
+CHARGING = ONE_VEHICLE + """battery = { capacity = 10.0, initial = 1.0, charge_rate = 0.125, low = 0.2 }
 
 [[stations]]
 id = "charger"
@@ -111,21 +101,6 @@ def test_start_charging_without_a_charger_in_reach_fails(tmp_path):
     assert action_states(at[2.5]) == {"charge": "FAILED"} and at[2.5]["batteryState"]["charging"] is False
     assert "actionFailed" in [e["errorType"] for e in at[2.5]["errors"]]
 
-
-ONE_VEHICLE = """
-[simulation]
-protocol = "vda5050"
-until_idle = true
-duration = 100.0
-
-[[robots]]
-id = "agv"
-manufacturer = "acme"
-serial_number = "7"
-pose = [0.0, 0.0, 0.0]
-max_velocity = 1.0
-max_acceleration = 0.5
-"""
 
 WAIT_AT_A = """
 [[script]]
