@@ -156,9 +156,9 @@ class VehicleNode:
     # --- commands -------------------------------------------------------------------------------------------
 
     def _act(self, effect: fx.Act) -> None:
-        kind = PERFORMED.get(effect.action_type)
-        if kind is not None:
-            self.body.perform(kind, effect.action_id)
+        performed = PERFORMED.get(effect.action_type)
+        if performed is not None:
+            self.body.perform(performed, effect.action_id)
             return
         kind = effect.action_type
         if kind == "waitForTrigger":
