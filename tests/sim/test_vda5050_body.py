@@ -190,3 +190,29 @@ def test_a_swapped_battery_clears_battery_low_and_battery_empty(tmp_path):
     cleared = [(e["t"], e["error"]["errorType"]) for e in events if e["event"] == "error_cleared"]
     assert raised == [(0.0, "batteryLow"), (4.0, "batteryEmpty")]
     assert cleared == [(7.0, "batteryEmpty"), (7.0, "batteryLow")]
+
+
+FINE_AT_A = WAIT_AT_A.replace(
+    '{ actionType = "waitForTrigger", actionId = "wait", blockingType = "HARD", actionParameters = [{ key = "triggerType", value = "button" }] }',
+    '{ actionType = "finePositioning", actionId = "fine", blockingType = "HARD", actionParameters = [] }')
+FINE_3S = ONE_VEHICLE.replace("[[robots]]", "[simulation.action_durations]\nfine_positioning = 3.0\n\n[[robots]]", 1)
+
+
+def test_fine_positioning_takes_the_scenarios_duration_and_pauses_with_the_vehicle(tmp_path):
+    """With ``[simulation.action_durations] fine_positioning = 3.0`` the HARD finePositioning on a runs 3 s of
+    work (§6.8.2 RUNNING: "AGV positions itself exactly on a target"); the pause fault at 2 and the resume at 5
+    stop it for 3 s (§6.8.2 PAUSED: "After removing the violation, the fine positioning continues"), so it is
+    FINISHED at 1 + 3 + 3 = 7, and the 8 s leg to b ends at 15."""
+    pause = '\n[[faults]]\nt = 2.0\nrobot = "agv"\nkind = "pause"\n\n[[faults]]\nt = 5.0\nrobot = "agv"\nkind = "resume"\n'
+    events, _ = run(tmp_path, FINE_3S + FINE_AT_A + pause)
+    assert action_events(events, "fine") == [(1.0, "RUNNING"), (7.0, "FINISHED")]
+    assert [(e["t"], e["how"]) for e in events if e["event"] == "order_ended"] == [(pytest.approx(15.0), "completed")]
+
+
+def test_fine_positioning_durations_are_a_vda5050_vehicles(tmp_path, capsys):
+    """An OPIL robot has no finePositioning: the duration would do nothing, so the file fails to load."""
+    path = tmp_path / "scenario.toml"
+    path.write_text("[simulation]\nduration = 10.0\n[simulation.action_durations]\nfine_positioning = 3.0\n"
+                    "[[robots]]\nid = \"agv\"\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "run"), "--quiet"]) == 2
+    assert "fine_positioning" in capsys.readouterr().err

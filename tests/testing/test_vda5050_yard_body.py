@@ -15,7 +15,7 @@ import tomllib
 
 import pytest
 
-from tests.sim.test_vda5050_body import CHARGING, instant
+from tests.sim.test_vda5050_body import CHARGING, FINE_3S, FINE_AT_A, instant
 from vcran.core.vda5050.enums import ActionStatus
 from vcran.io.scenario_file import parse
 from vcran.testing.vda5050.scripted import ScriptedMaster
@@ -72,3 +72,12 @@ def test_wait_for_trigger_runs_until_the_trigger():
     assert statuses(y, "wait") == [(1.5, waiting), (1.5, running)]  # listed as it arrives, then started
     y.run(100.0)
     assert statuses(y, "wait") == [(1.5, waiting), (1.5, running), (20.0, finished)]
+
+
+def test_fine_positioning_takes_the_scenarios_duration():
+    """``fine_positioning = 3.0``: the HARD finePositioning on a, the order reaching the vehicle at 1.5, is
+    FINISHED at 4.5, and the 8 s leg to b (2 s up to 1 m/s, 2 s at it, 2 s down) ends the order at 12.5."""
+    y = yard(FINE_3S + FINE_AT_A)
+    y.run(100.0)
+    assert statuses(y, "fine")[-1] == (4.5, ActionStatus.FINISHED)
+    assert [(e["t"], e["how"]) for e in y.events if e["event"] == "OrderEnded"] == [(pytest.approx(12.5), "completed")]

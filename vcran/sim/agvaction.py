@@ -194,6 +194,13 @@ class AgvAction:
             raise ValueError(f"action {tag!r} is already being performed")
         self.beside[tag] = self.env.process(self._beside(kind, tag))
 
+    def perform_for(self, seconds: float, tag: Any) -> None:
+        """Start ``tag``, an action of no station that takes ``seconds`` of work (VDA 5050's finePositioning),
+        beside the rest as :meth:`perform` does; it succeeds unless an action failure is armed."""
+        if tag in self.beside:
+            raise ValueError(f"action {tag!r} is already being performed")
+        self.beside[tag] = self.env.process(self._beside(None, tag, seconds))
+
     def interrupt(self, tag: Any) -> bool:
         """Stop action ``tag`` (one :meth:`perform` started) now: nothing of it happens, no report follows.
         False when no such action runs."""
@@ -203,10 +210,10 @@ class AgvAction:
         process.interrupt(ABANDON)
         return True
 
-    def _beside(self, kind: ActionKind, tag: Any) -> Process:
+    def _beside(self, kind: ActionKind | None, tag: Any, seconds: float = 0.0) -> Process:
         env = self.env
-        outcome = self._precheck(kind)
-        end = env.now + (0.0 if outcome is not None else self.durations[kind.value])
+        outcome = self._precheck(kind) if kind is not None else None
+        end = env.now + (0.0 if outcome is not None else seconds if kind is None else self.durations[kind.value])
         held_since: float | None = env.now if self._holds else None
         while True:
             try:
@@ -225,8 +232,15 @@ class AgvAction:
                 return  # interrupted, or the body halted: nothing of it happens
         del self.beside[tag]
         if outcome is None:
-            outcome = self._finish(kind)
+            outcome = self._finish(kind) if kind is not None else self._aligned(tag)
         self.tell(Acted(tag, outcome.ok, outcome.code, outcome.message))
+
+    def _aligned(self, tag: Any) -> Outcome:
+        """An action of no station ended: done, or failed by an armed action failure (docs/contract.md §4)."""
+        if self.fail_next_action:
+            self.fail_next_action = False
+            return Outcome(False, "action_fault", f"{tag}: injected action failure (§4)")
+        return Outcome(True)
 
     def _beside_all(self, cause: object) -> None:
         """Pass a hold, release or halt on to every action performed beside the work."""

@@ -18,7 +18,7 @@ from typing import Any
 
 from vcran.core.scenario import POLLING, VDA5050, VDA5050_TOPICS, LinkSettings, RobotConfig, ScriptEntry
 from vcran.core.validity.fields import Problem
-from vcran.core.validity.fleet import VEHICLE
+from vcran.core.validity.fleet import FINE_POSITIONING, VEHICLE
 
 _SET_PROTOCOL = f'set [simulation] protocol = "{VDA5050}"'
 
@@ -90,6 +90,14 @@ def _message_or_payload(e: ScriptEntry) -> tuple[str, str] | None:
     if isinstance(e.raw, str):
         return None
     return "payload", f"expected the payload as text, got {type(e.raw).__name__}"
+
+
+def duration_problems(durations: Any, protocol: str) -> list[Problem]:
+    """``fine_positioning`` is how long a VDA 5050 vehicle's finePositioning takes: an OPIL robot has none."""
+    if protocol != VDA5050 and isinstance(durations, dict) and FINE_POSITIONING in durations:
+        return [Problem(f"simulation.action_durations.{FINE_POSITIONING}", "a VDA 5050 vehicle's finePositioning; this "
+                        f"scenario's robots speak {protocol} ({_SET_PROTOCOL})")]
+    return []
 
 
 def trigger_problems(script: Sequence[Any], faults: Sequence[Any], protocol: str, endless: bool) -> list[Problem]:

@@ -9,7 +9,8 @@ event for the log. How the body serves the Vehicle's actions (docs/vda5050.md, "
 body does (vcran.testing.vda5050.yard): pick and drop are its load and unload; startCharging starts its charge
 (FAILED at once where the charge could not start) and stopCharging ends it where the battery stands (§6.8.2: each
 FINISHED once the charging process is started, stopped); waitForTrigger runs until the scenario's ``trigger``
-fault presses the vehicle's trigger; finePositioning and the scenario's own types end at the instant they start.
+fault presses the vehicle's trigger; finePositioning takes the scenario's ``fine_positioning`` action duration
+(beside the rest, paused with the vehicle; none given: no time), the scenario's own types end as they start.
 The battery's low warning reaches the Vehicle from the power tick, raised and, once a charge or a swap has
 lifted the battery to its low level again, cleared.
 """
@@ -25,6 +26,7 @@ import simpy
 from vcran.core.actions import ActionKind
 from vcran.core.incidents import BatteryLow, FaultEnded, FaultStarted
 from vcran.core.motion import Leg
+from vcran.core.validity.fleet import FINE_POSITIONING
 from vcran.core.vda5050 import effects as fx
 from vcran.core.vda5050.codec import Invalid
 from vcran.core.vda5050.enums import ActionStatus, Topic
@@ -174,6 +176,9 @@ class VehicleNode:
             self.body.act((None, ActionKind.CHARGE, CHARGE_TAG))
         elif kind == "stopCharging":
             self.body.stop_charging()  # FINISHED: "the charging process is stopped" (§6.8.2)
+        elif kind == "finePositioning" and self.body.durations.get(FINE_POSITIONING):
+            self.body.perform_for(self.body.durations[FINE_POSITIONING], effect.action_id)
+            return
         self.inbox.put(Acted(effect.action_id, True))
 
     def _interrupt(self, effect: fx.Interrupt) -> None:

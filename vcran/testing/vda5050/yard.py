@@ -11,7 +11,7 @@ pure :class:`~vcran.core.vda5050.vehicle.Vehicle` with a plain body:
   fails at an empty one, a drop puts the part back; ``startCharging`` within a charger's reach charges at
   the battery's ``charge_rate`` until full (then the vehicle is told), ``stopCharging`` stops it where the
   battery stands; ``waitForTrigger`` runs until the test presses the vehicle's trigger (:meth:`Yard.trigger`);
-  other actions take no time;
+  ``finePositioning`` takes the scenario's ``fine_positioning`` duration (if any); other actions take no time;
 - its battery (the robot's ``[robots.battery]``) drains ``per_metre`` with each leg driven, and the
   vehicle is told when it is below the ``low`` level (as it comes up, after a leg) and at the instant a
   charge lifts it to that level again.
@@ -362,7 +362,8 @@ class _Body:
 
     def duration(self, action_type: str) -> float:
         durations = self.yard.scenario.settings.durations
-        return {"pick": durations.get("load", 0.0), "drop": durations.get("unload", 0.0)}.get(action_type, 0.0)
+        return {"pick": durations.get("load", 0.0), "drop": durations.get("unload", 0.0),
+                "finePositioning": durations.get("fine_positioning", 0.0)}.get(action_type, 0.0)
 
     def in_reach(self, station_id: str) -> bool:
         s = next(s for s in self.yard.scenario.stations if s.id == station_id)
