@@ -91,17 +91,23 @@ class RunResult:
         return self.summary["sim_time"] / self.wall_seconds if self.wall_seconds > 0 else float("inf")
 
 
+#: The mode a run with a fleet manager is (:func:`check_protocol`): both protocols' closed loops are hosted.
+CLOSED_LOOP = "a closed loop"
+#: The modes besides a scripted run and a replay the simulation hosts VDA 5050 vehicles in.
+VDA5050_MODES = frozenset({CLOSED_LOOP})
+
+
 def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     """A scenario whose robots speak a protocol the simulation does not host in ``mode`` is refused before
     anything runs (or any folder is made, or anything is connected to). ``mode`` None: a scripted run or a
-    replay, which host every protocol of :mod:`vcran.sim.protocols`; else what the caller runs (a closed loop,
-    live over Orion ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf
-    to their orders (issue 31: their live transport and closed loop are still to come)."""
+    replay, which host every protocol of :mod:`vcran.sim.protocols`; :data:`CLOSED_LOOP`, which hosts both
+    (OPIL's fleet manager, VDA 5050's master); else what the caller runs (live over Orion ...), which hosts
+    OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf to their orders (issue 31)."""
     protocol = scenario.settings.protocol
-    if protocol != OPIL and mode is not None:
+    if protocol != OPIL and mode is not None and mode not in VDA5050_MODES:
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
-                            f"VDA 5050 vehicles yet in {mode} (it runs their script: vcran run without a manager, "
-                            "vcran replay; vcran.testing.vda5050.yard.Yard runs a VDA 5050 master against them)")
+                            f"VDA 5050 vehicles yet in {mode} (it runs their script and their master in a closed "
+                            "loop: vcran run, vcran.simulate, vcran replay)")
 
 
 def execute(
