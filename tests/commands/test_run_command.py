@@ -74,6 +74,7 @@ def test_a_manager_module_in_the_current_folder_imports_as_docs_library_shows(tm
     assert "cannot import not_here_either: No module named 'not_here_either'" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # whole runs of the warehouse are (README, "Development")
 def test_vda5050_warehouse_runs_its_master_in_the_closed_loop_deterministically_and_its_replay_verifies(tmp_path, capsys):
     """issue 31 item 5, docs/contract.md §9, §11: ``vcran run vda5050-warehouse`` runs the scenario's reference master
     (MasterControl, max_tries = 3) against the simulated vehicles. Every job of the seeded stream arrives and is
