@@ -15,7 +15,7 @@ import tomllib
 import pytest
 
 import vcran
-from tests.sim.test_vda5050_loop import Invalid
+from tests.sim.test_vda5050_loop import HEAD, Invalid
 from vcran.cli import main
 from vcran.core.jobs import waiting_spans
 from vcran.core.scenario import Job
@@ -26,24 +26,10 @@ from vcran.managers.vda5050 import MasterControl
 from vcran.testing.loop import check_jobs_ended, check_no_idle_while_waiting, check_protocol, loop_problems
 from vcran.testing.outcomes import check_failures_have_evidence
 
-EMPTY_PICKUP = """
-[simulation]
-protocol = "vda5050"
-duration = 300.0
-until_idle = true
+EMPTY_PICKUP = HEAD.replace("duration = 100.0", "duration = 300.0") + """
 [simulation.action_durations]
 load = 5.0
 unload = 5.0
-[link]
-latency = 0.25
-[[robots]]
-id = "robot_1"
-manufacturer = "acme"
-serial_number = "agv1"
-pose = [0.0, 0.0, 0.0]
-max_velocity = 1.0
-max_acceleration = 0.5
-max_deceleration = 0.5
 [[stations]]
 id = "a"
 position = [2.0, 1.0]
