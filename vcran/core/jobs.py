@@ -183,8 +183,9 @@ def waiting_spans(events: list[dict[str, Any]], end: float) -> list[tuple[str, f
             stop(e["job"], e["t"])
             for key in [k for k, j in latest.items() if j == e["job"]]:
                 del latest[key]
-        elif kind == "task_cancelled" or (order := order_unsuccessful(e)) is not None:
-            job = latest.pop((e["robot"], e["task"] if kind == "task_cancelled" else order), None)
+        else:
+            task = e["task"] if kind == "task_cancelled" else order_unsuccessful(e)
+            job = latest.pop((e["robot"], task), None) if task is not None else None
             if job is not None:
                 since[job] = e["t"]
     spans += [(job, start, end) for job, start in since.items()]
