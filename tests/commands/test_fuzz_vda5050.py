@@ -126,7 +126,10 @@ def test_the_unbroken_vehicle_passes_that_search(tmp_path: Path) -> None:
     assert main(["fuzz", str(scenario), "--examples", "40", "--seed", "1", "--fast"]) == 0
 
 
-def test_a_vda5050_scenario_with_a_manager_is_still_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Fuzzing a VDA 5050 master (the closed loop, issue 31 item 5) is not built here: one clear line, exit 2."""
-    assert main(["fuzz", "vda5050", "--manager", "vcran.managers:Dispatcher", "--examples", "1"]) == 2
-    assert "does not host VDA 5050 vehicles yet in vcran fuzz --manager" in capsys.readouterr().err
+def test_a_vda5050_scenario_with_an_opil_manager_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """With ``--manager`` the master is fuzzed (docs/fuzzing.md, "A VDA 5050 master"); an OPIL fleet manager is
+    not one: one clear line naming both kinds, exit 2."""
+    assert main(["fuzz", "vda5050-warehouse", "--manager", "vcran.managers:Dispatcher", "--examples", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "is an OPIL fleet manager (vcran.FleetManager); this scenario's robots speak VDA 5050" in err
+    assert err.startswith("vcran fuzz: ") and err.count("\n") == 1

@@ -73,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
     import os
     import time
 
-    from vcran.commands import CommandError, load_scenario
+    from vcran.commands import CommandError, check_mode, load_scenario
     from vcran.io.scenario_file import resolve
+    from vcran.runner import CLOSED_LOOP
 
     if importlib.util.find_spec("hypothesis") is None:
         raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'")
@@ -92,10 +93,10 @@ def run(args: argparse.Namespace) -> int:
     if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
         raise CommandError(f"--save {save}: {'is a folder' if os.path.isdir(save) else 'its folder does not exist'}")
     base = load_scenario(args.scenario, None)  # a scripted VDA 5050 scenario is fuzzed too (docs/fuzzing.md)
-    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     loop = args.manager is not None or base.manager is not None
     if loop:
-        load_scenario(args.scenario, "vcran fuzz --manager")  # a closed loop: OPIL's only, so far
+        check_mode(base, CLOSED_LOOP)  # a VDA 5050 master is fuzzed in the closed loop (docs/fuzzing.md)
+    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     if loop:
         options: Options | LoopOptions = _loop_options(args, base, text)
         fn: Callable[..., Outcome] = search_loop
