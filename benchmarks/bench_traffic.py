@@ -1,10 +1,10 @@
-"""What safety fields cost (docs/contract.md §12, issue 32's "Must show"): a generated fleet with fields on vs off.
+"""What safety fields cost (docs/contract.md §12, issue 32's "Must show"): two fleets with fields on vs off.
 
     python benchmarks/bench_traffic.py                         # 1000 robots, one simulated hour
     python benchmarks/bench_traffic.py --robots 100 --hours 0.25 --case queues
 
-The fleet is ``vcran gen --robots N --hours H --seed 1`` (collisions reported, the default). Two variants
-run as ``vcran run`` child processes: *off* (the file as generated: no field) and *on* (``[traffic] field =
+Each fleet (below) has collisions reported, the default. Two variants run as ``vcran run`` child
+processes: *off* (the file as written: no field) and *on* (``[traffic] field =
 { margin = MARGIN }``: every robot a field of ``MARGIN`` m plus its braking distance, 1.5 m at the
 generated 1.5 m/s and 0.75 m/s², so up to 3 m at the default 1.5 m margin). Each runs twice, in the order
 off, on, on, off, and its faster run counts, which evens out a shared machine's drift; the ratio is from
