@@ -108,6 +108,25 @@ def test_a_new_leg_for_a_blocked_robot_ends_its_block() -> None:
     assert not t.blocked(0) and type(effects[0]).__name__ == "Unblocked"
 
 
+def test_a_new_leg_into_the_robot_in_the_field_blocks_again_at_once() -> None:
+    """docs/robots.md "Fields": an order from outside ends a block, and the new leg's field is blocked at
+    once if it still holds someone. Robot 0 is blocked by robot 1 resting at (15, 0) at 12 and stops at 12
+    at t = 14 (above). At 20 it is sent on east to (16, 0): ``unblocked``, and its field from rest (2 m from
+    its front at 12.5: to 14.5, cut at 4 + 2 m past the goal) touches robot 1's back at 14.5: ``blocked``
+    again at 20, stopped at once (no speed), at 12. It never drives into robot 1 (its square would reach
+    16.5 at the goal, over robot 1's 14.5 .. 15.5)."""
+    t = traffic([(0.0, 0.0, 0.0), (15.0, 0.0, 0.0)])
+    body = Body(t)
+    body.send(0, Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, LIMITS))
+    body.send(0, Leg(20.0, 12.0, 0.0, 0.0, 16.0, 0.0, None, LIMITS))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "drive_on", "arrived") == [
+        (12.0, "blocked", 0, 1), (20.0, "unblocked", 0, None), (20.0, "blocked", 0, 1)]
+    brakes = [(round(t, 6), round(d[0], 6), round(d[1][0], 6)) for t, what, _, d in log if what == "brake"]
+    assert brakes == [(12.0, 14.0, 12.0), (20.0, 20.0, 12.0)]
+    assert t.blocked(0) and t.watch.holding(0) == {1}
+
+
 def test_a_robot_parked_more_than_the_margin_beyond_the_goal_does_not_block_the_arrival() -> None:
     """docs/robots.md "Fields": the field is cut ``margin`` (2 m) past the front of the footprint at the goal.
     Robot 0 drives (0, 0) -> (20, 0), arriving at t = 22, its front at the goal at 20.5: its field never

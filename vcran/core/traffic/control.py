@@ -207,7 +207,10 @@ class Traffic:
         return [DriveOn(i, leg), *self._update(i, track, driving(i, field, leg) if field else None, now)]
 
     def _release(self, i: int) -> list[Effect]:
-        """Robot ``i`` is no longer blocked, by an order from outside: its spell ends (``unblocked``)."""
+        """Robot ``i`` is no longer blocked, by an order from outside: its spell ends (``unblocked``). The
+        field of what it does next starts empty, so a robot still in it enters it at once and blocks it
+        again (else a new leg the same way would drive into it, unblocked)."""
+        self.watch.forget(i)
         self.waits.clear(i)
         self.stopped.discard(i)
         if self.brakings.pop(i, None) is None:
