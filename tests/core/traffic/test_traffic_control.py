@@ -147,6 +147,24 @@ def test_a_robot_parked_more_than_the_margin_beyond_the_goal_does_not_block_the_
     assert brakes == [(19.9, 0, 21.9, 19.9)]
 
 
+def test_a_robot_leaving_a_field_as_it_blocks_is_no_cycle() -> None:
+    """docs/robots.md "Deadlock": a cycle needs every robot in it to wait at rest. Robot 1 rests at (0, 3)
+    facing east and is sent 1 m east at 0: its field from rest (x 0.5 .. 2.5, y 2.5 .. 3.5) touches the
+    corner (0.5, 3.5) of robot 0 resting at (0, 4): blocked at 0, stopped at once. At 1 robot 0 is sent to
+    (1, 0) and turns at once to face it (heading atan2(-4, 1)): its turned square meets x = 0.5 only above
+    y = 3.6, out of robot 1's field, while robot 1 (1 m ahead of it, at (0.97, -0.24) in its frame) is in
+    its field: robot 0 is blocked at 1, and robot 1 is clear at that same instant and drives on (1 m from
+    rest, a triangle: 2 sqrt(2) s, arriving at 1 + 2 sqrt(2)). Each waited for the other, never both at
+    once: no cycle (a hypothesis example: the braked robot's stop was judged before the exit it caused)."""
+    body = Body(traffic([(0.0, 4.0, 0.0), (0.0, 3.0, 0.0)], bound=50.0))
+    body.send(1, Leg(0.0, 0.0, 3.0, 0.0, 1.0, 3.0, None, LIMITS))
+    body.send(0, Leg(1.0, 0.0, 4.0, 0.0, 1.0, 0.0, None, LIMITS))
+    log = body.run(10.0)
+    assert events(log, "blocked", "unblocked", "drive_on", "arrived", "deadlock") == [
+        (0.0, "blocked", 1, 0), (1.0, "blocked", 0, 1), (1.0, "unblocked", 1, None), (1.0, "drive_on", 1, None),
+        (round(1 + 2 * math.sqrt(2), 6), "arrived", 1, (1.0, 3.0))]
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20), st.integers(0, 20), st.integers(0, 20),
                           st.integers(0, 5)), min_size=2, max_size=4, unique_by=lambda r: (r[0], r[1])))

@@ -193,8 +193,12 @@ class Traffic:
         start = b.stop.pose_at(now)[:3] if b.stop is not None else b.pose
         until = b.stop.t_end if b.stop is not None else math.inf
         track = Track(i, self.footprints[i], b.stop, start, until)
-        effects: list[Effect] = [Brake(i, b), Wake(i, b.t_stop, BRAKED, self.spells[i])]
-        return effects + self._update(i, track, waiting(i, field, _hold(b), b.stop, b.pose, _goal(b)), now)
+        # The wake last: changes the brake itself causes at the instant it stops (a robot stopped at once,
+        # turned out of another's field) come first, so its stop is judged on fields up to date (no cycle
+        # with a robot that is clear at that instant).
+        effects: list[Effect] = [Brake(i, b)]
+        effects += self._update(i, track, waiting(i, field, _hold(b), b.stop, b.pose, _goal(b)), now)
+        return [*effects, Wake(i, b.t_stop, BRAKED, self.spells[i])]
 
     def _drive_on(self, i: int, now: float) -> list[Effect]:
         b = self.brakings.pop(i)
