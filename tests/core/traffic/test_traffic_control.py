@@ -147,6 +147,48 @@ def test_a_robot_parked_more_than_the_margin_beyond_the_goal_does_not_block_the_
     assert brakes == [(19.9, 0, 21.9, 19.9)]
 
 
+TURNING = Limits(1.0, 0.5, 0.5, 1.0)  # turns in place at 1 rad/s
+
+
+def test_a_robot_facing_another_turns_and_drives_away() -> None:
+    """docs/robots.md "Fields" (issue 32's turn): robot 0 rests at (9, 0) facing east, 1 m from robot 1
+    resting at (11, 0) (fronts at 9.5 and 10.5), as the corridor's robots stop. At 20 robot 0 is sent west
+    to (0, 0): it turns pi at 1 rad/s, then drives 9 m (2 s up, 7 s at 1 m/s, 2 s down). Its field points
+    west from the start (x 8.5 .. 6.5 at rest): robot 1, behind it, never enters it: no block, arrived at
+    20 + pi + 11."""
+    body = Body(traffic([(9.0, 0.0, 0.0), (11.0, 0.0, math.pi)], bound=30.0))
+    body.send(0, Leg(20.0, 9.0, 0.0, 0.0, 0.0, 0.0, None, TURNING))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "arrived", "deadlock") == [
+        (round(31.0 + math.pi, 6), "arrived", 0, (0.0, 0.0))]
+
+
+def test_a_robot_where_the_leg_drives_blocks_it_before_it_turns() -> None:
+    """Robot 0 as above, robot 2 resting at (6.2, 0) (its side at 6.7). Sent west at 20, robot 0's field
+    from rest points west, 2 m from its front at 8.5 (to 6.5, cut at 9 + 2): robot 2 is in it: blocked at
+    20, before turning, stopped at once (no speed), still facing east. Its waiting field (3 m, for the
+    1 m/s it will drive on at) points west too (robot 1, east, is not in it). Robot 2 drives south from 30:
+    its top side leaves the field's y range (-0.5 .. 0.5) 1 m on (2 s from rest): clear at 32. Robot 0
+    drives on from rest: the turn (pi s) and the 9 m (11 s): arrived at 43 + pi."""
+    body = Body(traffic([(9.0, 0.0, 0.0), (11.0, 0.0, math.pi), (6.2, 0.0, -math.pi / 2)]))
+    body.send(0, Leg(20.0, 9.0, 0.0, 0.0, 0.0, 0.0, None, TURNING))
+    body.send(2, Leg(30.0, 6.2, 0.0, -math.pi / 2, 6.2, -10.0, None, TURNING))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "drive_on", "arrived") == [
+        (20.0, "blocked", 0, 2), (32.0, "unblocked", 0, None), (32.0, "drive_on", 0, None),
+        (42.0, "arrived", 2, (6.2, -10.0)), (round(43.0 + math.pi, 6), "arrived", 0, (0.0, 0.0))]
+    [(_, _, _, (t_stop, pose))] = [e for e in log if e[1] == "brake"]
+    assert (t_stop, pose) == (20.0, (9.0, 0.0, 0.0))
+
+
+def test_a_turn_in_place_alone_has_no_field() -> None:
+    """A leg that does not travel drives into nothing: robot 0 at (9, 0) facing robot 1 1 m ahead turns in
+    place to face west (pi at 1 rad/s): no block, done at 20 + pi."""
+    body = Body(traffic([(9.0, 0.0, 0.0), (11.0, 0.0, math.pi)], bound=30.0))
+    body.send(0, Leg(20.0, 9.0, 0.0, 0.0, 9.0, 0.0, math.pi, TURNING))
+    assert events(body.run(100.0), "blocked", "arrived") == [(round(20.0 + math.pi, 6), "arrived", 0, (9.0, 0.0))]
+
+
 def test_a_robot_leaving_a_field_as_it_blocks_is_no_cycle() -> None:
     """docs/robots.md "Deadlock": a cycle needs every robot in it to wait at rest. Robot 1 rests at (0, 3)
     facing east and is sent 1 m east at 0: its field from rest (x 0.5 .. 2.5, y 2.5 .. 3.5) touches the
