@@ -21,7 +21,7 @@ from typing import Any
 import simpy
 
 from transports.record import RecordingTransport
-from vcran.core.scenario import OPIL, Scenario
+from vcran.core.scenario import OPIL, VDA5050, Scenario
 from vcran.core.wire import Transport
 from vcran.io.sinks import FolderSinks, Sinks
 from vcran.io.toml_table import ScenarioError
@@ -93,17 +93,30 @@ class RunResult:
 
 #: The mode a run with a fleet manager is (:func:`check_protocol`): both protocols' closed loops are hosted.
 CLOSED_LOOP = "a closed loop"
-#: The modes besides a scripted run and a replay the simulation hosts VDA 5050 vehicles in.
+#: The modes besides a scripted run, a replay and the edges the simulation hosts VDA 5050 vehicles in.
 VDA5050_MODES = frozenset({CLOSED_LOOP})
+#: The edges to a real broker (``vcran live`` and ``vcran manage`` with --orion or --mqtt, the ``mode``
+#: :func:`check_protocol` is given) and the protocol each one hosts.
+EDGES = {"vcran live --orion": OPIL, "vcran live --mqtt": VDA5050,
+         "vcran manage --orion": OPIL, "vcran manage --mqtt": VDA5050}
 
 
 def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     """A scenario whose robots speak a protocol the simulation does not host in ``mode`` is refused before
     anything runs (or any folder is made, or anything is connected to). ``mode`` None: a scripted run or a
     replay, which host every protocol of :mod:`vcran.sim.protocols`; :data:`CLOSED_LOOP`, which hosts both
-    (OPIL's fleet manager, VDA 5050's master); else what the caller runs (live over Orion ...), which hosts
-    OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf to their orders (issue 31)."""
+    (OPIL's fleet manager, VDA 5050's master); ``vcran live`` and ``vcran manage`` host each protocol on its own
+    edge (:data:`EDGES`); else what the caller runs, which hosts OPIL only: VDA 5050 vehicles would be driven
+    as OPIL robots, deaf to their orders."""
     protocol = scenario.settings.protocol
+    if mode in EDGES:  # docs/contract.md §11: each protocol's edge (--orion: OPIL, --mqtt: VDA 5050)
+        if protocol != EDGES[mode]:
+            command, given = mode.rsplit(" ", 1)
+            needed = next(edge for edge, hosted in EDGES.items() if hosted == protocol and edge.startswith(command))
+            verb = "go live" if command == "vcran live" else "are managed"
+            raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: its robots {verb} with "
+                                f"{needed.rsplit(' ', 1)[1]} URL, not {given}")
+        return
     if protocol != OPIL and mode is not None and mode not in VDA5050_MODES:
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
                             f"VDA 5050 vehicles yet in {mode} (it runs their script and their master in a closed "
