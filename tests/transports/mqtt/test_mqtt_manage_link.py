@@ -18,8 +18,8 @@ from transports.mqtt.manage import MqttLoop, MqttMasterLink
 from vcran.core.scenario import Scenario
 from vcran.core.vda5050.codec import decode, encode
 from vcran.core.vda5050.enums import Topic, Version
-from vcran.core.vda5050.master import Master
 from vcran.core.vda5050.factsheet import Factsheet
+from vcran.core.vda5050.master import Master
 from vcran.core.vda5050.state import Connection, State
 from vcran.io.scenario_file import load
 from vcran.sim.live import LiveEnvironment
