@@ -19,8 +19,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from transports.scripted import ScriptedTransport
-from vcran.core.jobs import Log
-from vcran.core.manager import Manager
 from vcran.core.scenario import VDA5050, ManagerSpec, Scenario
 from vcran.core.validity import validate
 from vcran.core.wire import Frame, Transport
@@ -28,13 +26,14 @@ from vcran.io.scenario_file import ScenarioError, load
 from vcran.io.sinks import FolderSinks, MemorySinks
 from vcran.io.trace import event_records, events_beside, long_table, telemetry_table, trace_in
 from vcran.runner import CLOSED_LOOP, check_protocol, execute
-from vcran.sim.loop import Loop
 from vcran.sim.model import Model
 
 if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager (a scripted run never does)
     import numpy as np
 
-    from vcran.core.jobs import JobRecord
+    from vcran.core.jobs import JobRecord, Log
+    from vcran.core.manager import Manager
+    from vcran.sim.loop import Loop
 
 #: What names a fleet manager: an instance, a subclass of its protocol's kind (an OPIL scenario's
 #: :class:`vcran.FleetManager`, a VDA 5050 one's :class:`vcran.core.vda5050.master.Master`), or ``"module:Class"``.
@@ -221,6 +220,8 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Mana
     :class:`vcran.core.vda5050.master.Master` for VDA 5050 vehicles (:func:`manager_kind`)."""
     if manager is None and scenario.manager is None:
         return None, ""
+    from vcran.core.manager import Manager
+
     kind, kind_name = manager_kind(scenario)
     if manager is None:
         assert scenario.manager is not None
@@ -257,6 +258,8 @@ def manager_kind(scenario: Scenario) -> tuple[type[Manager], str]:
 def _check_kind(manager: object, cls: object, scenario: Scenario) -> None:
     """A manager of the other protocol's kind is a ManagerError naming both kinds: a FleetManager would write
     OPIL tasks to VDA 5050 vehicles, a Master orders to OPIL robots, and neither would hear what they publish."""
+    from vcran.core.manager import Manager
+
     kind, kind_name = manager_kind(scenario)
     if isinstance(cls, type) and issubclass(cls, Manager) and not issubclass(cls, kind):
         protocol = scenario.settings.protocol

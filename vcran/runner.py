@@ -120,7 +120,7 @@ def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     if protocol != OPIL and mode is not None and mode not in VDA5050_MODES:
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
                             f"VDA 5050 vehicles yet in {mode} (it runs their script and their master in a closed "
-                            "loop: vcran run, vcran.simulate, vcran replay)")
+                            "loop: vcran run, vcran.simulate, vcran replay; live: vcran live --mqtt, vcran manage --mqtt)")
 
 
 def execute(

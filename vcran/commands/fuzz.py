@@ -71,8 +71,9 @@ def run(args: argparse.Namespace) -> int:
     import os
     import time
 
-    from vcran.commands import CommandError, load_scenario
+    from vcran.commands import CommandError, check_mode, load_scenario
     from vcran.io.scenario_file import resolve
+    from vcran.runner import CLOSED_LOOP
 
     if importlib.util.find_spec("hypothesis") is None:
         raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'")
@@ -89,9 +90,10 @@ def run(args: argparse.Namespace) -> int:
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
         raise CommandError(f"--save {save}: {'is a folder' if os.path.isdir(save) else 'its folder does not exist'}")
-    base = load_scenario(args.scenario, "vcran fuzz")
-    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
+    base = load_scenario(args.scenario, None)
     loop = args.manager is not None or base.manager is not None
+    check_mode(base, CLOSED_LOOP if loop else "vcran fuzz")  # a VDA 5050 master is fuzzed in the closed loop
+    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     if loop:
         options: Options | LoopOptions = _loop_options(args, base, text)
         fn: Callable[..., Outcome] = search_loop

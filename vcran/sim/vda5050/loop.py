@@ -29,7 +29,7 @@ without SimPy, here around the simulation's vehicles (bodies, stations, batterie
 from __future__ import annotations
 
 import random
-from typing import Any
+from typing import Any, cast
 
 import orjson
 import simpy
@@ -39,7 +39,7 @@ from vcran.core.scenario import Scenario
 from vcran.core.vda5050 import codec
 from vcran.core.vda5050.enums import Topic
 from vcran.core.vda5050.fleet import MasterFleet
-from vcran.core.vda5050.master import HOOKS, Master, MasterHandle, topic_of
+from vcran.core.vda5050.master import HOOKS, Heard, Master, MasterHandle, topic_of
 from vcran.core.vda5050.order import InstantActions, Order
 from vcran.core.wire import Outbound, Publish
 from vcran.sim.loop import InSimTime, Loop
@@ -74,7 +74,7 @@ class MasterLoop(Loop):
         for out in batch:
             if not isinstance(out, Publish):
                 continue  # a fleet's frame is OPIL's telemetry: VDA 5050 vehicles publish visualization
-            serial, message = self.serials[out.robot], out.message
+            serial, message = self.serials[out.robot], cast(Heard, out.message)  # what a vehicle publishes
             handle._heard(serial, message)
             topic = topic_of(message)
             if master.hears(topic):

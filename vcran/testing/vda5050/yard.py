@@ -22,8 +22,9 @@ simulation's (vcran/sim/timing.py): messages reaching vehicles, completions, inj
 reaching the master, jobs, the master's timers.
 
 It is not the simulation (no collisions, fields, production or random faults; no loss on the link): a
-test injects what it needs with :meth:`Yard.call_at` (a part produced, :meth:`Yard.halt`). Once the SimPy
-glue exists, ``vcran.simulate`` runs the same master for real; the Yard stays for fast unit tests.
+test injects what it needs with :meth:`Yard.call_at` (a part produced, :meth:`Yard.halt`). ``vcran.simulate``
+runs the same master against the simulation's vehicles (:mod:`vcran.sim.vda5050.loop`); the Yard stays for fast
+unit tests.
 """
 
 from __future__ import annotations
