@@ -91,7 +91,7 @@ def connect(args: argparse.Namespace, scenario: Scenario) -> MqttEdge:
 
     url = _url(args.mqtt)
     try:
-        transport = MqttTransport(url, [FleetVehicle.of(r.id, vehicle_config(r)) for r in scenario.robots])
+        transport = MqttTransport(url, [FleetVehicle.of(r.id, vehicle_config(r, scenario.settings)) for r in scenario.robots])
     except ValueError as exc:  # two robots on the same topics, a level MQTT cannot carry
         raise CommandError(f"{scenario.source}: {exc}") from None
     try:
