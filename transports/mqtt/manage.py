@@ -156,7 +156,7 @@ class MqttLoop(MasterLoop):
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> MqttMasterLink:
         if not isinstance(env, LiveEnvironment):
             raise TypeError("a master on an MQTT broker runs on a LiveEnvironment (real time)")
-        link = MqttMasterLink(env, self.url, fleet_of(self.scenario.robots), self.notified, self.options)
+        link = MqttMasterLink(env, self.url, fleet_of(self.scenario), self.notified, self.options)
         link.open(self.connect_timeout)
         return link
 

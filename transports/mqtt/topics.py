@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from urllib.parse import urlsplit
 
-from vcran.core.scenario import RobotConfig
+from vcran.core.scenario import Scenario
 from vcran.core.vda5050.config import VehicleConfig
 from vcran.core.vda5050.enums import Topic, Version
 from vcran.core.vda5050.fleet import vehicle_config
@@ -177,11 +177,11 @@ class FleetVehicle:
                              f"{self.version.value} ({self.version.major})")
 
 
-def fleet_of(robots: Iterable[RobotConfig]) -> list[FleetVehicle]:
-    """A VDA 5050 scenario's vehicles as both sides of the broker address them: each robot's identity and
-    version (:func:`~vcran.core.vda5050.fleet.vehicle_config`) under its own ``interface_name`` (``uagv`` unless
-    it says otherwise, §6.3)."""
-    return [FleetVehicle.of(r.id, vehicle_config(r), r.vda5050_identity[0]) for r in robots]
+def fleet_of(scenario: Scenario) -> list[FleetVehicle]:
+    """A VDA 5050 scenario's vehicles as both sides of the broker address them: each robot's identity,
+    version and calendar (:func:`~vcran.core.vda5050.fleet.vehicle_config`) under its own ``interface_name``
+    (``uagv`` unless it says otherwise, §6.3)."""
+    return [FleetVehicle.of(r.id, vehicle_config(r, scenario.settings), r.vda5050_identity[0]) for r in scenario.robots]
 
 
 def check_fleet(vehicles: Iterable[FleetVehicle]) -> dict[str, FleetVehicle]:

@@ -92,7 +92,7 @@ def connect(args: argparse.Namespace, scenario: Scenario) -> MqttEdge:
 
     url = broker_url(args.mqtt)
     try:
-        transport = MqttTransport(url, fleet_of(scenario.robots))
+        transport = MqttTransport(url, fleet_of(scenario))
     except ValueError as exc:  # two robots on the same topics, a level MQTT cannot carry
         raise CommandError(f"{scenario.source}: {exc}") from None
     try:

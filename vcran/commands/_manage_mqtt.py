@@ -30,7 +30,7 @@ class MqttSide:
         self.args, self.scenario = args, scenario
         self.url = broker_url(args.mqtt)
         try:
-            check_fleet(fleet_of(scenario.robots))
+            check_fleet(fleet_of(scenario))
         except ValueError as exc:  # two vehicles on the same topics
             raise CommandError(f"{scenario.source}: {exc}") from None
         self.loop: MqttLoop | None = None
