@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_positive, load_scenario
 from vcran.commands._orion import add_connection_arguments, setup_logging
 from vcran.commands._signals import StopSignals
+from vcran.commands.live import on_wall_clock
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
 if TYPE_CHECKING:
@@ -94,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario, f"vcran manage --{'mqtt' if edge is _manage_mqtt else 'orion'}")
     if args.jobs is not None:
         scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
+    scenario = on_wall_clock(scenario)  # a VDA 5050 master stamps its headers in real time, as vcran live's vehicles do
     try:
         manager, name = build_manager(args.manager, scenario)
     except ManagerError as exc:

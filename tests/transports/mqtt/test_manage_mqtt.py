@@ -15,16 +15,18 @@ import signal
 import subprocess
 import sys
 from dataclasses import replace
+from datetime import UTC, datetime
 from itertools import islice
 from pathlib import Path
 
+import orjson
 import pytest
 
 import vcran
 from tests.conftest import ROOT
 from tests.transports.mqtt.test_live_mqtt import replay_verify
 from vcran.io.scenario_file import load
-from vcran.io.trace import EVENTS_FILE, event_records
+from vcran.io.trace import EVENTS_FILE, event_records, records, trace_in
 
 pytestmark = pytest.mark.slow
 
@@ -52,6 +54,7 @@ def test_the_warehouse_master_completes_its_jobs_against_vcran_live_mqtt_and_the
                                                                                             tmp_path):
     """vcran live (A) serves the fleet; vcran manage (B) runs MasterControl on the first three jobs: every job
     completed, B ends by itself (until_idle), A on SIGTERM, both exit 0; A's folder replays with --verify."""
+    began = datetime.now(UTC).replace(microsecond=0)
     scenario = warehouse(tmp_path)
     vehicles = ["plant/v2/vcran/0001", *(f"uagv/v2/vcran/{n:04d}" for n in range(2, 11))]
     live = live_fleet(broker.url, scenario, *vehicles, factor=FACTOR)  # each vehicle retained ONLINE
@@ -89,6 +92,15 @@ def test_the_warehouse_master_completes_its_jobs_against_vcran_live_mqtt_and_the
     simulated = vcran.simulate(sliced).events
     assert assigned == {(e["robot"], e["task"]) for e in simulated if e["event"] == "job_assigned"}
     assert len(assigned) == 2 * JOBS and "robot_1" in {robot for robot, _ in assigned}  # a pick and a drop each
+
+    # The master stamps its orders on the wall clock at its start, its simulated time running FACTOR times as fast
+    # (vcran.commands.live.on_wall_clock, docs/vda5050.md): each order the live fleet received is stamped after
+    # this test began and within FACTOR times the test's wall time since, not in 1970.
+    sent = [orjson.loads(r["raw"])["timestamp"] for _, r in records(trace_in(live.out), ("in",))
+            if r.get("dir") == "in" and r["attr"] == "order"]
+    assert len(sent) >= 2 * JOBS  # a pick and a drop for each job, and an order to park
+    latest = began + FACTOR * (datetime.now(UTC) - began)
+    assert all(began <= datetime.fromisoformat(t) <= latest for t in sent), (began, latest, sent)
 
     verified = replay_verify(live.out)
     assert verified.returncode == 0, verified.stdout + verified.stderr
