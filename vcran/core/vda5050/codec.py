@@ -18,6 +18,7 @@ import enum
 import math
 import types
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from typing import Any, TypeVar
@@ -160,13 +161,79 @@ def to_plain(message: Any, version: Version) -> dict[str, Any]:
     """``message`` as a JSON-ready dict in ``version``'s spelling; raises :class:`EncodeError` for what
     ``version`` cannot carry."""
     out: dict[str, Any] = {}
-    _put(message, version, out, "$")
+    try:
+        _encoder(message.__class__, version)(message, out)
+    except _Refused:  # the careful walk names the field
+        out = {}
+        _put(message, version, out, "$")
     if version is Version.V2_0_0 and type(message) is InstantActions:
         # The official 2.0.0 schema requires actionName, the 2.0.0 text actionType (validation.py):
         # both, so that every 2.0.0 vehicle finds its spelling and the official schema passes.
         for action in out["actions"]:
             action["actionName"] = action["actionType"]
     return out
+
+
+class _Refused(Exception):
+    """The fast encoder met what the version cannot carry; :func:`_put` then says where (internal)."""
+
+
+#: Per version, the encoder of each model class met so far (:func:`_encoder`).
+_ENCODERS: dict[Version, dict[type, Callable[[Any, dict[str, Any]], None]]] = {v: {} for v in Version}
+
+
+def _encoder(cls: type, version: Version) -> Callable[[Any, dict[str, Any]], None]:
+    """:func:`_put` for ``cls`` in ``version``, written out as Python once, field after field, as
+    :mod:`dataclasses` writes its methods: a fleet's trace encodes every state message it sends, and field by
+    field through :func:`wire_form`, each field's JSON path built in case of an error, the encoding cost more
+    than building the messages (issue 31's 100-vehicle hour). What ``version`` cannot carry raises
+    :class:`_Refused`, and :func:`to_plain` walks the message again with :func:`_put` to name the field."""
+    table = _ENCODERS[version]
+    found = table.get(cls)
+    if found is not None:
+        return found
+    names: dict[str, Any] = {"_Refused": _Refused, "_table": table, "_encoder": _encoder, "_version": version}
+    lines = ["def put(m, out):"]
+    for n, f in enumerate(wire_form(cls, version)):
+        lines += [f"    v = m.{f.attr}", "    if v is not None:"]
+        if f.absent:
+            lines.append("        raise _Refused")
+            continue
+        if f.flatten:
+            lines.append("        (_table.get(v.__class__) or _encoder(v.__class__, _version))(v, out)")
+            continue
+        if f.check is not None:
+            names[f"_check{n}"] = f.check
+            lines.append(f"        if _check{n}(v) is not None: raise _Refused")
+        if f.no_object:
+            lines.append("        if isinstance(v, dict): raise _Refused")
+        lines.append(f"        out[{f.name!r}] = {_expression(f.kind, 'v', names)}")
+    lines.append("    return None")
+    exec("\n".join(lines), names)  # noqa: S102 (source built here from the models' own field names)
+    table[cls] = names["put"]
+    return table[cls]
+
+
+def _expression(kind: str, value: str, names: dict[str, Any]) -> str:
+    """The Python expression :func:`_value` computes for ``value`` of ``kind`` (a model: its encoder into a
+    new dict, through ``_model``)."""
+    if kind == "enum":
+        return f"{value}.value"
+    if kind == "model":
+        names["_model"] = _model
+        return f"_model({value}, _table, _version)"
+    if kind.startswith("tuple:"):
+        item = kind[6:]
+        if item in ("str", "float", "int", "bool", "any"):
+            return f"list({value})"
+        return f"[{_expression(item, 'x', names)} for x in {value}]"
+    return value  # str, int, float, bool, any: JSON already
+
+
+def _model(value: Any, table: dict[type, Callable[[Any, dict[str, Any]], None]], version: Version) -> dict[str, Any]:
+    inner: dict[str, Any] = {}
+    (table.get(value.__class__) or _encoder(value.__class__, version))(value, inner)
+    return inner
 
 
 def _put(model: Any, version: Version, out: dict[str, Any], path: str) -> None:
