@@ -21,7 +21,7 @@ from typing import Any
 import simpy
 
 from transports.record import RecordingTransport
-from vcran.core.scenario import OPIL, Scenario
+from vcran.core.scenario import OPIL, VDA5050, Scenario
 from vcran.core.wire import Transport
 from vcran.io.sinks import FolderSinks, Sinks
 from vcran.io.toml_table import ScenarioError
@@ -91,13 +91,24 @@ class RunResult:
         return self.summary["sim_time"] / self.wall_seconds if self.wall_seconds > 0 else float("inf")
 
 
+#: The live edges (``vcran live`` with --orion or --mqtt, the ``mode`` :func:`check_protocol` is given) and the
+#: protocol each one hosts.
+LIVE = {"vcran live --orion": OPIL, "vcran live --mqtt": VDA5050}
+
+
 def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     """A scenario whose robots speak a protocol the simulation does not host in ``mode`` is refused before
     anything runs (or any folder is made, or anything is connected to). ``mode`` None: a scripted run or a
-    replay, which host every protocol of :mod:`vcran.sim.protocols`; else what the caller runs (a closed loop,
-    live over Orion ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf
-    to their orders (issue 31: their live transport and closed loop are still to come)."""
+    replay, which host every protocol of :mod:`vcran.sim.protocols`; ``vcran live`` hosts each protocol on its own
+    edge (:data:`LIVE`); else what the caller runs (a closed loop ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf
+    to their orders (issue 31: their closed loop is still to come)."""
     protocol = scenario.settings.protocol
+    if mode in LIVE:  # docs/contract.md §11: each protocol's live edge (vcran live --orion, vcran live --mqtt)
+        if protocol != LIVE[mode]:
+            needed = next(edge for edge, hosted in LIVE.items() if hosted == protocol)
+            raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: its robots go live with "
+                                f"{needed.removeprefix('vcran live ')} URL, not {mode.removeprefix('vcran live ')}")
+        return
     if protocol != OPIL and mode is not None:
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
                             f"VDA 5050 vehicles yet in {mode} (it runs their script: vcran run without a manager, "

@@ -87,7 +87,6 @@ def test_a_vda5050_scenario_with_a_master_is_refused_until_the_closed_loop_hosts
 
 @pytest.mark.parametrize("argv", [
     ["send", "vda5050", "--orion", "http://127.0.0.1:9"],
-    ["live", "vda5050", "--orion", "http://127.0.0.1:9", "--out", "out"],
     ["manage", "vda5050-warehouse", "--orion", "http://127.0.0.1:9"],
     ["orion", "init", "vda5050", "--orion", "http://127.0.0.1:9"],
     ["fuzz", "vda5050"],

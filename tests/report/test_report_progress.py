@@ -119,6 +119,14 @@ def test_live_status_renders_every_state_in_order() -> None:
     )
 
 
+def test_live_status_of_a_vda5050_fleet_shows_its_own_states() -> None:
+    """vcran live --mqtt's vehicles are idle, driving, working or paused (vcran/commands/_live_mqtt.py), none of
+    RanLogic's states."""
+    status = LiveStatus(t=3.0, robots=2, tasks_done=0, transport="MQTT ...", states={"driving": 2},
+                        names=("idle", "driving", "working", "paused"))
+    assert status.render() == "t 3.0 s | 2 robots: idle 0 driving 2 working 0 paused 0 | tasks done 0 | MQTT ..."
+
+
 def test_status_line_rewrites_in_place_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("COLUMNS", "40")
     clock, terminal = HandClock(100.0), FakeTerminal()

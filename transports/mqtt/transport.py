@@ -1,5 +1,5 @@
 """The vehicles' side of VDA 5050 over MQTT (docs/contract.md §11): a fleet of simulated vehicles that a master drives
-through a real broker. The edge for the coming ``vcran live --mqtt`` (docs/vda5050.md, "Live over MQTT").
+through a real broker. The edge of ``vcran live SCENARIO --mqtt URL`` (docs/vda5050.md, "Live over MQTT").
 
 One MQTT connection per vehicle: VDA 5050 gives each vehicle its own last will (§6.14), and MQTT allows
 one will per connection. Each vehicle's client subscribes to its own ``order`` and ``instantActions``
@@ -128,6 +128,12 @@ class MqttTransport(Transport):
         self.vehicles = check_fleet(vehicles)
         self.tally = Tally()
         self.latencies: deque[float] = deque(maxlen=100_000)  # wall seconds from arrival to the simulation
+        #: Wall seconds from an order's or instantActions' arrival to the first state the vehicle sent after it
+        #: entered the simulation (the state it caused: a vehicle answers each with one, §6.10), and how many
+        #: messages entered; the simulation thread's alone.
+        self.answers: deque[float] = deque(maxlen=100_000)
+        self.delivered = 0
+        self._unanswered: dict[str, float] = {}  # robot -> arrival of its oldest message no state followed yet
         self._env: LiveEnvironment | None = None
         self._deliver: Deliver | None = None
         self._early: list[tuple[Inbound, float]] = []  # arrived before attach
@@ -175,6 +181,10 @@ class MqttTransport(Transport):
             raise ValueError(f"{out.robot}: a vehicle publishes state, visualization and factsheet here, not "
                              f"{out.attribute!r} (the transport itself owns connection, §6.14)")
         side.send(topic, encode(out.message, side.vehicle.version))
+        if topic is Topic.STATE and self._unanswered:
+            arrived = self._unanswered.pop(out.robot, None)
+            if arrived is not None:
+                self.answers.append(monotonic() - arrived)
 
     def close(self) -> None:
         """OFFLINE for every connected vehicle (retained, QoS 1, acknowledged), then a graceful disconnect,
@@ -227,14 +237,15 @@ class MqttTransport(Transport):
         c = self.counts
         return (f"MQTT {self.url}: {self.connected}/{len(self._sides)} vehicles connected, {reconnects} reconnects; "
                 f"out {c['sent']} sent, {c['dropped']} visualization dropped and {c['superseded']} held messages "
-                f"superseded while down; in {len(self.latencies)} delivered, {self.tally.describe()}")
+                f"superseded while down; in {self.delivered} delivered, {self.tally.describe()}")
 
     def latency_stats(self) -> dict[str, float]:
-        if not self.latencies:
-            return {}
-        ordered = sorted(self.latencies)
-        return {"count": len(ordered), "median": statistics.median(ordered),
-                "p99": ordered[min(len(ordered) - 1, int(0.99 * len(ordered)))]}
+        """Count, median and 99th percentile of the wall seconds from arrival to entering the simulation."""
+        return _stats(self.latencies)
+
+    def answer_stats(self) -> dict[str, float]:
+        """The same of the wall seconds from an order's (or instantActions') arrival to the state it caused."""
+        return _stats(self.answers)
 
     # --- inbound ----------------------------------------------------------------------------------------
 
@@ -251,4 +262,14 @@ class MqttTransport(Transport):
     def _enter(self, inbound: Inbound, arrived: float) -> None:
         assert self._deliver is not None
         self.latencies.append(monotonic() - arrived)
+        self.delivered += 1
+        self._unanswered.setdefault(inbound.entity, arrived)
         self._deliver(inbound)
+
+
+def _stats(seconds: deque[float]) -> dict[str, float]:
+    if not seconds:
+        return {}
+    ordered = sorted(seconds)
+    return {"count": len(ordered), "median": statistics.median(ordered),
+            "p99": ordered[min(len(ordered) - 1, int(0.99 * len(ordered)))]}

@@ -15,12 +15,17 @@ from vcran.commands import CommandError
 TOKEN_ENV = "VCRAN_ORION_TOKEN"
 
 
-def add_connection_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--orion", required=True, metavar="URL", help="Orion's base URL, e.g. http://127.0.0.1:1026")
-    parser.add_argument("--service", metavar="NAME", help="Fiware-Service (tenant)")
-    parser.add_argument("--service-path", metavar="PATH", help="Fiware-ServicePath, e.g. /factory")
+def add_connection_arguments(parser: argparse.ArgumentParser, group: argparse._MutuallyExclusiveGroup | None = None) -> None:
+    """``--orion`` (required, or one of ``group``'s choices: ``vcran live --orion | --mqtt``) and Orion's tenant."""
+    if group is None:
+        parser.add_argument("--orion", required=True, metavar="URL", help="Orion's base URL, e.g. http://127.0.0.1:1026")
+    else:
+        group.add_argument("--orion", metavar="URL", help="Orion's base URL of an OPIL scenario, e.g. http://127.0.0.1:1026")
+    what = "" if group is None else "--orion: "
+    parser.add_argument("--service", metavar="NAME", help=f"{what}Fiware-Service (tenant)")
+    parser.add_argument("--service-path", metavar="PATH", help=f"{what}Fiware-ServicePath, e.g. /factory")
     parser.add_argument("--token-file", type=Path, metavar="FILE",
-                        help=f"file holding the X-Auth-Token (or set {TOKEN_ENV}); never given on the command line")
+                        help=f"{what}file holding the X-Auth-Token (or set {TOKEN_ENV}); never given on the command line")
 
 
 def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]

@@ -116,11 +116,13 @@ class LiveStatus:
     robots: int
     tasks_done: int
     transport: str  # the transport's health in its own words, e.g. "orion ok", "orion down 12 s, 40 queued"
-    states: Mapping[str, int] = field(default_factory=dict)  # RanLogic state -> robots in it
+    states: Mapping[str, int] = field(default_factory=dict)  # the logic's state -> robots in it
+    #: The states always shown, zero or not: RanLogic's (OPIL); a VDA 5050 fleet names its own.
+    names: tuple[str, ...] = STATES
 
     def render(self) -> str:
-        states = " ".join(f"{name} {self.states.get(name, 0)}" for name in STATES)
-        others = " ".join(f"{name} {n}" for name, n in sorted(self.states.items()) if name not in STATES)
+        states = " ".join(f"{name} {self.states.get(name, 0)}" for name in self.names)
+        others = " ".join(f"{name} {n}" for name, n in sorted(self.states.items()) if name not in self.names)
         return (f"t {self.t:,.1f} s | {self.robots} robots: {states}{' ' + others if others else ''} | "
                 f"tasks done {self.tasks_done:,} | {self.transport}")
 

@@ -1,13 +1,19 @@
-"""What the MQTT edge's tests drive it with: a raw paho client watching the broker (not vcran's code), and
-a miniature of the simulation's side (a LiveEnvironment and a tiny process per vehicle publishing what the
-VDA 5050 glue will publish: factsheet at start, then state and visualization every ``period``)."""
+"""What the MQTT edge's tests drive it with: a raw paho client watching the broker (not vcran's code); a
+miniature of the simulation's side (a LiveEnvironment and a tiny process per vehicle publishing what the
+VDA 5050 glue publishes: factsheet at start, then state and visualization every ``period``); and the whole
+of it, ``vcran live SCENARIO --mqtt URL`` as its own process (:class:`LiveRun`), as a user starts it."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import orjson
@@ -165,3 +171,66 @@ class Driver:
         up = self.transport.client(robot).up
         self.produced.append((robot, topic, message.header.header_id, self.env.now, up))
         self.transport.send(Publish(self.env.now, robot, topic, message))
+
+
+def vehicle_scenario(folder: Path, serial: str, *, version: str = "2.1.0", manufacturer: str = "vcran") -> Path:
+    """A scenario file of one VDA 5050 vehicle, robot ``agv1``, standing at (0, 0) facing +x with nothing
+    else on the floor (no station, no other robot): free space for orders along +x. It drives at 1 m/s at
+    most, accelerating and braking at 0.5 m/s²; it runs for an hour unless stopped."""
+    path = folder / f"{manufacturer}-{serial}.toml"
+    path.write_text(f"""[simulation]
+name = "live-{serial}"
+seed = 1
+protocol = "vda5050"
+duration = 3600.0
+
+[[robots]]
+id = "agv1"
+manufacturer = "{manufacturer}"
+serial_number = "{serial}"
+version = "{version}"
+pose = [0.0, 0.0, 0.0]
+max_velocity = 1.0
+max_acceleration = 0.5
+""")
+    return path
+
+
+class LiveRun:
+    """``vcran live SCENARIO --mqtt URL --out OUT --factor F`` as its own process; :meth:`wait_online` returns
+    once the broker holds the retained ONLINE of each vehicle named (``uagv/v2/<manufacturer>/<serial>``),
+    :meth:`stop` sends SIGTERM (the normal end of a live run) and returns its exit status and output."""
+
+    def __init__(self, url: str, scenario: Path | str, out: Path, *, factor: float = 1.0) -> None:
+        self.url, self.out = url, out
+        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "vcran", "live", str(scenario), "--mqtt", url, "--out", str(out),
+             "--factor", f"{factor:g}"],
+            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+        self.result: tuple[int, str, str] | None = None
+
+    def wait_online(self, *vehicles: str, timeout: float = 30.0) -> None:
+        watcher = Watcher(self.url, tuple(f"{v}/connection" for v in vehicles))
+        try:
+            def online() -> bool:
+                shown = {s.topic: s.doc.get("connectionState") for s in watcher.of("connection")}
+                return all(shown.get(f"{v}/connection") == "ONLINE" for v in vehicles) or self.process.poll() is not None
+
+            assert wait_until(online, timeout), f"no retained ONLINE of {vehicles} within {timeout} s"
+            assert self.process.poll() is None, f"vcran live exited with {self.process.returncode}: {self.stop()}"
+        finally:
+            watcher.close()
+
+    def stop(self) -> tuple[int, str, str]:
+        """SIGTERM, then the exit status, stdout and stderr; a process that does not end in time is killed."""
+        if self.result is None:
+            if self.process.poll() is None:
+                self.process.send_signal(signal.SIGTERM)
+            try:
+                out, err = self.process.communicate(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                out, err = self.process.communicate()
+            self.result = (self.process.returncode, out, err)
+        return self.result

@@ -8,24 +8,21 @@ run unchanged against vcran's 2.0.0 vehicle. Both runs are checked with the same
 from the VDA 5050 2.1.0 text (the sections are quoted where used), which both vehicles must meet whatever
 they choose where the text leaves room (how the first node is counted, where a cancel stops).
 
-vcran's vehicle here is :class:`tests.transports.mqtt.live_vehicle.LiveVehicle` (vcran's pure Vehicle in
-real time behind vcran's MqttTransport) until the VDA 5050 SimPy glue serves a scenario's fleet live
-(``vcran live SCENARIO --mqtt``); the fixture ``vcran_vehicle`` is the one place to change then.
+vcran's vehicle here is ``vcran live SCENARIO --mqtt URL`` as its own process (the ``live_fleet`` fixture): one
+2.0.0 vehicle standing at (0, 0) facing +x with free floor ahead (support.vehicle_scenario).
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 from jsonschema import Draft202012Validator
 
-from tests.transports.mqtt.live_vehicle import LiveVehicle
+from tests.transports.mqtt.support import vehicle_scenario
 from tests.transports.mqtt.thirdparty.runner import Outcome, installed, run_master
-from vcran.core.vda5050.config import VehicleConfig
-from vcran.core.vda5050.enums import Version
 
 pytestmark = pytest.mark.slow
 
@@ -38,15 +35,22 @@ def master(request) -> Path:
     return installed(request)
 
 
+@dataclass(frozen=True)
+class Served:
+    """What the master is told of the vehicle: its topic levels and map (the vehicle's default map id)."""
+
+    manufacturer: str = "vcran"
+    serial_number: str = "thirdparty-1"
+    map_id: str = "map"
+
+
 @pytest.fixture
-def vcran_vehicle(broker) -> Iterator[VehicleConfig]:
-    """vcran's 2.0.0 vehicle standing at (0, 0) on ``broker``."""
-    config = VehicleConfig(manufacturer="vcran", serial_number="thirdparty-1", version=Version.V2_0_0)
-    vehicle = LiveVehicle(broker.url, config).start()
-    try:
-        yield config
-    finally:
-        vehicle.stop()
+def vcran_vehicle(broker, live_fleet, tmp_path) -> Served:
+    """vcran's 2.0.0 vehicle standing at (0, 0) on ``broker``, retained ONLINE."""
+    served = Served()
+    scenario = vehicle_scenario(tmp_path, served.serial_number, version="2.0.0", manufacturer=served.manufacturer)
+    live_fleet(broker.url, scenario, f"uagv/v2/{served.manufacturer}/{served.serial_number}", factor=2.0)
+    return served
 
 
 def test_the_master_drives_the_librarys_own_virtual_agv(broker, master):

@@ -7,14 +7,15 @@ Each expected state is written out from the VDA 5050 2.1.0 text (quoted) and, wh
 vehicle a choice, from the choice docs/vda5050.md documents for vcran (named). Nodes and edges are
 ``id/sequenceId``, ``?`` marking the horizon (unreleased).
 
-vcran's vehicle is :class:`tests.transports.mqtt.live_vehicle.LiveVehicle` until the VDA 5050 SimPy glue
-serves a scenario live (test_mqtt_thirdparty.py says how it changes then).
+vcran's vehicle is ``vcran live SCENARIO --mqtt URL`` as its own process (the ``live_fleet`` fixture), one 2.0.0
+vehicle standing at (0, 0) facing +x with free floor ahead (support.vehicle_scenario): 1 m/s at most, so
+positions are where it stopped, never a time.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -22,10 +23,7 @@ import orjson
 import pytest
 from jsonschema import Draft202012Validator
 
-from tests.transports.mqtt.live_vehicle import LiveVehicle
-from tests.transports.mqtt.support import Watcher, wait_until
-from vcran.core.vda5050.config import VehicleConfig
-from vcran.core.vda5050.enums import Version
+from tests.transports.mqtt.support import Watcher, vehicle_scenario, wait_until
 
 pytestmark = pytest.mark.slow
 
@@ -108,13 +106,11 @@ def seen(state: dict[str, Any]) -> dict[str, Any]:
 
 
 @pytest.fixture
-def vehicle(broker) -> Iterator[str]:
-    config = VehicleConfig(manufacturer=MANUFACTURER, serial_number=SERIAL, version=Version.V2_0_0, map_id=MAP)
-    live = LiveVehicle(broker.url, config, speed=1.0).start()  # at (0, 0), 1 m/s: each 2 m edge takes 2 s
-    try:
-        yield broker.url
-    finally:
-        live.stop()
+def vehicle(broker, live_fleet, tmp_path) -> str:
+    """vcran's 2.0.0 vehicle (map "map", the vehicle's default), retained ONLINE on ``broker``."""
+    live_fleet(broker.url, vehicle_scenario(tmp_path, SERIAL, version="2.0.0", manufacturer=MANUFACTURER), TOPIC,
+               factor=2.0)
+    return broker.url
 
 
 def test_the_issues_sequence_by_hand_against_vcrans_2_0_0_vehicle(vehicle):
