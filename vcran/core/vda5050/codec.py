@@ -178,8 +178,10 @@ class _Refused(Exception):
     """The fast encoder met what the version cannot carry; :func:`_put` then says where (internal)."""
 
 
-#: Per version, the encoder of each model class met so far (:func:`_encoder`).
+#: Per version, the encoder of each model class met so far (:func:`_encoder`), and the same as a function that
+#: returns a new dict (``_PLAINS``: a nested model of the class its field names).
 _ENCODERS: dict[Version, dict[type, Callable[[Any, dict[str, Any]], None]]] = {v: {} for v in Version}
+_PLAINS: dict[Version, dict[type, Callable[[Any], dict[str, Any]]]] = {v: {} for v in Version}
 
 
 def _encoder(cls: type, version: Version) -> Callable[[Any, dict[str, Any]], None]:
@@ -188,52 +190,76 @@ def _encoder(cls: type, version: Version) -> Callable[[Any, dict[str, Any]], Non
     field through :func:`wire_form`, each field's JSON path built in case of an error, the encoding cost more
     than building the messages (issue 31's 100-vehicle hour). What ``version`` cannot carry raises
     :class:`_Refused`, and :func:`to_plain` walks the message again with :func:`_put` to name the field."""
-    table = _ENCODERS[version]
-    found = table.get(cls)
-    if found is not None:
-        return found
-    names: dict[str, Any] = {"_Refused": _Refused, "_table": table, "_encoder": _encoder, "_version": version}
-    lines = ["def put(m, out):"]
+    found = _ENCODERS[version].get(cls)
+    if found is None:
+        _write(cls, version)
+        found = _ENCODERS[version][cls]
+    return found
+
+
+def _write(cls: type, version: Version, writing: frozenset[type] = frozenset()) -> None:
+    """Write out ``put(m, out)`` and ``plain(m) -> dict`` for ``cls`` in ``version`` (and for the models its
+    fields name, which a nested value of exactly that class is encoded with directly; those being written
+    further out, ``writing``, through ``_model`` when it runs)."""
+    writing |= {cls}
+    names: dict[str, Any] = {"_Refused": _Refused, "_encoder": _encoder, "_version": version, "_model": _model}
+    body = []
     for n, f in enumerate(wire_form(cls, version)):
-        lines += [f"    v = m.{f.attr}", "    if v is not None:"]
+        body += [f"    v = m.{f.attr}", "    if v is not None:"]
         if f.absent:
-            lines.append("        raise _Refused")
+            body.append("        raise _Refused")
             continue
         if f.flatten:
-            lines.append("        (_table.get(v.__class__) or _encoder(v.__class__, _version))(v, out)")
+            body.append("        _encoder(v.__class__, _version)(v, out)")
             continue
         if f.check is not None:
             names[f"_check{n}"] = f.check
-            lines.append(f"        if _check{n}(v) is not None: raise _Refused")
+            body.append(f"        if _check{n}(v) is not None: raise _Refused")
         if f.no_object:
-            lines.append("        if isinstance(v, dict): raise _Refused")
-        lines.append(f"        out[{f.name!r}] = {_expression(f.kind, 'v', names)}")
-    lines.append("    return None")
-    exec("\n".join(lines), names)  # noqa: S102 (source built here from the models' own field names)
-    table[cls] = names["put"]
-    return table[cls]
+            body.append("        if isinstance(v, dict): raise _Refused")
+        direct = f.kind in ("model", "tuple:model") and f.cls not in writing
+        if direct:
+            if f.cls not in _PLAINS[version]:
+                _write(f.cls, version, writing)
+            names[f"_C{n}"], names[f"_plain{n}"] = f.cls, _PLAINS[version][f.cls]
+        body.append(f"        out[{f.name!r}] = {_expression(f, n, 'v') if direct else _kind_expression(f.kind, 'v', 0)}")
+    source = "\n".join(["def put(m, out):", *body, "    return None", "def plain(m):", "    out = {}", *body,
+                        "    return out"])
+    exec(source, names)  # noqa: S102 (source built here from the models' own field names)
+    _ENCODERS[version][cls], _PLAINS[version][cls] = names["put"], names["plain"]
 
 
-def _expression(kind: str, value: str, names: dict[str, Any]) -> str:
-    """The Python expression :func:`_value` computes for ``value`` of ``kind`` (a model: its encoder into a
-    new dict, through ``_model``)."""
+def _expression(f: WireField, n: int, value: str) -> str:
+    """The Python expression :func:`_value` computes for ``value`` of field ``f`` (the ``n``-th): a model of the
+    field's own class (or a tuple of them) through that class's ``plain``, any other model through ``_model``."""
+    if f.kind == "model":
+        return f"(_plain{n}({value}) if {value}.__class__ is _C{n} else _model({value}, _version))"
+    if f.kind == "tuple:model":
+        return f"[_plain{n}(x) if x.__class__ is _C{n} else _model(x, _version) for x in {value}]"
+    return _kind_expression(f.kind, value, 0)
+
+
+def _kind_expression(kind: str, value: str, depth: int) -> str:
     if kind == "enum":
         return f"{value}.value"
     if kind == "model":
-        names["_model"] = _model
-        return f"_model({value}, _table, _version)"
+        return f"_model({value}, _version)"
     if kind.startswith("tuple:"):
         item = kind[6:]
         if item in ("str", "float", "int", "bool", "any"):
             return f"list({value})"
-        return f"[{_expression(item, 'x', names)} for x in {value}]"
+        x = f"x{depth}"
+        return f"[{_kind_expression(item, x, depth + 1)} for {x} in {value}]"
     return value  # str, int, float, bool, any: JSON already
 
 
-def _model(value: Any, table: dict[type, Callable[[Any, dict[str, Any]], None]], version: Version) -> dict[str, Any]:
-    inner: dict[str, Any] = {}
-    (table.get(value.__class__) or _encoder(value.__class__, version))(value, inner)
-    return inner
+def _model(value: Any, version: Version) -> dict[str, Any]:
+    """A nested model's wire form, whatever its class."""
+    plain = _PLAINS[version].get(value.__class__)
+    if plain is None:
+        _write(value.__class__, version)
+        plain = _PLAINS[version][value.__class__]
+    return plain(value)
 
 
 def _put(model: Any, version: Version, out: dict[str, Any], path: str) -> None:
