@@ -38,9 +38,11 @@ class ReplayTransport(Transport):
         options = read_header(trace).get("options", {})
         #: A closed loop's link_down cut the link between manager and RAN, outside what the trace records
         #: (the RAN's own inbound and outbound): the records already carry it, the replayed RAN holds nothing.
-        #: A replay's trace says so too (:meth:`options`), so a replay of it holds nothing either.
-        self.link_outside = isinstance(options, dict) and (
-            options.get("transport") == "loop" or options.get("link_outside") is True)
+        #: A replay's trace says so too (:meth:`options`), so a replay of it holds nothing either. A VDA 5050
+        #: closed loop's trace says ``link_outside = false``: there the vehicle cut its own link (what reached it
+        #: meanwhile is recorded, and lost: vcran.sim.vda5050.loop), and its replay cuts it again.
+        self.link_outside = isinstance(options, dict) and options.get(
+            "link_outside", options.get("transport") == "loop") is True
 
     def options(self) -> dict[str, object]:
         """The ``options`` of a replay's trace header: where it came from, and :attr:`link_outside`."""

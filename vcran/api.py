@@ -2,7 +2,7 @@
 
 One path for every in-process run: a scenario with a message script plays it (as ``vcran run`` always
 did); a scenario with a fleet manager, named in the scenario or passed in, runs a closed loop
-(:class:`vcran.sim.opil.loop.ClosedLoop`). With ``out`` the usual run folder is written and the result reads
+(OPIL's :class:`vcran.sim.opil.loop.ClosedLoop`, VDA 5050's :class:`vcran.sim.vda5050.loop.MasterLoop`). With ``out`` the usual run folder is written and the result reads
 its events and telemetry back on demand; without, nothing touches the disk and everything stays in
 memory. ``vcran run`` is a thin shell on :func:`run`.
 """
@@ -19,24 +19,25 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
 from transports.scripted import ScriptedTransport
-from vcran.core.scenario import ManagerSpec, Scenario
+from vcran.core.scenario import VDA5050, ManagerSpec, Scenario
 from vcran.core.validity import validate
 from vcran.core.wire import Frame, Transport
 from vcran.io.scenario_file import ScenarioError, load
 from vcran.io.sinks import FolderSinks, MemorySinks
 from vcran.io.trace import event_records, events_beside, long_table, telemetry_table, trace_in
-from vcran.runner import check_protocol, execute
+from vcran.runner import CLOSED_LOOP, check_protocol, execute
 from vcran.sim.model import Model
 
 if TYPE_CHECKING:  # the closed loop is imported when a run has a fleet manager (a scripted run never does)
     import numpy as np
 
-    from vcran.core.jobs import JobRecord
-    from vcran.core.opil.manager import FleetManager
-    from vcran.sim.opil.loop import ClosedLoop
+    from vcran.core.jobs import JobRecord, Log
+    from vcran.core.manager import Manager
+    from vcran.sim.loop import Loop
 
-#: What names a fleet manager: an instance, a FleetManager subclass, or ``"module:Class"``.
-ManagerLike: TypeAlias = "FleetManager | type[FleetManager] | str"
+#: What names a fleet manager: an instance, a subclass of its protocol's kind (an OPIL scenario's
+#: :class:`vcran.FleetManager`, a VDA 5050 one's :class:`vcran.core.vda5050.master.Master`), or ``"module:Class"``.
+ManagerLike: TypeAlias = "Manager | type[Manager] | str"
 
 
 class ManagerError(ValueError):
@@ -102,8 +103,9 @@ def simulate(scenario: str | Path | Scenario, *, manager: ManagerLike | None = N
              out: str | Path | None = None) -> Result:
     """Run ``scenario`` (a path, or a loaded :class:`vcran.Scenario`) in process and return its result.
 
-    ``manager`` (an instance, a :class:`vcran.FleetManager` subclass built without arguments, or
-    ``"module:Class"``) runs the scenario's jobs in a closed loop; without it the scenario's own
+    ``manager`` (an instance, a subclass built without arguments, or ``"module:Class"``, of the scenario's
+    protocol's kind: a :class:`vcran.FleetManager` for OPIL robots, a :class:`vcran.core.vda5050.master.Master`
+    for VDA 5050 vehicles) runs the scenario's jobs in a closed loop; without it the scenario's own
     ``[manager]`` does, or, if it names none, its message script plays. ``out`` writes the usual run
     folder (trace, telemetry, events, summary); without it no file is touched.
 
@@ -146,22 +148,22 @@ def run(
     """:func:`simulate`, with a progress observer (what ``vcran run`` shows) and ``on_start``, called with
     the model before it runs (``vcran run`` stops it there on a signal)."""
     sc = scenario if isinstance(scenario, Scenario) else load(scenario)
-    if manager is not None or sc.manager is not None:  # before a VDA 5050 master is taken for a FleetManager that is not one
-        check_protocol(sc, "a closed loop")
+    if manager is not None or sc.manager is not None:
+        check_protocol(sc, CLOSED_LOOP)
     fleet_manager, name = build_manager(manager, sc)
     _check_mode(sc, fleet_manager is not None)  # before the folder exists: a refused run writes nothing
     options: dict[str, Any] = ({"transport": "scripted"} if fleet_manager is None else
                                {"transport": "loop", "manager": name, "link": sc.link.as_dict()})
+    if fleet_manager is not None and sc.settings.protocol == VDA5050:
+        options["link_outside"] = False  # link_down cuts the vehicle's own link: a replay cuts it too (vcran.sim.vda5050.loop)
     folder = Path(out) if out is not None else None
     sinks = FolderSinks(folder, sc, options) if folder is not None else MemorySinks()
     transport: Transport
-    loop: ClosedLoop | None = None
+    loop: Loop | None = None
     if fleet_manager is None:
         transport = ScriptedTransport(sc.messages(), frames=False)
     else:
-        from vcran.sim.opil.loop import ClosedLoop
-
-        transport = loop = ClosedLoop(sc, fleet_manager, sinks.events.write)
+        transport = loop = _loop(sc, fleet_manager, sinks.events.write)
     ran = execute(sc, transport, sinks, progress=progress, on_start=on_start,
                   summarize=Model.summary if loop is None else partial(loop_summary, loop=loop))
     memory = sinks if isinstance(sinks, MemorySinks) else None
@@ -171,7 +173,22 @@ def run(
                   memory.trace.frames if memory is not None else None, scenario=sc)
 
 
-def loop_summary(model: Model, loop: ClosedLoop) -> dict[str, Any]:
+def _loop(sc: Scenario, manager: Manager, log: Log) -> Loop:
+    """The closed loop of the scenario's protocol around ``manager`` (:func:`build_manager` matched the two)."""
+    if sc.settings.protocol == VDA5050:
+        from vcran.core.vda5050.master import Master
+        from vcran.sim.vda5050.loop import MasterLoop
+
+        assert isinstance(manager, Master)
+        return MasterLoop(sc, manager, log)
+    from vcran.core.opil.manager import FleetManager
+    from vcran.sim.opil.loop import ClosedLoop
+
+    assert isinstance(manager, FleetManager)
+    return ClosedLoop(sc, manager, log)
+
+
+def loop_summary(model: Model, loop: Loop) -> dict[str, Any]:
     """summary.json of a closed loop: the model's, with the jobs and each robot's share of time busy (docs/contract.md §9)."""
     summary = model.summary()
     t = model.env.now
@@ -196,22 +213,27 @@ def _check_mode(sc: Scenario, managed: bool) -> None:
                             "finishes would run forever; until_idle still ends it early)")
 
 
-def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[FleetManager | None, str]:
+def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Manager | None, str]:
     """The fleet manager to run and its name (``module:Class``), from the argument or the scenario; a
-    class or ``module:Class`` gets the options :func:`manager_options` gives it, an instance none."""
+    class or ``module:Class`` gets the options :func:`manager_options` gives it, an instance none. Its kind
+    is the scenario's protocol's: a :class:`vcran.FleetManager` for OPIL robots, a
+    :class:`vcran.core.vda5050.master.Master` for VDA 5050 vehicles (:func:`manager_kind`)."""
     if manager is None and scenario.manager is None:
         return None, ""
-    from vcran.core.opil.manager import FleetManager
+    from vcran.core.manager import Manager
 
+    kind, kind_name = manager_kind(scenario)
     if manager is None:
         assert scenario.manager is not None
         manager = scenario.manager.path
-    if isinstance(manager, FleetManager):
+    if isinstance(manager, Manager):
+        _check_kind(manager, type(manager), scenario)
         _check_attributes(manager)
         return manager, _name(type(manager))
     cls = _import(manager) if isinstance(manager, str) else manager
-    if not (isinstance(cls, type) and issubclass(cls, FleetManager)):
-        raise ManagerError(f"fleet manager {manager!r} is not a vcran.FleetManager subclass")
+    if not (isinstance(cls, type) and issubclass(cls, kind)):
+        _check_kind(manager, cls, scenario)
+        raise ManagerError(f"fleet manager {manager!r} is not a {kind_name} subclass")
     options = manager_options(scenario.manager, cls)
     try:
         built = cls(**options)
@@ -220,6 +242,32 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Flee
                            f"{_described(exc)}") from None
     _check_attributes(built)
     return built, _name(cls)
+
+
+def manager_kind(scenario: Scenario) -> tuple[type[Manager], str]:
+    """The class a manager of ``scenario`` subclasses, and its public name: the protocol's (docs/contract.md §9, §11)."""
+    if scenario.settings.protocol == VDA5050:
+        from vcran.core.vda5050.master import Master
+
+        return Master, "vcran.core.vda5050.master.Master"
+    from vcran.core.opil.manager import FleetManager
+
+    return FleetManager, "vcran.FleetManager"
+
+
+def _check_kind(manager: object, cls: object, scenario: Scenario) -> None:
+    """A manager of the other protocol's kind is a ManagerError naming both kinds: a FleetManager would write
+    OPIL tasks to VDA 5050 vehicles, a Master orders to OPIL robots, and neither would hear what they publish."""
+    from vcran.core.manager import Manager
+
+    kind, kind_name = manager_kind(scenario)
+    if isinstance(cls, type) and issubclass(cls, Manager) and not issubclass(cls, kind):
+        protocol = scenario.settings.protocol
+        other = "a VDA 5050 master (vcran.core.vda5050.master.Master)" if protocol != VDA5050 else \
+            "an OPIL fleet manager (vcran.FleetManager)"
+        speaks = "VDA 5050" if protocol == VDA5050 else "OPIL"
+        raise ManagerError(f"fleet manager {_name(cls)} is {other}; this scenario's robots speak {speaks} "
+                           f"([simulation] protocol = {protocol!r}): its manager is a {kind_name} subclass")
 
 
 def manager_options(own: ManagerSpec | None, manager: str | type) -> dict[str, Any]:
@@ -241,12 +289,15 @@ def manager_options(own: ManagerSpec | None, manager: str | type) -> dict[str, A
     return dict(own.options) if same else {}
 
 
-def _check_attributes(manager: FleetManager) -> None:
+def _check_attributes(manager: Manager) -> None:
     """``attributes`` names what the robots publish (docs/contract.md §2), or is None. A misspelt name was never
     notified in simulated time, while ``vcran manage`` subscribed with an empty condition and was told
     of every change: one class, two behaviours, and no word of the mistake."""
+    from vcran.core.opil.manager import FleetManager
     from vcran.core.opil.messages import OUTBOUND, RENAMED
 
+    if not isinstance(manager, FleetManager):
+        return  # a VDA 5050 master lists topics, checked as they are heard
     wanted = manager.attributes
     if wanted is None:
         return

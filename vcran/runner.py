@@ -94,14 +94,19 @@ class RunResult:
 #: The live edges (``vcran live`` with --orion or --mqtt, the ``mode`` :func:`check_protocol` is given) and the
 #: protocol each one hosts.
 LIVE = {"vcran live --orion": OPIL, "vcran live --mqtt": VDA5050}
+#: The mode a run with a fleet manager is (:func:`check_protocol`): both protocols' closed loops are hosted.
+CLOSED_LOOP = "a closed loop"
+#: The modes besides a scripted run, a replay and its live edge the simulation hosts VDA 5050 vehicles in.
+VDA5050_MODES = frozenset({CLOSED_LOOP})
 
 
 def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     """A scenario whose robots speak a protocol the simulation does not host in ``mode`` is refused before
     anything runs (or any folder is made, or anything is connected to). ``mode`` None: a scripted run or a
     replay, which host every protocol of :mod:`vcran.sim.protocols`; ``vcran live`` hosts each protocol on its own
-    edge (:data:`LIVE`); else what the caller runs (a closed loop ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as OPIL robots, deaf
-    to their orders (issue 31: their closed loop is still to come)."""
+    edge (:data:`LIVE`); :data:`CLOSED_LOOP` hosts both (OPIL's fleet manager, VDA 5050's master); else what the
+    caller runs (manage over Orion, send ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as
+    OPIL robots, deaf to their orders (issue 31)."""
     protocol = scenario.settings.protocol
     if mode in LIVE:  # docs/contract.md §11: each protocol's live edge (vcran live --orion, vcran live --mqtt)
         if protocol != LIVE[mode]:
@@ -109,10 +114,10 @@ def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
             raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: its robots go live with "
                                 f"{needed.removeprefix('vcran live ')} URL, not {mode.removeprefix('vcran live ')}")
         return
-    if protocol != OPIL and mode is not None:
+    if protocol != OPIL and mode is not None and mode not in VDA5050_MODES:
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
-                            f"VDA 5050 vehicles yet in {mode} (it runs their script: vcran run without a manager, "
-                            "vcran replay; vcran.testing.vda5050.yard.Yard runs a VDA 5050 master against them)")
+                            f"VDA 5050 vehicles yet in {mode} (it runs their script and their master in a closed "
+                            "loop: vcran run, vcran.simulate, vcran replay; live: vcran live --mqtt)")
 
 
 def execute(

@@ -74,22 +74,29 @@ def test_a_manager_module_in_the_current_folder_imports_as_docs_library_shows(tm
     assert "cannot import not_here_either: No module named 'not_here_either'" in capsys.readouterr().err
 
 
-def test_a_vda5050_scenario_with_a_master_is_refused_until_the_closed_loop_hosts_it(tmp_path, capsys):
-    """The simulation runs a VDA 5050 scenario's script (tests/sim/test_vda5050_glue.py), not yet its master
-    (issue 31 item 5; the warehouse's master is no FleetManager): one line saying so, exit 2, no folder."""
-    out = tmp_path / "out"
-    assert main(["run", "vda5050-warehouse", "--out", str(out), "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith(f"vcran run: {ROOT / 'vcran' / 'scenarios' / 'vda5050-warehouse'}.toml: [simulation] protocol = "
-                          "'vda5050': the simulation does not host VDA 5050 vehicles yet in a closed loop") and err.count("\n") == 1
-    assert not out.exists() and not list(tmp_path.iterdir())
+@pytest.mark.slow  # whole runs of the warehouse are (README, "Development")
+def test_vda5050_warehouse_runs_its_master_in_the_closed_loop_deterministically_and_its_replay_verifies(tmp_path, capsys):
+    """issue 31 item 5, docs/contract.md §9, §11: ``vcran run vda5050-warehouse`` runs the scenario's reference master
+    (MasterControl, max_tries = 3) against the simulated vehicles. Every job of the seeded stream arrives and is
+    completed (none failed, none open: the count is the stream's own, ``Scenario.workload``); two runs write
+    byte-identical folders (docs/contract.md §5); ``vcran replay --verify`` re-runs the orders as recorded (raw,
+    decoded and validated by the vehicles again) to the same records, legs and events (docs/contract.md §6)."""
+    from vcran.io.scenario_file import load
+
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert main(["run", "vda5050-warehouse", "--out", str(first)]) == 0
+    arrived = len(list(load(ROOT / "scenarios" / "vda5050-warehouse.toml").workload()))
+    assert f"jobs arrived {arrived}, completed {arrived}, failed 0, open 0" in capsys.readouterr().out
+    assert main(["run", "vda5050-warehouse", "--out", str(second), "--quiet"]) == 0
+    for name in ("summary.json", "trace.jsonl.zst", "events.jsonl.zst", "legs.npy"):
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    assert main(["replay", str(first), "--verify", "--quiet"]) == 0
 
 
 @pytest.mark.parametrize("argv", [
     ["send", "vda5050", "--orion", "http://127.0.0.1:9"],
     ["manage", "vda5050-warehouse", "--orion", "http://127.0.0.1:9"],
     ["orion", "init", "vda5050", "--orion", "http://127.0.0.1:9"],
-    ["fuzz", "vda5050"],
 ])
 def test_every_scenario_command_refuses_a_vda5050_scenario_before_it_connects(tmp_path, capsys, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)

@@ -157,7 +157,7 @@ CASES: list[tuple[str, str, Callable[[Data], Any], Callable[[Scenario], Scenario
     ("fault-kind", "faults", _set("faults", 0, "kind", value="meteor"),
      lambda s: replace(s, faults=(FaultSpec(0.5, "robot_3", "meteor"), *s.faults[1:])),
      "faults[0]: field 'kind': unknown fault 'meteor'; known: breakdown, motion_failure, action_failure, pause, "
-     "resume, link_down"),
+     "resume, trigger, link_down"),
     ("random-mean", "warehouse-faults", _set("random_faults", 0, "mtbf", value=1e-9),
      lambda s: replace(s, random_faults=(replace(s.random_faults[0], mtbf=1e-9), *s.random_faults[1:])),
      "random_faults[0]: field 'mtbf': must be at least 1e-06 s (R14: instants closer than 1 µs are one instant), "

@@ -19,9 +19,10 @@ def run_cli(args: list[str], hashseed: str, cwd) -> subprocess.CompletedProcess:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario", ["demo", "generated", "warehouse"])
+@pytest.mark.parametrize("scenario", ["demo", "generated", "warehouse", "vda5050-warehouse"])
 def test_outputs_are_byte_identical_across_hash_seeds(tmp_path, scenario):
-    if scenario in ("demo", "warehouse"):  # warehouse: a closed loop with the Dispatcher (docs/contract.md §9)
+    # warehouse: a closed loop with the Dispatcher (docs/contract.md §9); vda5050-warehouse: with MasterControl (§11)
+    if scenario in ("demo", "warehouse", "vda5050-warehouse"):
         path = ROOT / "scenarios" / f"{scenario}.toml"
     else:
         gen = run_cli(["gen", "--robots", "30", "--hours", "0.05", "--seed", "7"], "0", tmp_path)

@@ -11,11 +11,13 @@ telemetry alone (:func:`vcran.simulate`'s Result), not from the traffic model's 
   robot and its ``duration`` is the time between them; summary.json's ``blocked_time`` is the sum of the
   closed intervals plus the open ones up to the run's end ("every `blocked` is followed by one
   `unblocked`, and a robot's blocked time is the sum of its blocks");
-* with fields on and collisions reported, no ``collision`` between two robots both in a motion, on a
-  one-way lane (every robot faces and drives east): a follower's field of margin plus its braking
-  distance stops it short of what entered it, and a leader never drives back. Head-on it does not hold
-  for any margin, as docs/robots.md's fields are cut at the end of the motion:
-  ``test_head_on_a_robot_brakes_into_the_goal_of_one_whose_field_is_cut``.
+* with fields on and collisions reported, no ``collision`` between two robots both in a motion whose fields
+  are long enough to stop: on a one-way lane (every robot faces and drives east) any margin is (a
+  follower's field of margin plus its braking distance stops it short of what entered it, and a leader
+  never drives back); head-on, each margin must exceed the braking distance of a robot coming the other
+  way (docs/robots.md, "Head-on: how long fields must be": both close the gap), so the head-on fleets draw
+  margins above ``BRAKING``. The last tests derive the head-on case by hand at, above and below that
+  bound.
 
 The default profile runs a few dozen examples (quick); the ``slow`` test searches longer.
 """
@@ -37,16 +39,18 @@ BRAKING = SPEED**2 / (2 * DECEL)  # 1 m, the farthest a robot drives once blocke
 SQUARE = [[0.5, 0.5], [-0.5, 0.5], [-0.5, -0.5], [0.5, -0.5]]
 DURATION = 60.0
 EPS = 1e-6
+MARGINS = (0.5, 1.0, 2.0)
+LONG_ENOUGH = (1.5, 2.0, 3.0)  # above BRAKING, the braking distance of any robot coming the other way
 
 
 @st.composite
-def corridors(draw: st.DrawFn, one_way: bool = False) -> dict[str, Any]:
+def corridors(draw: st.DrawFn, one_way: bool = False, margins: tuple[float, ...] = MARGINS) -> dict[str, Any]:
     """2-4 robots on the x axis, 3 m or more apart, facing either way; each sent to one or two points of
-    the lane at drawn instants; fields of a drawn margin plus the braking distance. ``one_way``: all face
-    east and are sent only east, each goal past the last."""
+    the lane at drawn instants; fields of a margin drawn from ``margins`` plus the braking distance.
+    ``one_way``: all face east and are sent only east, each goal past the last."""
     n = draw(st.integers(2, 4))
     slots = sorted(draw(st.lists(st.integers(0, 8), min_size=n, max_size=n, unique=True)))
-    margin = draw(st.sampled_from([0.5, 1.0, 2.0]))
+    margin = draw(st.sampled_from(margins))
     robots, script = [], []
     for i, slot in enumerate(slots):
         rid = f"r{i + 1}"
@@ -146,16 +150,22 @@ def test_blocked_time_is_the_sum_of_the_blocks(data: dict[str, Any]) -> None:
     check_blocked_time(run(data))
 
 
-@settings(max_examples=30)
-@given(corridors(one_way=True))
+#: fleets whose fields are long enough to stop (module docstring): one way with any margin, or both ways
+#: with margins above the braking distance
+STOPPING = st.one_of(corridors(one_way=True), corridors(margins=LONG_ENOUGH))
+
+
+@settings(max_examples=40)
+@given(STOPPING)
 def test_no_contact_between_robots_in_motion(data: dict[str, Any]) -> None:
-    """docs/contract.md §12, issue 32 item 6: fields long enough to stop keep moving robots apart."""
+    """docs/contract.md §12, issue 32 item 6: fields long enough to stop keep moving robots apart, one way
+    and head-on."""
     check_no_contact_in_motion(run(data))
 
 
 @pytest.mark.slow
 @settings(max_examples=400)
-@given(corridors(one_way=True))
+@given(STOPPING)
 def test_all_three_properties_in_a_longer_search(data: dict[str, Any]) -> None:
     """The three properties above on one run each, searched longer (docs/contract.md §12)."""
     result = run(data)
@@ -164,31 +174,84 @@ def test_all_three_properties_in_a_longer_search(data: dict[str, Any]) -> None:
     check_no_contact_in_motion(result)
 
 
-def test_head_on_a_robot_brakes_into_the_goal_of_one_whose_field_is_cut() -> None:
-    """Found by the contact property when it drew head-on traffic (docs/contract.md §12; pinned as the
-    model now behaves, and reported on issue 32). Margin 1 m, so fields are 1 + v^2 (2 m at 1 m/s). r1 at
-    0 is sent to 3 (a 3 m leg: 2 s up to x = 1, 1 s at 1 m/s, 2 s down: at rest at 3 at t = 5, its field
-    never past its goal's front, 3.5); r2 at 6 is sent to 0. At t = 2.5 r2 (at 4.5, front 4.0, field to
-    2.0) meets r1's front (1.5 + 0.5 = 2.0): r2 brakes 1 m in 2 s and stops at 3.5, front 3.0, at 4.5.
-    r1's field, cut at 3.5, holds r2 only once r2's front passes 3.5; r1 is then already braking to its
-    goal (it brakes at the same 0.5 m/s^2), so it still stops with its front at 3.5: the two overlap by
-    0.5 m. The contact starts between r2's crossing 3.5 and r1's stop (3.09 s and 5 s); both robots are
-    in a motion then, blocked on each other: a deadlock once both rest."""
-    result = run({"simulation": {"name": "lane", "duration": DURATION}, "traffic": {"field": {"margin": 1.0}},
-                  "robots": [{"id": "r1", "pose": [0.0, 0.0, 0.0], "max_velocity": SPEED, "max_acceleration": DECEL,
-                              "footprint": SQUARE},
-                             {"id": "r2", "pose": [6.0, 0.0, math.pi], "max_velocity": SPEED,
-                              "max_acceleration": DECEL, "footprint": SQUARE}],
-                  "script": [{"t": 0.0, "robot": "r1", "kind": "task", "task": "a", "path": [[3.0, 0.0]]},
-                             {"t": 0.0, "robot": "r2", "kind": "task", "task": "b", "path": [[0.0, 0.0]]}]})
-    seen = {(e["event"], e["robot"]): e for e in result.events}
-    assert seen["blocked", "r2"]["t"] == pytest.approx(2.5)
-    assert seen["blocked", "r2"]["x"] == pytest.approx(4.5)
-    assert 2.5 < seen["blocked", "r1"]["t"] < 5.0
-    assert 3.0 < seen["collision", "r1"]["t"] < 5.0
-    end = result.telemetry[result.telemetry["t"] == DURATION]
-    assert [round(float(x), 6) for x in end["x"]] == [3.0, 3.5]  # r1 at its goal, r2 1 m short of its stop
-    assert seen["deadlock", "r1"]["t"] == pytest.approx(5.0)
+def head_on(margin: float) -> vcran.Result:
+    """The head-on pair the contact property first found (docs/contract.md §12): r1 rests at 0 facing east and
+    is sent to 3; r2 rests at 6 facing west and is sent to 0; both at t = 0, fields of ``margin`` plus the
+    braking distance (``margin + v^2``)."""
+    robot = {"max_velocity": SPEED, "max_acceleration": DECEL, "footprint": SQUARE}
+    return run({"simulation": {"name": "lane", "duration": DURATION}, "traffic": {"field": {"margin": margin}},
+                "robots": [{"id": "r1", "pose": [0.0, 0.0, 0.0], **robot},
+                           {"id": "r2", "pose": [6.0, 0.0, math.pi], **robot}],
+                "script": [{"t": 0.0, "robot": "r1", "kind": "task", "task": "a", "path": [[3.0, 0.0]]},
+                           {"t": 0.0, "robot": "r2", "kind": "task", "task": "b", "path": [[0.0, 0.0]]}]})
+
+
+def seen(result: vcran.Result) -> dict[tuple[str, str], dict[str, Any]]:
+    """The run's events by (event, robot), the last of each."""
+    return {(e["event"], e["robot"]): e for e in result.events}
+
+
+def at_end(result: vcran.Result) -> list[float]:
+    """Where r1 and r2 stand at the run's end (x)."""
+    return [round(float(x), 6) for x in result.telemetry[result.telemetry["t"] == DURATION]["x"]]
+
+
+def test_head_on_both_fields_see_the_other_and_stop_them_margin_minus_braking_apart() -> None:
+    """docs/robots.md "Head-on: how long fields must be", on :func:`head_on`, derived by hand.
+
+    r1's 3 m leg: 2 s up to x = 1, 1 s at 1 m/s to 2 (t = 3), 2 s down to 3 (t = 5); r2's 6 m leg: 2 s up to
+    5, then 1 m/s. The gap between their fronts is ``x2 - x1 - 1``: ``5 - t^2/2`` up to t = 2, then
+    ``3 - 2 (t - 2)``. r2's goal is far: its field is ``m + v^2``; r1's is ``min(m + v^2, s + m)`` with ``s``
+    its distance to its goal, 3 - x1 >= 1 = v^2 while it cruises: ``m + v^2`` too. Both fields reach the
+    other when the gap is ``m + 1`` (in the cruise for m < 2): t = 3 - m/2, r1 at 2 - m/2, r2 at 4 + m/2,
+    **both blocked at once**. Each brakes 1 m in 2 s: both stop at t = 5 - m/2, r1 at 3 - m/2 (short of its
+    goal), r2 at 3 + m/2, their fronts ``m - 1`` apart: each margin less the other's braking distance. At
+    rest, each in the other's waiting field: a deadlock at 5 - m/2.
+
+    Margin 1.5: blocked at 2.25 (r1 at 1.25, r2 at 4.75), stopped at 4.25 at 2.25 and 3.75, 0.5 m apart: no
+    contact. Margin 1, the pair as found: blocked at 2.5 (1.5 and 4.5), stopped at 4.5 at 2.5 and 3.5, fronts
+    both at 3.0: touching, which counts as contact (docs/contract.md §4), so a margin must *exceed* the other's
+    braking distance. The gap is then ``2 - 2 tau + tau^2 / 2`` (tau from 2.5), 0 at tau = 2 only: the
+    contact starts as both come to rest, t = 4.5, at (3, 0).
+
+    Before the cut moved to the goal plus the margin, r1's field ended at its goal's front (3.5) and saw r2
+    only once r2 passed it, after r1 had begun to slow for its goal: r1 stopped at 3 and r2 at 3.5, 0.5 m
+    into each other."""
+    for margin, blocked, x1, x2 in ((1.5, 2.25, 1.25, 4.75), (1.0, 2.5, 1.5, 4.5)):
+        result = head_on(margin)
+        events = seen(result)
+        assert [(events["blocked", r]["t"], events["blocked", r]["x"]) for r in ("r1", "r2")] == [
+            (pytest.approx(blocked), pytest.approx(x1)), (pytest.approx(blocked), pytest.approx(x2))]
+        assert at_end(result) == [3 - margin / 2, 3 + margin / 2]
+        assert events["deadlock", "r1"]["t"] == pytest.approx(5 - margin / 2)
+        collisions = [e for e in result.events if e["event"] == "collision"]
+        if margin > BRAKING:
+            assert collisions == []
+        else:
+            # the gap is 0.5 (4.5 - t)^2 m before 4.5, under the positions' rounding (4e-16 m at x = 3) from
+            # 3e-8 s before: the contact is found there, or at 4.5
+            [contact] = collisions
+            assert (contact["t"], contact["x"], contact["y"]) == (
+                pytest.approx(4.5, abs=1e-6), pytest.approx(3.0), pytest.approx(0.0, abs=EPS))
+
+
+def test_head_on_a_margin_below_the_others_braking_distance_ends_in_contact() -> None:
+    """The condition is needed (docs/robots.md "Head-on: how long fields must be"): :func:`head_on` with a
+    margin of 0.5 m, below the 1 m either robot needs to brake. Fields ``0.5 + v^2``, 1.5 m at 1 m/s; by the
+    derivation above both are blocked at t = 3 - 0.25 = 2.75, r1 at 1.75, r2 at 4.25, their fronts 1.5 m
+    apart. Both brake, ``tau - tau^2 / 4`` each in ``tau`` s: the gap ``1.5 - 2 tau + tau^2 / 2`` is 0 at
+    tau = 1: **contact at t = 3.75**, r1 at 2.5 and r2 at 3.5, their fronts meeting at (3, 0), while both
+    still brake (in a motion). They stop at t = 4.75 at 2.75 and 3.25, overlapping by 0.5 m, deadlocked."""
+    result = head_on(0.5)
+    events = seen(result)
+    assert [events["blocked", r]["t"] for r in ("r1", "r2")] == [pytest.approx(2.75)] * 2
+    contact = events["collision", "r1"]
+    assert (contact["other"], contact["t"], contact["x"], contact["y"]) == (
+        "r2", pytest.approx(3.75), pytest.approx(3.0), pytest.approx(0.0, abs=EPS))
+    assert at_end(result) == [2.75, 3.25]
+    assert events["deadlock", "r1"]["t"] == pytest.approx(4.75)
+    with pytest.raises(AssertionError, match="contact in motion"):
+        check_no_contact_in_motion(result)
 
 
 def test_the_strategy_makes_robots_meet() -> None:

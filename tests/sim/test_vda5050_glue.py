@@ -15,7 +15,6 @@ import math
 
 import pytest
 
-import vcran
 from vcran.cli import main
 from vcran.core.vda5050 import validation
 from vcran.core.vda5050.enums import Topic, Version
@@ -108,13 +107,6 @@ def test_a_vda5050_run_is_deterministic_and_its_replay_verifies(run, tmp_path, c
     for name in ("summary.json", "trace.jsonl.zst", "events.jsonl.zst", "legs.npy"):
         assert (again / name).read_bytes() == (run / name).read_bytes(), name
     assert main(["replay", str(run), "--verify", "--quiet"]) == 0
-
-
-def test_a_vda5050_scenario_with_a_master_is_refused_until_the_closed_loop_hosts_it(tmp_path):
-    """The closed loop (issue 31 item 5) does not run VDA 5050 masters yet: one clear error, no folder."""
-    with pytest.raises(vcran.ScenarioError, match="does not host VDA 5050 vehicles yet in a closed loop"):
-        vcran.simulate("vda5050-warehouse", out=tmp_path / "out")
-    assert not (tmp_path / "out").exists()
 
 
 def order(t: float, robot: str, order_id: str, nodes: list[tuple[str, float]]) -> str:

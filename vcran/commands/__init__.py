@@ -56,11 +56,22 @@ def load_scenario(path: Path, mode: str | None) -> Scenario:
     for a scenario whose protocol the simulation does not host in ``mode`` (what the command runs; None: a
     scripted run, :func:`vcran.runner.check_protocol`), before a command connects to anything."""
     from vcran.io.scenario_file import ScenarioError, load
-    from vcran.runner import check_protocol
 
     try:
         scenario = load(path)
+    except ScenarioError as exc:
+        raise CommandError(str(exc)) from None
+    check_mode(scenario, mode)
+    return scenario
+
+
+def check_mode(scenario: Scenario, mode: str | None) -> None:
+    """A CommandError (exit 2) for a scenario whose protocol the simulation does not host in ``mode``
+    (:func:`vcran.runner.check_protocol`): for a command that knows its mode only once the scenario is read."""
+    from vcran.io.scenario_file import ScenarioError
+    from vcran.runner import check_protocol
+
+    try:
         check_protocol(scenario, mode)
     except ScenarioError as exc:
         raise CommandError(str(exc)) from None
-    return scenario

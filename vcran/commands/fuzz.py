@@ -2,7 +2,9 @@
 
 Each example is the scenario with its message script perturbed the way a real fleet manager and broker
 perturb it (reordered within a window, duplicated, delayed, dropped, cancels and malformed payloads
-injected; :mod:`vcran.testing.scripts`). The variant is written as a scenario file, run in a temporary
+injected; :mod:`vcran.testing.scripts`). A VDA 5050 scenario's script is perturbed as a master perturbs
+it (also stale and skipped orderUpdateIds, cancels, pauses; :mod:`vcran.testing.vda5050.fuzz`) and
+checked against VDA 5050's properties (:mod:`vcran.testing.vda5050.checks`). The variant is written as a scenario file, run in a temporary
 folder, and its outputs are checked against the rules (:mod:`vcran.testing.checks`), then run again
 (byte-identical, docs/contract.md §5) and replayed (replay verification, docs/contract.md §6) unless ``--fast``.
 
@@ -71,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
     import os
     import time
 
-    from vcran.commands import CommandError, load_scenario
+    from vcran.commands import CommandError, check_mode, load_scenario
     from vcran.io.scenario_file import resolve
+    from vcran.runner import CLOSED_LOOP
 
     if importlib.util.find_spec("hypothesis") is None:
         raise CommandError("fuzzing needs hypothesis, which is not installed: pip install 'vcran[fuzz]'")
@@ -89,9 +92,11 @@ def run(args: argparse.Namespace) -> int:
     save = args.save or Path(f"{args.scenario.stem}.fuzz-failure.toml")
     if os.path.isdir(save) or not os.path.isdir(save.absolute().parent):  # now, not after a long search
         raise CommandError(f"--save {save}: {'is a folder' if os.path.isdir(save) else 'its folder does not exist'}")
-    base = load_scenario(args.scenario, "vcran fuzz")
-    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
+    base = load_scenario(args.scenario, None)  # a scripted VDA 5050 scenario is fuzzed too (docs/fuzzing.md)
     loop = args.manager is not None or base.manager is not None
+    if loop:
+        check_mode(base, CLOSED_LOOP)  # a VDA 5050 master is fuzzed in the closed loop (docs/fuzzing.md)
+    text = resolve(args.scenario).read_text(encoding="utf-8")  # a bundled scenario's too: workers get the text
     if loop:
         options: Options | LoopOptions = _loop_options(args, base, text)
         fn: Callable[..., Outcome] = search_loop
@@ -163,10 +168,10 @@ def _examples(n: int) -> str:
 
 def _check_script(base: Scenario) -> None:
     from vcran.commands import CommandError
-    from vcran.testing.scripts import perturbed_toml
+    from vcran.testing.campaign import script_toml
 
     try:
-        perturbed_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
+        script_toml(base, [])  # fail now, not mid-search, if the script cannot be written back
     except ValueError as exc:
         raise CommandError(str(exc)) from None
 
@@ -192,10 +197,10 @@ def _loop_options(args: argparse.Namespace, base: Scenario, text: str) -> LoopOp
 
 def _failing_file(base: Scenario, failure: Failure, header: str) -> str:
     from vcran.io.scenario_toml import dumps
-    from vcran.testing.scripts import perturbed_toml
+    from vcran.testing.campaign import script_toml
 
     if failure.ops is not None:
-        return perturbed_toml(base, failure.ops, header)
+        return script_toml(base, failure.ops, header)
     assert failure.scenario is not None
     return dumps(failure.scenario, header)
 

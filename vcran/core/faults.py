@@ -20,9 +20,10 @@ KINDS: dict[str, bool] = {
     "action_failure": False,  # the running or next action fails; task cancelled action_failed
     "pause": False,  # stop at once until a ``resume`` (VDA 5050 startPause)
     "resume": False,  # continue after a ``pause`` (VDA 5050 stopPause)
+    "trigger": False,  # the trigger a VDA 5050 waitForTrigger waits for is pressed (button, manual loading)
     "link_down": True,  # the robot neither receives nor publishes for ``duration``
 }
-#: Kinds a random source may draw (pause/resume are an operator's, not a failure).
+#: Kinds a random source may draw (pause/resume and trigger are an operator's, not a failure).
 RANDOM_KINDS = ("breakdown", "motion_failure", "action_failure", "link_down")
 #: The smallest ``mtbf`` and ``mttr`` a random source takes, in seconds: R14's 1 µs, below which two
 #: instants are the same to the model. A mean far below it drew faults at one instant forever (``t + gap

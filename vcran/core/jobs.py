@@ -137,11 +137,30 @@ class JobBook:
         self.open -= 1
 
 
+def order_unsuccessful(event: dict[str, Any]) -> str | None:
+    """The orderId of a VDA 5050 order that ``event`` (one of ``events.jsonl``, docs/vda5050.md) records ending
+    without success, else None: the vehicle refused it (``order_rejected``), gave it up or had it cancelled
+    (``order_ended`` other than ``completed``), or one of its actions FAILED (an ``actionFailed`` error naming
+    the order; the order itself then ends ``completed``). An order is a VDA 5050 job's task (``job_assigned``)."""
+    kind = event["event"]
+    if kind == "order_rejected" or (kind == "order_ended" and event.get("how") != COMPLETED):
+        order = event.get("order_id")
+        return order if isinstance(order, str) else None
+    if kind == "error_raised":
+        error = event.get("error") or {}
+        if error.get("errorType") == "actionFailed":
+            refs = {r.get("referenceKey"): r.get("referenceValue") for r in error.get("errorReferences") or ()}
+            order = refs.get("orderId")
+            return order if isinstance(order, str) else None
+    return None
+
+
 def waiting_spans(events: list[dict[str, Any]], end: float) -> list[tuple[str, float, float]]:
     """``(job, from, to)`` from a closed-loop run's events (docs/outputs.md): a job waits for a robot
-    from its arrival, and again from its latest task's cancellation, until the manager sends a task for
-    it or reports it ended; a span still open at ``end`` ends there. The loop property "no robot idles
-    while a job waits" (:mod:`vcran.testing.loop`) and the report's fleet figure both count this way."""
+    from its arrival, and again from its latest task's cancellation (a VDA 5050 order's unsuccessful end,
+    :func:`order_unsuccessful`), until the manager sends a task for it or reports it ended; a span still
+    open at ``end`` ends there. The loop property "no robot idles while a job waits"
+    (:mod:`vcran.testing.loop`) and the report's fleet figure both count this way."""
     since: dict[str, float] = {}
     latest: dict[tuple[str, str], str] = {}  # (robot, task) -> job, for the job's latest task
     spans = []
@@ -164,8 +183,9 @@ def waiting_spans(events: list[dict[str, Any]], end: float) -> list[tuple[str, f
             stop(e["job"], e["t"])
             for key in [k for k, j in latest.items() if j == e["job"]]:
                 del latest[key]
-        elif kind == "task_cancelled":
-            job = latest.pop((e["robot"], e["task"]), None)
+        else:
+            task = e["task"] if kind == "task_cancelled" else order_unsuccessful(e)
+            job = latest.pop((e["robot"], task), None) if task is not None else None
             if job is not None:
                 since[job] = e["t"]
     spans += [(job, start, end) for job, start in since.items()]

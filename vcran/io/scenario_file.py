@@ -48,7 +48,7 @@ from vcran.core.scenario import (
 from vcran.core.traffic.fields import FieldSpec
 from vcran.core.traffic.roadmap import Edge, Node, Roadmap
 from vcran.core.validity import Problem, validate
-from vcran.core.validity.fleet import ACTION_DURATIONS, BATTERY, ROBOT, SETTINGS, STATION
+from vcran.core.validity.fleet import ACTION_DURATIONS, BATTERY, FINE_POSITIONING, ROBOT, SETTINGS, STATION
 from vcran.core.validity.safety import FIELD, TRAFFIC
 from vcran.core.validity.workload import (
     FAULT,
@@ -194,6 +194,9 @@ def _time(item: Any) -> float:
 def _settings(t: Table, default_name: str) -> Settings:
     durations = t.table("action_durations", ACTION_DURATIONS)
     d = {k: durations.number(k, Settings().durations[k]) for k in ACTION_KINDS}
+    fine = durations.number(FINE_POSITIONING, None)
+    if fine is not None:  # only where given: a scenario without it is written and recorded as before
+        d[FINE_POSITIONING] = fine
     durations.done()
     s = Settings(
         name=t.string("name", default_name),

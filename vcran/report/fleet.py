@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Protocol
 
 from vcran.core.jobs import waiting_spans
-from vcran.report.spans import WAITING, Happenings, History
+from vcran.report.spans import Happenings, History
 from vcran.report.style import DPI, save
 
 
@@ -66,7 +66,7 @@ def fleet_series(run: Happenings, histories: dict[str, History]) -> FleetSeries:
             add(float(e["t"]), 2, 1)
     for history in histories.values():
         for band in history.bands:
-            if band.state != WAITING:
+            if band.state != history.idle:  # WAITING; a VDA 5050 vehicle's IDLE (vcran.report.vda5050)
                 add(band.start, 3, 1)
                 add(band.end, 3, -1)
     times = sorted(steps)

@@ -15,7 +15,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +33,9 @@ from vcran.io.trace import (
     trace_in,
 )
 
+if TYPE_CHECKING:
+    from vcran.report.vda5050 import VdaTrace
+
 FILES = ("summary.json",)  # and a trace with its events and leg log (or format 1's telemetry)
 #: The fields the report reads from each kind of event (strings all).
 EVENT_FIELDS = {
@@ -44,6 +47,9 @@ EVENT_FIELDS = {
     # docs/contract.md §12 (vcran.core.incidents): the robot that entered the field; a deadlock's kind
     "blocked": ("other",),
     "deadlock": ("kind",),
+    # VDA 5050 (vcran.report.vda5050)
+    "order_accepted": ("order_id",),
+    "order_ended": ("order_id", "how"),
 }
 
 Point = tuple[float, float]
@@ -119,6 +125,10 @@ class Run:
     fields: bool = False
     #: docs/contract.md §12: the scenario's roadmap (from the trace header), drawn under the paths; None without one.
     roadmap: Roadmap | None = None
+    #: The scenario's protocol (the trace header's ``simulation.protocol``): ``opil`` or ``vda5050``.
+    protocol: str = "opil"
+    #: A VDA 5050 run's states and orders from its trace (:mod:`vcran.report.vda5050`); None for OPIL's.
+    vda: VdaTrace | None = None
 
     @property
     def robot_ids(self) -> tuple[str, ...]:
@@ -149,6 +159,7 @@ def read_run(path: Path) -> Run:
         stations = tuple(_station(s) for s in header["fleet"].get("stations", []))
         fields = "traffic" in header["fleet"] or any("field" in r for r in header["fleet"]["robots"])
         roadmap = _roadmap(header["fleet"].get("roadmap"))
+        protocol = str(header["fleet"].get("simulation", {}).get("protocol", "opil"))
     with reading(path / "summary.json"):
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
         results = {rid: _result(summary["robots"][rid]) for rid in ids}
@@ -158,10 +169,18 @@ def read_run(path: Path) -> Run:
     with reading(trace):
         ticks = samples(trace)
     events = list(checked_events(events_beside(trace)))
-    areas, targets, batteries = _assignments(trace)
+    vda = None
+    if protocol == "vda5050":
+        from vcran.report.vda5050 import read_trace
+
+        with reading(trace):
+            vda = read_trace(trace, {rid for rid, r in configs.items() if r.get("battery")})
+        areas, targets, batteries = (), {}, vda.batteries
+    else:
+        areas, targets, batteries = _assignments(trace)
     return Run(path, str(summary.get("scenario", header.get("scenario", ""))), int(summary.get("seed", 0)),
                sim_time, errors, robots, stations, results, events, ticks, areas, targets, batteries, jobs, fields,
-               roadmap)
+               roadmap, protocol, vda)
 
 
 def _roadmap(data: dict[str, Any] | None) -> Roadmap | None:

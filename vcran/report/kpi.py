@@ -38,6 +38,8 @@ class Kpi:
     blocks: int | None = None
     blocked_time: float | None = None
     deadlocks: int | None = None
+    #: VDA 5050 (orders are the unit of work, docs/report.md): orders the vehicle refused; None for OPIL.
+    rejected: int | None = None
 
     @property
     def idle_share(self) -> float:
@@ -59,6 +61,7 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
     busy_total = 0.0
     down = downtime(run)
     traffic = blocking(run) if run.fields else None
+    vda = run.protocol == "vda5050"
     for rid, history in histories.items():
         latencies = [s.end - s.queued for s in history.tasks if s.completed]
         all_latencies += latencies
@@ -76,6 +79,7 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
             energy_per_job=_per(result.energy_used, len(latencies)),
             downtime=down[rid],
             collisions=result.collisions,
+            rejected=history.rejected if vda else None,
             **({} if traffic is None else {"blocks": traffic[rid].blocks, "blocked_time": traffic[rid].blocked_time,
                                            "deadlocks": traffic[rid].deadlocks}),
         ))
@@ -93,6 +97,7 @@ def kpis(run: Run, histories: dict[str, History]) -> list[Kpi]:
                             sum(r.completed for r in rows)),
         downtime=sum(r.downtime for r in rows),
         collisions=sum(r.collisions for r in rows) // 2,  # each collision involves two robots
+        rejected=sum(h.rejected for h in histories.values()) if vda else None,
         **({} if traffic is None else {"blocks": sum(b.blocks for b in traffic.values()),
                                        "blocked_time": sum(b.blocked_time for b in traffic.values()),
                                        "deadlocks": fleet_deadlocks(run)}),

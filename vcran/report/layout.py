@@ -28,6 +28,7 @@ from vcran.report.style import (
     save,
     task_colours,
     task_name,
+    unit,
 )
 
 if TYPE_CHECKING:  # matplotlib is an optional extra, imported when a figure is drawn
@@ -97,7 +98,10 @@ def _intervals(spans: list[TaskSpan], end: float) -> list[tuple[float, float, Ta
 
 
 def corners_by_robot(run: Run) -> dict[str, list[tuple[float, float, float]]]:
-    """(t, x, y) of every finished motion whose target the trace holds, per robot."""
+    """(t, x, y) of every finished motion whose target the trace holds, per robot; of a VDA 5050 run, where
+    every published state put the vehicle (its ``agvPosition``, at each node passed and every action's start)."""
+    if run.vda is not None:
+        return {rid: list(run.vda.points.get(rid, ())) for rid in run.robot_ids}
     out: dict[str, list[tuple[float, float, float]]] = {rid: [] for rid in run.robot_ids}
     for event in run.events:
         if event["event"] != "motion_finished" or event["robot"] not in out:
@@ -210,10 +214,10 @@ def _paths(ax: Axes, run: Run, histories: dict[str, History], arrows: bool) -> l
         for span, points in path_pieces(run, i, histories[robot.id], corners[robot.id]):
             dashes: Dashes = "--" if span is not None and span.outcome in REASON_STYLE else "-"
             if span is None:
-                colour, name = NO_TASK, NO_TASK_NAME
+                colour, name = NO_TASK, NO_TASK_NAME.replace("task", unit(run.protocol))
             elif colours is not None:
                 colour = colours[robot.id, span.task]
-                name = f"task {task_name(robot.id, span.task, len(run.robots))}"
+                name = f"{unit(run.protocol)} {task_name(robot.id, span.task, len(run.robots))}"
                 name += f" ({span.outcome})" if span.outcome != "completed" else ""
             else:
                 colour, name, dashes = robot_colour(i), f"path, one colour per robot\n({TOO_MANY})", "-"

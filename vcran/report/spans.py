@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from vcran.core.opil.effects import Reason, State
+from vcran.report.folder import Run
 
 WAITING = State.WAITING.value
 STATES = tuple(s.value for s in State)
@@ -52,14 +53,20 @@ class TaskSpan:
 
 @dataclass(slots=True)
 class History:
+    """A robot's state bands and units of work: OPIL's tasks, or a VDA 5050 vehicle's orders
+    (:mod:`vcran.report.vda5050`), whose state lane has its own names and whose idle state is ``idle``."""
+
     robot: str
     bands: list[Band] = field(default_factory=list)
     tasks: list[TaskSpan] = field(default_factory=list)
+    idle: str = WAITING
+    #: VDA 5050: orders the vehicle refused (``order_rejected``, §6.6.4); OPIL has no such count (0).
+    rejected: int = 0
 
     @property
     def busy(self) -> float:
-        """Seconds not WAITING: a task was current, whether assembling, driving or acting."""
-        return sum(b.end - b.start for b in self.bands if b.state != WAITING)
+        """Seconds not idle: a task (an order) was current, whether assembling, driving or acting."""
+        return sum(b.end - b.start for b in self.bands if b.state != self.idle)
 
 
 class Happenings(Protocol):
@@ -75,7 +82,12 @@ class Happenings(Protocol):
 
 
 def histories(run: Happenings) -> dict[str, History]:
-    """Every robot's history, robots in fleet order; events of entities outside the fleet are ignored."""
+    """Every robot's history, robots in fleet order; events of entities outside the fleet are ignored. A
+    VDA 5050 run's are its vehicles' orders (:mod:`vcran.report.vda5050`), read from its events and trace."""
+    if isinstance(run, Run) and run.vda is not None:
+        from vcran.report.vda5050 import order_histories
+
+        return order_histories(run)
     builders = {rid: _Builder(rid) for rid in run.robot_ids}
     for event in run.events:
         builder = builders.get(event["robot"])

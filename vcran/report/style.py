@@ -20,6 +20,10 @@ STATE_COLOURS = {
     "TASK": "#c4c4c4",
     "MOTION": "#7a7a7a",
     "ACTION": "#2e2e2e",
+    # a VDA 5050 vehicle's lane (vcran.report.vda5050): no order, an order standing, driving; ACTION as above
+    "IDLE": "#f4f4f4",
+    "ORDER": "#c4c4c4",
+    "DRIVING": "#7a7a7a",
 }
 
 #: Cancel reason -> (marker, colour) on the timeline.
@@ -47,6 +51,8 @@ INCIDENT_STYLE = {
     # docs/contract.md §12: a robot's protective field entered (where it began to brake), robots stopped on one another
     "blocked": ("o", "#f39c12", "blocked (field entered)"),
     "deadlock": ("h", "#1a5276", "deadlock"),
+    # VDA 5050: an order or order update the vehicle refused (§6.6.4), which never becomes a bar
+    "order_rejected": ("X", "#922b21", "order rejected"),
 }
 
 #: matplotlib's tab10 without its grey, which the states and "no task" use.
@@ -65,6 +71,11 @@ def task_colours(histories: dict[str, History]) -> dict[tuple[str, str], str] | 
     if len(tasks) > len(TASK_PALETTE):
         return None
     return {key: TASK_PALETTE[i] for i, key in enumerate(tasks)}
+
+
+def unit(protocol: str) -> str:
+    """What a robot's unit of work is called in the figures: OPIL's task, a VDA 5050 order."""
+    return "order" if protocol == "vda5050" else "task"
 
 
 def robot_colour(index: int) -> str:

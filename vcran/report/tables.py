@@ -48,6 +48,10 @@ COLUMNS = (
     Column("parts moved", "parts_moved", lambda k: k.parts_moved),
     Column("errors", "errors", lambda k: k.errors),
 )
+#: A VDA 5050 run's (docs/report.md "VDA 5050 runs"): orders for tasks; a vehicle has no task timeout, it
+#: rejects orders (§6.6.4) instead. The other names are OPIL's, for the analogous counts.
+VDA_COLUMNS = tuple(Column("rejected", "rejected", lambda k: k.rejected) if c.name == "cancelled_timeout" else c
+                    for c in COLUMNS)
 #: docs/contract.md §4 columns, shown when a run has any battery, downtime, collision or docs/contract.md §4 cancel (docs/report.md).
 S4_COLUMNS = (
     Column("battery empty", "cancelled_battery_empty", lambda k: k.cancelled["battery_empty"]),
@@ -68,12 +72,13 @@ S12_COLUMNS = (
 
 
 def columns(rows: list[Kpi]) -> tuple[Column, ...]:
-    """The table's columns: the docs/contract.md §4 ones only when the run has something to show in them, the docs/contract.md §12 ones when
-    its robots had safety fields."""
+    """The table's columns (a VDA 5050 run's :data:`VDA_COLUMNS`): the docs/contract.md §4 ones only when the
+    run has something to show in them, the docs/contract.md §12 ones when its robots had safety fields."""
     s4 = any(k.energy_per_job is not None or k.downtime or k.collisions or any(c.value(k) for c in S4_COLUMNS[:3])
              for k in rows)
     s12 = any(k.blocks is not None for k in rows)
-    return COLUMNS + (S4_COLUMNS if s4 else ()) + (S12_COLUMNS if s12 else ())
+    first = VDA_COLUMNS if any(k.rejected is not None for k in rows) else COLUMNS
+    return first + (S4_COLUMNS if s4 else ()) + (S12_COLUMNS if s12 else ())
 
 
 def markdown(rows: list[Kpi]) -> str:

@@ -27,7 +27,9 @@ from vcran.report.style import (
     TASK_NEUTRAL,
     save,
     task_colours,
+    unit,
 )
+from vcran.report.vda5050 import STATES as VDA_STATES
 
 if TYPE_CHECKING:  # matplotlib is an optional extra, imported when a figure is drawn
     from matplotlib.axes import Axes
@@ -102,24 +104,27 @@ def draw_timeline(run: Run, histories: dict[str, History], robots: tuple[str, ..
     ax.set_xlabel("simulated time (s)")
     ax.grid(True, axis="x", color="#e6e6e6", linewidth=0.6)
     ax.set_axisbelow(True)
-    title = f"{run.scenario}: RanLogic states and task lifetimes"
+    work, vda = unit(run.protocol), run.protocol == "vda5050"
+    states, logic = (VDA_STATES, "vehicle") if vda else (STATES, "RanLogic")
+    title = f"{run.scenario}: {logic} states and {work} lifetimes"
     fig.suptitle(title + (f"\n{note}" if note else ""), x=(LEFT + RIGHT) / 2, y=1 - 0.08 / height_in,
                  va="top", fontsize=11)
 
     handles: list[Line2D | Patch] = [Patch(facecolor=STATE_COLOURS[s], edgecolor="#999999", linewidth=0.5,
-                                           label=s) for s in STATES]
+                                           label=s) for s in states]
     handles += [
-        Patch(facecolor=TASK_NEUTRAL, alpha=0.35, label="task queued"),
-        Patch(facecolor=TASK_NEUTRAL, label="task current"),
-        Patch(facecolor="white", edgecolor="#555555", hatch="////", label="task cancelled"),
-        *(Line2D([], [], marker=m, color=c, linestyle="none", label=f"cancel: {reason}")
+        *(() if vda else (Patch(facecolor=TASK_NEUTRAL, alpha=0.35, label="task queued"),)),  # an order has no queue
+        Patch(facecolor=TASK_NEUTRAL, label=f"{work} current"),
+        Patch(facecolor="white", edgecolor="#555555", hatch="////", label=f"{work} {'not completed' if vda else 'cancelled'}"),
+        *(Line2D([], [], marker=m, color=c, linestyle="none", label=f"{'ended' if vda else 'cancel'}: {reason}")
           for reason, (m, c) in REASON_STYLE.items()
-          if reason in CORE_REASONS or any(s.outcome == reason for rid in robots for s in histories[rid].tasks)),
+          if (reason in CORE_REASONS and not vda) or any(s.outcome == reason for rid in robots for s in histories[rid].tasks)),
         *(Line2D([], [], marker=m, color=c, linestyle="none", label=label)
           for kind, (m, c, label) in INCIDENT_STYLE.items() if any(i.kind == kind for i in marked)),
-        Line2D([], [], marker=">", color="#333333", linestyle="none", label="task open at end of run"),
+        Line2D([], [], marker=">", color="#333333", linestyle="none", label=f"{work} open at end of run"),
     ]
-    lanes_text = "top lane of each robot: its RanLogic state; lanes below: its tasks, from first seen to the end"
+    lanes_text = (f"top lane of each robot: its {logic} state; lanes below: its {work}s, "
+                  f"from {'accepted' if vda else 'first seen'} to the end")
     fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.05 / height_in), ncol=6, fontsize=8,
                frameon=False, title=lanes_text + (" (colours as in the layout)" if colours else ""),
                title_fontsize=8)

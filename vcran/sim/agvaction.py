@@ -9,7 +9,8 @@ Two ways to have an action performed, both reporting :class:`Acted` with the act
   (VDA 5050's actions that block nothing: several at once, also while driving). Holds pause it, a halt ends
   it (without a report of its own: the halt is reported once), :meth:`AgvAction.interrupt` stops it (nothing
   of it happens, no report). It draws no power of its own (the battery's segment is the body's work's), so a
-  charge is only performed through ``act``.
+  charge is only performed through ``act``; :meth:`AgvAction.stop_charging` ends a running charge where the
+  battery stands (VDA 5050's stopCharging), without a report.
 
 A failed action moves nothing (an injected action failure included). A mixin of :class:`vcran.sim.body.Body`.
 """
@@ -26,7 +27,7 @@ from vcran.core.actions import ActionKind
 from vcran.core.battery import ACT, CHARGE, REST, charge_refusal, linear_empty_after
 from vcran.core.scenario import RobotConfig
 from vcran.core.stations import Outcome, StationMap, attempt, transfer
-from vcran.sim.holds import ABANDON, HOLD, RELEASE, Cause, Halted
+from vcran.sim.holds import ABANDON, HOLD, RELEASE, STOP, Cause, Halted
 from vcran.sim.timing import COMPLETION, after, at
 
 Process = Generator[simpy.events.Event, Any, None]
@@ -58,6 +59,7 @@ class AgvAction:
     tell: Callable[[object], None]
     current: Callable[[], Any]
     _capable: frozenset[ActionKind]
+    _worker: Any
     _holds: list[str]
     _orders: Any
     _work: Callable[[simpy.events.Event], Generator[simpy.events.Event, Any, Cause]]
@@ -74,6 +76,8 @@ class AgvAction:
     def _init_actions(self) -> None:
         #: The actions performed beside the work (:meth:`perform`), by tag.
         self.beside: dict[Any, simpy.Process] = {}
+        #: A charge is the work under way (held ones included): :meth:`stop_charging` may end it.
+        self.charging = False
 
     def _agv_action(self) -> Process:
         while True:
@@ -99,7 +103,9 @@ class AgvAction:
                 self.watch_idle()  # a resting battery that ran out meanwhile found the robot working
             else:
                 duration = self._charge_time() if kind is ActionKind.CHARGE else self.durations[kind.value]
+                self.charging = kind is ActionKind.CHARGE
                 halt = yield from self._act(kind, duration)
+                self.charging = False
                 if halt is not None:
                     self._stopped(halt)
                     continue
@@ -123,6 +129,18 @@ class AgvAction:
                 self.parts_moved += 1
         return outcome
 
+    def charge_refused(self) -> Outcome | None:
+        """Why a charge would fail if it started now (no battery, no charger in reach, too slow), or None."""
+        return self._precheck(ActionKind.CHARGE)
+
+    def stop_charging(self) -> bool:
+        """End the running charge now, the battery keeping what went in (VDA 5050's stopCharging, §6.8.1): the
+        logic asked, so no report follows. False when no charge runs."""
+        if not self.charging or self._worker is None:
+            return False
+        self._worker.interrupt(STOP)
+        return True
+
     def _precheck(self, kind: ActionKind) -> Outcome | None:
         """An action that cannot start fails at once, not after its duration (R14): one this robot is not
         capable of, a charge the battery rules refuse (:func:`vcran.core.battery.charge_refusal`); else None."""
@@ -138,7 +156,7 @@ class AgvAction:
 
     def _act(self, kind: ActionKind, duration: float) -> Generator[simpy.events.Event, Any, Cause]:
         """Wait out an action of ``duration``: held by pause/breakdown, cut short by an empty battery, or
-        :data:`ABANDON` as it begins (R14: nothing is performed)."""
+        :data:`ABANDON` as it begins (R14: nothing is performed), or :data:`STOP` (a charge stopped)."""
         env = self.env
         end = env.now + duration
         segment = CHARGE if kind is ActionKind.CHARGE else ACT
@@ -162,7 +180,7 @@ class AgvAction:
                     end += env.now - t_hold
                     self._segment(segment)
                     continue
-            assert cause is ABANDON or isinstance(cause, Halted)
+            assert cause is ABANDON or cause is STOP or isinstance(cause, Halted)
             self._segment(REST)
             return cause
 
@@ -176,6 +194,13 @@ class AgvAction:
             raise ValueError(f"action {tag!r} is already being performed")
         self.beside[tag] = self.env.process(self._beside(kind, tag))
 
+    def perform_for(self, seconds: float, tag: Any) -> None:
+        """Start ``tag``, an action of no station that takes ``seconds`` of work (VDA 5050's finePositioning),
+        beside the rest as :meth:`perform` does; it succeeds unless an action failure is armed."""
+        if tag in self.beside:
+            raise ValueError(f"action {tag!r} is already being performed")
+        self.beside[tag] = self.env.process(self._beside(None, tag, seconds))
+
     def interrupt(self, tag: Any) -> bool:
         """Stop action ``tag`` (one :meth:`perform` started) now: nothing of it happens, no report follows.
         False when no such action runs."""
@@ -185,10 +210,10 @@ class AgvAction:
         process.interrupt(ABANDON)
         return True
 
-    def _beside(self, kind: ActionKind, tag: Any) -> Process:
+    def _beside(self, kind: ActionKind | None, tag: Any, seconds: float = 0.0) -> Process:
         env = self.env
-        outcome = self._precheck(kind)
-        end = env.now + (0.0 if outcome is not None else self.durations[kind.value])
+        outcome = self._precheck(kind) if kind is not None else None
+        end = env.now + (0.0 if outcome is not None else seconds if kind is None else self.durations[kind.value])
         held_since: float | None = env.now if self._holds else None
         while True:
             try:
@@ -207,8 +232,15 @@ class AgvAction:
                 return  # interrupted, or the body halted: nothing of it happens
         del self.beside[tag]
         if outcome is None:
-            outcome = self._finish(kind)
+            outcome = self._finish(kind) if kind is not None else self._aligned(tag)
         self.tell(Acted(tag, outcome.ok, outcome.code, outcome.message))
+
+    def _aligned(self, tag: Any) -> Outcome:
+        """An action of no station ended: done, or failed by an armed action failure (docs/contract.md §4)."""
+        if self.fail_next_action:
+            self.fail_next_action = False
+            return Outcome(False, "action_fault", f"{tag}: injected action failure (§4)")
+        return Outcome(True)
 
     def _beside_all(self, cause: object) -> None:
         """Pass a hold, release or halt on to every action performed beside the work."""

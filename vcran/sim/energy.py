@@ -47,6 +47,9 @@ class Energy:
         self._idle_check: simpy.events.Event | None = None
         #: How far ahead the power tick looks for a resting battery running out (2 telemetry periods).
         self.idle_horizon = 2.0
+        #: Called by the power tick when a battery it warned of is back at or above its low level (a charge,
+        #: a swap), for a protocol whose logic clears the warning (VDA 5050's batteryLow); None: not watched.
+        self.battery_restored: Callable[[], None] | None = None
 
     def _segment(self, kind: int) -> float | None:
         """Begin a battery segment of ``kind`` now; returns the level it starts with (None: no battery)."""

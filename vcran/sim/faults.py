@@ -58,6 +58,8 @@ class Faults:
             robot.halt(Halted(MOTION_FAILED, "injected motion failure: the robot stopped where it is [§4]"))
         elif kind == "action_failure":
             robot.fail_next_action = True
+        elif kind == "trigger":
+            pass  # the protocol's logic hears it through the log (VDA 5050's waitForTrigger: vcran.sim.vda5050.node)
         else:
             assert kind == "link_down"
             self._later(duration, lambda: robot.log_incident(FaultEnded(kind)))  # before the RAN's backlog (if it holds one)

@@ -72,10 +72,13 @@ class Link:
         *,
         periodic: frozenset[str] = frozenset(),
         every: frozenset[str] = frozenset(),
+        holds: bool = True,
     ) -> None:
+        """``holds`` False: a broker's publish and subscribe (MQTT, VDA 5050's link) instead of Orion's
+        entities: every write reaches the robot once, as it lands, none held, none merged with an equal one."""
         self.env, self.robots, self.settings = env, robots, settings
         self._rng, self._deliver, self._notify = rng, deliver, notify
-        self._periodic, self._every = periodic, every
+        self._periodic, self._every, self._holds = periodic, every, holds
         self._polling = settings.inbound == POLLING
         # manager -> RAN
         self._seq = 0
@@ -104,7 +107,9 @@ class Link:
         arrival = max(self._delay(), self._last_in.get(robot, 0.0))
         self._last_in[robot] = arrival
         self._flying += 1
-        if self._polling:
+        if not self._holds:
+            at(self.env, arrival, INBOUND).callbacks.append(lambda _: self._pass(w))
+        elif self._polling:
             heappush(self._landing, (arrival, w.seq, w))
         else:
             at(self.env, arrival, INBOUND).callbacks.append(lambda _: self._arrive(w))
@@ -113,6 +118,12 @@ class Link:
         self._land(w)
         if w.robot not in self._down:
             self._read_robot(w.robot)
+
+    def _pass(self, w: _Write) -> None:
+        """A broker's message lands: straight on to the robot (what a robot whose link is down gets is its glue's to
+        lose, as MQTT's QoS 0 loses it, vcran.sim.vda5050.glue)."""
+        self._flying -= 1
+        self._deliver(Inbound(w.robot, w.attribute, w.message, w.raw))
 
     def _land(self, w: _Write) -> None:
         """``w`` reaches Orion: a change of the value held is remembered as unread (moved to the end)."""

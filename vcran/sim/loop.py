@@ -67,10 +67,12 @@ class Loop(Transport):
     periodic: frozenset[str] = frozenset()
     #: Attributes of which every value, not only the latest, waits out a ``link_down`` (:class:`Link`'s ``every``).
     every: frozenset[str] = frozenset()
+    #: Whether the link holds what the manager writes as Orion does (:class:`Link`'s ``holds``; False: a broker's).
+    holds: bool = True
 
     def __init__(self, scenario: Scenario, manager: Manager, log: Log) -> None:
         self.scenario, self.manager = scenario, manager
-        self.fleet = Fleet.of(scenario)
+        self.fleet = self.make_fleet(scenario)
         self.jobs = JobBook(log)
         self.link: ManagerLink | None = None
         self.handle: Handle | None = None
@@ -86,6 +88,12 @@ class Loop(Transport):
         self._next_job(env)
         self._call("on_start")
 
+    def make_fleet(self, scenario: Scenario) -> Any:
+        """What the manager is told of the fleet at the start (``manager.fleet``, its handle's too): the shared
+        :class:`Fleet`; a protocol whose managers know the fleet otherwise overrides this (VDA 5050: vehicles
+        by serial number, :class:`vcran.core.vda5050.fleet.MasterFleet`)."""
+        return Fleet.of(scenario)
+
     def make_handle(self, env: simpy.Environment, rng: random.Random) -> Handle:
         """The manager's handle on this loop, drawing from ``rng``."""
         raise NotImplementedError
@@ -94,8 +102,8 @@ class Loop(Transport):
         """The link between manager and robots, in simulated time. ``vcran manage`` puts a real Orion
         here (:class:`transports.orion.manage.OrionManagerLink`): anything with :meth:`Link.write`,
         ``inbound_idle`` and ``outbound_idle`` that calls :meth:`notified` with what reaches the manager."""
-        return Link(env, self.fleet.robot_ids, self.scenario.link, random.Random(f"link:{self.scenario.settings.seed}"),
-                    deliver, self.notified, periodic=self.periodic, every=self.every)
+        return Link(env, tuple(r.id for r in self.scenario.robots), self.scenario.link, random.Random(f"link:{self.scenario.settings.seed}"),
+                    deliver, self.notified, periodic=self.periodic, every=self.every, holds=self.holds)
 
     def notified(self, batch: list[Outbound]) -> None:
         """One batch of the robots' publications reaches the manager (the protocol's hooks)."""

@@ -5,7 +5,9 @@ published when its percentage, rounded to the battery's ``resolution``, changed,
 since its last publication: a thousand robots do not put a thousand messages per second on the wire. How it is
 published is the protocol's (OPIL: ``battery_state``, a ``sensor_msgs.BatteryState``): the tick hands it the
 rows that changed. A robot at rest whose battery would run out before the tick after next is handed to
-:meth:`~vcran.sim.energy.Energy.watch_idle`, which schedules the exact instant.
+:meth:`~vcran.sim.energy.Energy.watch_idle`, which schedules the exact instant. A robot whose protocol clears
+the low warning (its ``battery_restored`` hook is set: VDA 5050's batteryLow) is told at the first tick that
+finds its battery, once warned of, at or above the low level again; it can then be warned of again.
 """
 
 from __future__ import annotations
@@ -39,6 +41,11 @@ class Power:
         self.voltage = [c.voltage for c in configs]
         self.last = np.full(len(configs), -1.0)
         self.fleet = robots[0].fleet
+        #: Robots (``indices`` order) whose protocol hears the battery restored, and those warned of since; None
+        #: when none does (OPIL), and the tick is what it was.
+        watched = [robots[int(i)].battery_restored is not None for i in battery.indices]
+        self.watched = np.array(watched) if any(watched) else None
+        self.restoring = np.zeros(len(configs), dtype=bool)
 
     def tick(self, t: float) -> None:
         """Publish what changed, warn of low batteries, watch resting ones about to run out.
@@ -64,6 +71,16 @@ class Power:
                 level, pct = float(levels[j]), float(levels[j]) / b.capacity[i]
                 robot.log_incident(BatteryLow(level, pct))
                 robot.report("battery_low", f"battery at {pct:.1%} ({level:.3f} Ah), below its low level [§4]")
+                if self.watched is not None and self.watched[j]:
+                    self.restoring[j] = True
+        if self.watched is not None:
+            for j in np.flatnonzero(self.restoring & (levels >= self.low)):
+                self.restoring[j] = False
+                i = int(idx[j])
+                b.low_warned[i] = False  # the next discharge below the low level is warned of again
+                hook = self.robots[i].battery_restored
+                assert hook is not None
+                hook()
         for j in np.flatnonzero(levels <= self.soon):
             if kinds[j] == REST:
                 self.robots[int(idx[j])].watch_idle()

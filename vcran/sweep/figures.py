@@ -20,8 +20,8 @@ from vcran.sweep.labels import Labels
 from vcran.sweep.spec import Sweep
 from vcran.sweep.worker import Row
 
-#: KPIs drawn, when the runs have them (closed-loop figures only for closed-loop runs).
-DRAWN = ("sim_time", "tasks_completed", "tasks_cancelled", "distance", "errors", "collisions", "battery_used",
+#: KPIs drawn, when the runs have them (closed-loop figures only for closed-loop runs, `rejected` for VDA 5050 ones).
+DRAWN = ("sim_time", "tasks_completed", "tasks_cancelled", "rejected", "distance", "errors", "collisions", "battery_used",
          "blocked_time", "deadlocks", "jobs_done_per_hour", "jobs_lead_time_mean", "utilisation")
 #: Drawn only when some run has any: most fleets never collide, and a panel of zeros says nothing new.
 UNLESS_ALL_ZERO = frozenset({"collisions"})

@@ -18,6 +18,7 @@ from typing import Any
 from vcran.api import manager_options, simulate
 from vcran.core.opil.effects import Reason
 from vcran.core.scenario import ManagerSpec
+from vcran.core.vda5050.outcomes import OrderLog, order_logs
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps
 from vcran.sim.loop import manager_note
@@ -41,7 +42,9 @@ def run_one(scenario_text: str, source: str, overrides: list[tuple[str, Any]], o
         scenario = parse(data, source, default_name=Path(source).stem)
         data.setdefault("simulation", {})["name"] = scenario.settings.name
         kept = dumps(data)
-        row: Row = {"error": None, **kpis(simulate(scenario, out=out).summary)}
+        result = simulate(scenario, out=out)
+        vda = scenario.settings.protocol == "vda5050"
+        row: Row = {"error": None, **kpis(result.summary, order_logs(result.events) if vda else None)}
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of one run is that run's row
         row = {"error": error_text(exc)}
     if out is not None and kept is not None:  # after the run: the run folder is written whole, then renamed
@@ -83,13 +86,15 @@ KPIS = ("sim_time", "tasks_completed", "tasks_cancelled",
 TRAFFIC = ("cancelled_deadlock", "blocks", "blocked_time", "deadlocks")
 
 
-def kpis(summary: dict[str, Any]) -> dict[str, Any]:
+def kpis(summary: dict[str, Any], orders: dict[str, OrderLog] | None = None) -> dict[str, Any]:
     """The fleet's key figures from a run's summary (docs/outputs.md): task counts, cancels by reason,
     distance, parts moved, errors and collisions (docs/contract.md §4: each involves two robots, and each robot's
     summary counts it); with batteries the charge drawn (Ah); with a closed loop (docs/contract.md §9) every figure
     of its ``jobs`` section (``jobs_lead_time_p95``, ...) and the fleet's ``utilisation``; with safety fields
     (docs/contract.md §12) tasks cancelled for a deadlock and the summary's ``traffic``: blocks, blocked time (s),
-    deadlocks."""
+    deadlocks. A VDA 5050 run's counts are of orders, as `vcran report` counts them from ``orders``
+    (:mod:`vcran.core.vda5050.outcomes`, docs/report.md): completed, not completed by how (``action_failed``:
+    completed with one of its actions FAILED), ``rejected``; ``cancelled_timeout`` is empty (no such thing)."""
     robots = summary["robots"].values()
     reasons = [c["reason"] for r in robots for c in r["cancelled"]]
     row: dict[str, Any] = {
@@ -102,6 +107,12 @@ def kpis(summary: dict[str, Any]) -> dict[str, Any]:
         "errors": summary["errors"],
         "collisions": sum(r.get("collisions", 0) for r in robots) // 2,
     }
+    if orders is not None:
+        reasons = [e.outcome for log in orders.values() for e in log.ended if e.outcome != "completed"]
+        row.update({"tasks_completed": sum(e.outcome == "completed" for log in orders.values() for e in log.ended),
+                    "tasks_cancelled": len(reasons),
+                    **{f"cancelled_{r.value}": reasons.count(r.value) for r in Reason if r is not Reason.DEADLOCK},
+                    "cancelled_timeout": None, "rejected": sum(log.rejected for log in orders.values())})
     traffic = summary.get("traffic")
     if isinstance(traffic, dict):
         row["cancelled_deadlock"] = reasons.count(Reason.DEADLOCK.value)

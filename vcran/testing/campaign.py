@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from vcran.core.scenario import ManagerSpec, Scenario
+from vcran.core.scenario import VDA5050, ManagerSpec, Scenario
 from vcran.io.scenario_file import parse
 from vcran.testing.checks import run_variant
 from vcran.testing.scripts import Perturbation, load_text, perturbations, perturbed_toml
@@ -52,8 +52,8 @@ class Failure:
     """A search's shrunk failure: the violations, and what to write as the failing scenario file."""
 
     problems: tuple[str, ...]
-    #: A script's search: the shrunk perturbations (plain frozen dataclasses); ``perturbed_toml(base, ops)``.
-    ops: list[Perturbation] | None = None
+    #: A script's search: the shrunk perturbations (plain frozen dataclasses); ``script_toml(base, ops)``.
+    ops: list[Any] | None = None
     #: A fleet manager's search: the shrunk failing scenario as plain data (``scenario_toml.dumps`` writes it).
     scenario: dict[str, Any] | None = None
 
@@ -79,8 +79,13 @@ def search(text: str, source: str, seed: int, examples: int, options: Options = 
     from hypothesis.errors import NoSuchExample
 
     base = base_scenario(text, source)
-    strategy = perturbations(list(base.messages()), [r.id for r in base.robots], window=options.window,
-                             max_ops=options.max_ops)
+    if base.settings.protocol == VDA5050:  # its own perturbations and properties (docs/fuzzing.md)
+        from vcran.testing.vda5050_runs import perturbations as vda_perturbations
+
+        strategy: Any = vda_perturbations(base, window=options.window, max_ops=options.max_ops)
+    else:
+        strategy = perturbations(list(base.messages()), [r.id for r in base.robots], window=options.window,
+                                 max_ops=options.max_ops)
     calls = {"generated": 0, "shrinking": 0}
     found = False
 
@@ -131,10 +136,26 @@ def loop_base(text: str, source: str, manager: str | None) -> Scenario:
     return replace(base, manager=ManagerSpec(manager, tuple(manager_options(base.manager, manager).items())))
 
 
-def check(base: Scenario, ops: list[Perturbation], options: Options) -> list[str]:
-    """The rule violations of one variant, run in a temporary folder (:func:`run_variant`)."""
+def check(base: Scenario, ops: list[Any], options: Options) -> list[str]:
+    """The rule violations of one variant, run in a temporary folder (:func:`run_variant`; a VDA 5050
+    scenario's, :func:`vcran.testing.vda5050_runs.run_variant`)."""
+    variant = load_text(script_toml(base, ops))
     with tempfile.TemporaryDirectory(prefix="vcran-fuzz-") as work:
-        return run_variant(load_text(perturbed_toml(base, ops)), Path(work), again=not options.fast)
+        if base.settings.protocol == VDA5050:
+            from vcran.testing.vda5050_runs import run_variant as vda_variant
+
+            return vda_variant(variant, Path(work), again=not options.fast)
+        return run_variant(variant, Path(work), again=not options.fast)
+
+
+def script_toml(base: Scenario, ops: list[Any], header: str = "") -> str:
+    """``base`` with its script perturbed by ``ops`` as a scenario file, for either protocol (OPIL's
+    :func:`~vcran.testing.scripts.perturbed_toml`, VDA 5050's :func:`vcran.testing.vda5050_runs.perturbed_toml`)."""
+    if base.settings.protocol == VDA5050:
+        from vcran.testing.vda5050_runs import perturbed_toml as vda_toml
+
+        return vda_toml(base, ops, header)
+    return perturbed_toml(base, ops, header)
 
 
 def chunks(examples: int, workers: int, seed: int, most: int = 25) -> list[tuple[int, int]]:

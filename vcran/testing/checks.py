@@ -27,10 +27,6 @@ import numpy as np
 from vcran.core.opil.effects import Reason, State
 from vcran.core.scenario import Scenario
 from vcran.io.trace import (
-    EVENTS_FILE,
-    LEGS_FILE,
-    SUMMARY_FILE,
-    TRACE_FILE,
     event_records,
     events_beside,
     read_header,
@@ -248,8 +244,6 @@ def overdue(robots: list[Any], now: float) -> list[str]:
 
 # --- one variant, end to end ---------------------------------------------------------------------------------
 
-_FILES = (TRACE_FILE, LEGS_FILE, EVENTS_FILE, SUMMARY_FILE)
-
 
 def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[str]:
     """Run ``scenario`` into ``work/a`` and return every rule violation of the outputs.
@@ -258,10 +252,9 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
     (replay verification must find no difference, docs/contract.md §6). A crash is a violation too (R12: the simulation
     never crashes on input). When the run went idle, every queued task must have ended.
     """
-    from transports.replay import ReplayTransport
     from transports.scripted import ScriptedTransport
-    from vcran.io.verify import scenario_from_trace, verify
     from vcran.runner import run_to
+    from vcran.testing.variant import again_and_replay
 
     try:
         result = run_to(scenario, work / "a", ScriptedTransport(scenario.messages(), frames=False))
@@ -270,13 +263,6 @@ def run_variant(scenario: Scenario, work: Path, *, again: bool = True) -> list[s
         problems += overdue(result.model.protocol.nodes, result.summary["sim_time"])
         if problems or not again:
             return problems
-        run_to(scenario, work / "b", ScriptedTransport(scenario.messages(), frames=False))
-        for name in _FILES:
-            if (work / "a" / name).read_bytes() != (work / "b" / name).read_bytes():
-                return [f"{name} differs between two runs of the same scenario (§5)"]
-        trace = work / "a" / TRACE_FILE
-        run_to(scenario_from_trace(trace), work / "c", ReplayTransport(trace))
-        difference = verify(trace, work / "c")
-        return [f"replay verification (§6): {difference}"] if difference is not None else []
+        return again_and_replay(scenario, work)
     except Exception as exc:  # noqa: BLE001 - any crash on input is the finding
         return [f"crash: {type(exc).__name__}: {exc}"]

@@ -49,7 +49,7 @@ from hypothesis import strategies as st
 
 from vcran.core.faults import KINDS, RANDOM_KINDS, FaultSpec
 from vcran.core.jobs import waiting_spans
-from vcran.core.scenario import POLLING, SUBSCRIPTION, Job, LinkSettings, Scenario
+from vcran.core.scenario import POLLING, SUBSCRIPTION, VDA5050, Job, LinkSettings, Scenario
 from vcran.testing.deadlocks import STUCK_BOUND, check_no_deadlock
 from vcran.testing.deadlocks import applies as deadlock_applies
 from vcran.testing.outcomes import COMPLETION_MARGIN, check_failures_have_evidence, check_feasible_jobs_completed
@@ -109,15 +109,16 @@ LATENCIES = (0.05, 0.001, 0.01, 0.2, 0.5, 1.0, 2.0)
 JITTERS = (0.0, 0.01, 0.1, 0.5, 1.0)
 
 
-def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JITTERS) -> st.SearchStrategy[LinkSettings]:
+def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JITTERS,
+          inbounds: Sequence[str] = (SUBSCRIPTION, POLLING)) -> st.SearchStrategy[LinkSettings]:
     """Link settings: latency, seeded jitter, and subscription or (lossy) polling semantics. Values come
     from short lists, so a failure shrinks in a few steps towards the defaults (50 ms, no jitter,
-    subscription)."""
+    subscription). A VDA 5050 fleet's link is a broker's: ``inbounds=(SUBSCRIPTION,)`` (polling is OPIL's)."""
     return st.builds(
         LinkSettings,
         latency=st.sampled_from(latencies),
         jitter=st.sampled_from(jitters),
-        inbound=st.sampled_from([SUBSCRIPTION, POLLING]),
+        inbound=st.sampled_from(list(inbounds)),
         poll_interval=st.sampled_from([0.25, 0.1, 1.0]),
     )
 
@@ -174,7 +175,8 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
     if vary_stock:
         stock = draw(stocks(sorted({j.pickup for j in jobs})))
         stations = tuple(replace(s, parts=stock[s.id]) if s.id in stock else s for s in stations)
-    link = draw(links()) if vary_link else base.link
+    broker = base.settings.protocol == VDA5050  # MQTT has no polling (docs/vda5050.md, "In the closed loop")
+    link = draw(links(inbounds=(SUBSCRIPTION,) if broker else (SUBSCRIPTION, POLLING))) if vary_link else base.link
     duration = horizon + settle
     if base.settings.duration is not None:
         duration = min(duration, base.settings.duration)
@@ -200,15 +202,25 @@ def check_jobs_ended(result: Any) -> list[str]:
 
 
 def check_protocol(result: Any) -> list[str]:
-    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly.
+    """No ``ran_error`` of a protocol kind (:data:`PROTOCOL_ERRORS`): the manager spoke OPIL correctly; a VDA 5050
+    master, no order its vehicle refused (``order_rejected``: invalid, a stale update, an order the vehicle
+    could not take, §6.6.4).
 
     Rejections of a robot while its link is down, up to the instant it is back (docs/contract.md §4), are the outage's: what
     the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out).
     """
     cut_off = fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
-    return [f"t={e['t']:g} {e['robot'] or 'fleet'}: ran_error {e['code']}: {e.get('message', '')}"
-            for e in result.events if e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS
+    return [_protocol_error(e) for e in result.events
+            if ((e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS) or e["event"] == "order_rejected")
             and not any(a <= e["t"] <= b for a, b in cut_off.get(e["robot"], []))]
+
+
+def _protocol_error(e: dict[str, Any]) -> str:
+    if e["event"] == "rejected":
+        return f"t={e['t']:g} {e['robot'] or 'fleet'}: ran_error {e['code']}: {e.get('message', '')}"
+    error = e.get("error") or {}
+    return (f"t={e['t']:g} {e['robot']}: order {e.get('order_id')} (update {e.get('order_update_id')}) refused, "
+            f"{error.get('errorType')}: {error.get('errorDescription', '')}")
 
 
 def check_no_idle_while_waiting(result: Any, bound: float = IDLE_BOUND) -> list[str]:

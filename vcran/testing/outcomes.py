@@ -18,6 +18,7 @@ from collections import Counter
 from collections.abc import Iterable
 from typing import Any
 
+from vcran.core.jobs import order_unsuccessful
 from vcran.core.scenario import Scenario
 
 #: Default for :func:`check_feasible_jobs_completed`: a job that arrived this long before the end of the
@@ -48,12 +49,15 @@ def unservable(scenario: Scenario, events: list[dict[str, Any]], t: float) -> bo
 
 
 def _unsuccessful_ends(events: list[dict[str, Any]]) -> dict[tuple[str, str], list[float]]:
-    """Per (robot, task), the instants the run recorded it ending without success."""
+    """Per (robot, task), the instants the run recorded it ending without success; a VDA 5050 job's task is an
+    order (:func:`vcran.core.jobs.order_unsuccessful`: refused, given up, cancelled, or its action FAILED)."""
     ends: dict[tuple[str, str], list[float]] = {}
     for e in events:
         if e["event"] == "task_cancelled" or (e["event"] == "rejected" and e.get("code") == REFUSED_OUT_OF_SERVICE
                                               and "task" in e):
             ends.setdefault((e["robot"], e["task"]), []).append(e["t"])
+        elif (order := order_unsuccessful(e)) is not None:
+            ends.setdefault((e["robot"], order), []).append(e["t"])
     return ends
 
 
@@ -114,10 +118,11 @@ def infeasible(scenario: Scenario, jobs: Iterable[Any]) -> list[str]:
 
 def disturbances(events: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     """The events that disturbed the run (docs/contract.md §4): a fault that applied (one with ``applied: false`` did
-    nothing), a battery that ran empty, a task cancelled by a collision (``collisions = "stop"``; a
-    ``collision`` merely reported stops nobody)."""
+    nothing), a battery that ran empty, a task cancelled (a VDA 5050 order given up) by a collision
+    (``collisions = "stop"``; a ``collision`` merely reported stops nobody)."""
     return [e for e in events if (e["event"] == "fault" and e.get("applied", True)) or e["event"] == "battery_empty"
-            or (e["event"] == "task_cancelled" and e.get("reason") == "collision")]
+            or (e["event"] == "task_cancelled" and e.get("reason") == "collision")
+            or (e["event"] == "order_ended" and e.get("how") == "collision")]
 
 
 def check_feasible_jobs_completed(result: Any, margin: float = COMPLETION_MARGIN) -> list[str]:

@@ -40,40 +40,10 @@ from vcran.core.opil.messages import ActionAssignment, CancelTask, MotionAssignm
 from vcran.core.scenario import Scenario, ScriptEntry
 from vcran.io.scenario_file import parse
 from vcran.io.scenario_toml import dumps, name_of, scenario_dict
+from vcran.testing.delivery import Delay, Drop, Duplicate, Swap
 from vcran.testing.plans import KINDS
 
 # --- perturbations ------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, slots=True)
-class Delay:
-    """Entry ``index`` arrives ``by`` seconds late (it may overtake later entries, or miss a deadline)."""
-
-    index: int
-    by: float
-
-
-@dataclass(frozen=True, slots=True)
-class Swap:
-    """Entries ``index`` and ``index + offset`` arrive in each other's time slots (a reordering)."""
-
-    index: int
-    offset: int
-
-
-@dataclass(frozen=True, slots=True)
-class Duplicate:
-    """Entry ``index`` arrives again ``after`` seconds later (a re-send, or a polling re-read)."""
-
-    index: int
-    after: float
-
-
-@dataclass(frozen=True, slots=True)
-class Drop:
-    """Entry ``index`` never arrives (a value overwritten between two polls)."""
-
-    index: int
 
 
 @dataclass(frozen=True, slots=True)

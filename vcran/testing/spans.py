@@ -85,16 +85,25 @@ def minus(spans: list[tuple[float, float]], cuts: list[tuple[float, float]]) -> 
 
 
 def idle_spans(events: list[dict[str, Any]], robots: Sequence[str], end: float) -> dict[str, list[tuple[float, float]]]:
-    """Per robot, the spans it was WAITING (robots start WAITING at t = 0)."""
+    """Per robot, the spans it was WAITING (robots start WAITING at t = 0); a VDA 5050 vehicle, the spans it
+    had no order to execute: from the start, and from each order's end, to the next new order it accepted
+    (an update of the order under way changes nothing)."""
     since: dict[str, float | None] = dict.fromkeys(robots, 0.0)
     spans: dict[str, list[tuple[float, float]]] = {r: [] for r in robots}
     for e in events:
-        if e["event"] != "state":
+        kind = e["event"]
+        if kind == "state":
+            idle, busy = e["to"] == "WAITING", e["from"] == "WAITING"
+        elif kind == "order_ended":
+            idle, busy = True, False
+        elif kind == "order_accepted" and not e.get("update"):
+            idle, busy = False, True
+        else:
             continue
         robot = e["robot"]
-        if e["to"] == "WAITING":
+        if idle:
             since[robot] = e["t"]
-        elif e["from"] == "WAITING":
+        elif busy:
             start = since.get(robot)
             if start is not None:
                 spans[robot].append((start, e["t"]))

@@ -108,17 +108,24 @@ def test_a_new_leg_for_a_blocked_robot_ends_its_block() -> None:
     assert not t.blocked(0) and type(effects[0]).__name__ == "Unblocked"
 
 
-def test_a_robot_parked_beyond_the_goal_does_not_block_the_arrival() -> None:
-    """Robot 0 drives (0, 0) -> (20, 0), arriving at t = 22; robot 1 rests at (21.6, 0), its near side 0.6 m
-    past robot 0's front at the goal (20.5). An uncut field (2 m at rest) would reach it from t = 20 (during
-    the last 2 s the field's tip stays at 20.5 + 2 = 22.5: the robot slows as much as it advances); cut at
-    the goal it never does, and robot 0 arrives on time. Robot 1 0.4 m further back (21.2, near side 20.7):
-    still no block (the cut field ends at 20.5)."""
-    for x in (21.6, 21.2):
-        body = Body(traffic([(0.0, 0.0, 0.0), (x, 0.0, 0.0)]))
-        body.send(0, Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, LIMITS))
-        log = body.run(100.0)
-        assert events(log, "blocked", "arrived") == [(22.0, "arrived", 0, (20.0, 0.0))]
+def test_a_robot_parked_more_than_the_margin_beyond_the_goal_does_not_block_the_arrival() -> None:
+    """docs/robots.md "Fields": the field is cut ``margin`` (2 m) past the front of the footprint at the goal.
+    Robot 0 drives (0, 0) -> (20, 0), arriving at t = 22, its front at the goal at 20.5: its field never
+    reaches past 22.5. While it cruises the field's tip is at x + 0.5 + 3, 22.5 at x = 19 (t = 20); during
+    the last 2 s it has v^2 left to drive (0.5 m/s^2), so its uncut length 2 + v^2 is the cut 20 - x + 2 and
+    the tip stays at 22.5. Robot 1 resting at (23.1, 0) (near side 22.6, 0.1 m beyond): no block, arrival at
+    22. At (22.9, 0) (near side 22.4, 0.1 m within): the cruising tip reaches 22.4 at x = 18.9, **blocked at
+    t = 19.9**; robot 0 brakes 1 m, stops at 19.9 (t = 21.9), 0.1 m short of its goal, and waits: its
+    waiting field (3 m, cut at 0.1 + 2) reaches 20.4 + 2.1 = 22.5, over robot 1's side."""
+    body = Body(traffic([(0.0, 0.0, 0.0), (23.1, 0.0, 0.0)]))
+    body.send(0, Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, LIMITS))
+    assert events(body.run(100.0), "blocked", "arrived") == [(22.0, "arrived", 0, (20.0, 0.0))]
+    body = Body(traffic([(0.0, 0.0, 0.0), (22.9, 0.0, 0.0)]))
+    body.send(0, Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, LIMITS))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "arrived") == [(19.9, "blocked", 0, 1)]
+    brakes = [(round(t, 6), robot, round(d[0], 6), round(d[1][0], 6)) for t, what, robot, d in log if what == "brake"]
+    assert brakes == [(19.9, 0, 21.9, 19.9)]
 
 
 @settings(max_examples=60, deadline=None)

@@ -226,5 +226,5 @@ def _hold(b: Braking) -> float:
 
 
 def _goal(b: Braking) -> tuple[float, float]:
-    """Where the braked motion ends: a waiting field is cut there, as the driving field was."""
+    """Where the braked motion ends: a waiting field is cut ``margin`` past it, as the driving field was."""
     return b.leg.x1, b.leg.y1

@@ -12,12 +12,18 @@ Length, one formula for the three usual kinds of field::
 ``margin`` alone is a fixed field; ``reaction`` adds the distance driven during a reaction time; the last
 term is the braking distance at the robot's deceleration, so a robot whose field has ``margin > 0`` stops
 at least ``margin`` short of an obstacle standing still (a robot coming the other way brakes too, and
-both close the gap: docs/robots.md, "Traffic", says how long fields must be then). A turn in place has
-speed 0: the field keeps its length at rest and turns with the robot.
+both close the gap: each margin must exceed the other's braking distance, docs/robots.md "Head-on: how
+long fields must be"). A turn in place has speed 0: the field keeps its length at rest and turns with the
+robot.
 
-The field never reaches past where the robot will stop: it is cut at the distance from the robot to the
-end of its motion (every leg ends at rest). A robot arriving at a goal with a robot parked just beyond it
-is not blocked (else it would wait at its goal, its motion never done, for a robot it will never reach).
+The field never reaches more than ``margin`` past where the robot will stop: it is cut at the distance from
+the robot to the end of its motion (every leg ends at rest) plus ``margin``. A robot slowing to its goal at
+its deceleration has its braking distance left to drive, so there the cut is the field's own length
+(less any reaction term): a robot coming the other way is seen as early near a goal as anywhere (cut at the goal itself, the field
+of a robot about to arrive shrank to nothing, and a robot coming the other way drove into it). What stands
+more than ``margin`` beyond the goal never blocks the arrival (else the robot would wait short of its goal,
+its motion never done, for a robot it will never reach); what stands within it does, as it would block the
+robot anywhere else.
 
 A *waiting* field is the field of a robot that was blocked: its length is fixed at the length for the
 speed the robot will drive on at (:attr:`vcran.core.traffic.braking.Braking.resume_speed`), or the speed
@@ -105,7 +111,8 @@ class FieldTrack:
     """Robot ``index``'s field along ``leg`` (or at rest at ``pose``) until ``until``.
 
     ``fixed``: the length of a waiting field (module docstring); None: the length follows the speed.
-    ``goal``: where the robot's motion ends: the field is cut at the robot's distance to it (None: not cut).
+    ``goal``: where the robot's motion ends: the field is cut at the robot's distance to it plus the margin
+    (None: not cut).
     Treat as immutable (a plain dataclass for the same reason as :class:`vcran.core.collisions.Track`).
     """
 
@@ -164,14 +171,15 @@ class FieldTrack:
 
 
 def driving(index: int, field: Field, leg: Leg) -> FieldTrack:
-    """The field of robot ``index`` driving ``leg``: its length follows the speed, cut at the leg's end."""
+    """The field of robot ``index`` driving ``leg``: its length follows the speed, cut ``margin`` past the
+    leg's end."""
     return FieldTrack(index, field, leg, (leg.x0, leg.y0, leg.theta0), leg.t_end, goal=(leg.x1, leg.y1))
 
 
 def waiting(index: int, field: Field, speed: float, leg: Leg | None, pose: tuple[float, float, float],
             goal: tuple[float, float] | None = None) -> FieldTrack:
     """The waiting field of robot ``index``, blocked: the length for ``speed`` (the speed it will drive on
-    at), along its braking ``leg`` or at rest at ``pose`` (``leg`` None), cut at ``goal`` (the end of the
-    motion it will drive on; None: not cut)."""
+    at), along its braking ``leg`` or at rest at ``pose`` (``leg`` None), cut ``margin`` past ``goal`` (the
+    end of the motion it will drive on; None: not cut)."""
     until = leg.t_end if leg is not None else math.inf
     return FieldTrack(index, field, leg, pose, until, fixed=field.length(speed), goal=goal)

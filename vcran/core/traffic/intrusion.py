@@ -41,7 +41,7 @@ def first_exit(field: FieldTrack, other: Track, t0: float, t1: float, resolution
 
 def states(field: FieldTrack, times: np.ndarray) -> np.ndarray:
     """``(len(times), 4)``: the field's robot's ``x, y, theta`` and the field's length at each of ``times``
-    (cut at the robot's distance to its goal: vcran.core.traffic.fields)."""
+    (cut at the robot's distance to its goal plus the margin: vcran.core.traffic.fields)."""
     out = np.empty((len(times), 4))
     leg = field.leg
     if leg is None:
@@ -58,7 +58,7 @@ def states(field: FieldTrack, times: np.ndarray) -> np.ndarray:
         out[:, 3] = f.margin + f.reaction * speeds + f.brake * speeds * speeds
     if field.goal is not None:
         left = np.hypot(field.goal[0] - out[:, 0], field.goal[1] - out[:, 1])
-        np.minimum(out[:, 3], left, out=out[:, 3])
+        np.minimum(out[:, 3], left + field.field.margin, out=out[:, 3])
     return out
 
 

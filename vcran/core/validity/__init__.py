@@ -24,9 +24,9 @@ from vcran.core.traffic import roadmap as traffic
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.validity.fields import Problem, is_number
 from vcran.core.validity.fleet import robot_problems, settings_problems, station_problems
+from vcran.core.validity.protocol import duration_problems, trigger_problems, vehicle_problems
 from vcran.core.validity.protocol import link_problems as protocol_link_problems
 from vcran.core.validity.protocol import script_problems as protocol_script_problems
-from vcran.core.validity.protocol import vehicle_problems
 from vcran.core.validity.safety import traffic_problems
 from vcran.core.validity.workload import (
     fault_problems,
@@ -63,6 +63,7 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
     protocol = sc.settings.protocol if isinstance(sc.settings, Settings) else None
     if protocol is not None and not out:  # a robot's own fields first: its topics are made of them
         out += vehicle_problems(sc.robots, protocol)
+        out += duration_problems(sc.settings.durations, protocol)
     stations = []
     for i, s in enumerate(sc.stations):
         stations += station_problems(s, i, own)
@@ -92,6 +93,8 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
     script = script_problems(sc.script, sc.cycles, robots, end, own)
     if protocol is not None and not script:
         script = protocol_script_problems(sc.script, sc.cycles, protocol)
+    if protocol is not None and not script and not faults:
+        script = trigger_problems(sc.script, sc.faults, protocol, endless=sc.settings.duration is None)
     out += script
     return out + _whole(sc, faults_sound=not faults)
 

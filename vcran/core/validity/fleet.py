@@ -66,8 +66,10 @@ SETTINGS: dict[str, Rule] = {
     "collision_resolution": Number(positive=True),
     "protocol": OneOf(PROTOCOLS, "protocol"),
 }
-#: ``[simulation.action_durations]``: seconds per action (the model's :attr:`Settings.durations`).
-ACTION_DURATIONS: dict[str, Rule] = {kind: Number(minimum=0.0) for kind in ACTION_KINDS}
+#: ``[simulation.action_durations]``: seconds per action (the model's :attr:`Settings.durations`); the optional
+#: ``fine_positioning`` is a VDA 5050 vehicle's finePositioning (absent: it takes no time, docs/vda5050.md).
+FINE_POSITIONING = "fine_positioning"
+ACTION_DURATIONS: dict[str, Rule] = {kind: Number(minimum=0.0) for kind in (*ACTION_KINDS, FINE_POSITIONING)}
 
 
 def _robot_id(v: str) -> str | None:
@@ -174,6 +176,8 @@ def settings_problems(s: Any, fields_too: bool = True) -> list[Problem]:
     if not isinstance(durations, dict):
         return [*out, Problem("simulation.action_durations", f"expected a table of seconds, got {shown(durations)!r}")]
     for kind, rule in ACTION_DURATIONS.items():
+        if kind == FINE_POSITIONING and kind not in durations:
+            continue
         problem = rule.check(durations[kind]) if kind in durations else "missing"
         if problem:
             out.append(Problem(f"simulation.action_durations.{kind}", problem))

@@ -18,7 +18,7 @@ from typing import Any
 
 from vcran.core.scenario import POLLING, VDA5050, VDA5050_TOPICS, LinkSettings, RobotConfig, ScriptEntry
 from vcran.core.validity.fields import Problem
-from vcran.core.validity.fleet import VEHICLE
+from vcran.core.validity.fleet import FINE_POSITIONING, VEHICLE
 
 _SET_PROTOCOL = f'set [simulation] protocol = "{VDA5050}"'
 
@@ -90,3 +90,39 @@ def _message_or_payload(e: ScriptEntry) -> tuple[str, str] | None:
     if isinstance(e.raw, str):
         return None
     return "payload", f"expected the payload as text, got {type(e.raw).__name__}"
+
+
+def duration_problems(durations: Any, protocol: str) -> list[Problem]:
+    """``fine_positioning`` is how long a VDA 5050 vehicle's finePositioning takes: an OPIL robot has none."""
+    if protocol != VDA5050 and isinstance(durations, dict) and FINE_POSITIONING in durations:
+        return [Problem(f"simulation.action_durations.{FINE_POSITIONING}", "a VDA 5050 vehicle's finePositioning; this "
+                        f"scenario's robots speak {protocol} ({_SET_PROTOCOL})")]
+    return []
+
+
+def trigger_problems(script: Sequence[Any], faults: Sequence[Any], protocol: str, endless: bool) -> list[Problem]:
+    """``trigger`` faults press a VDA 5050 vehicle's trigger (waitForTrigger, §6.8.1): an OPIL robot has none.
+    A run that ends only when idle (``endless``: no duration) never ends while an order's waitForTrigger waits:
+    a robot whose script orders one needs a later trigger fault or cancelOrder (like a pause without a resume)."""
+    if protocol != VDA5050:
+        return [Problem(f"faults[{k}].kind", f"a trigger presses a VDA 5050 vehicle's button (waitForTrigger); this "
+                                              f"scenario's robots speak {protocol} ({_SET_PROTOCOL})")
+                for k, f in enumerate(faults) if getattr(f, "kind", None) == "trigger"]
+    if not endless:
+        return []
+    waits: dict[str, float] = {}
+    for e in script:
+        message = getattr(e, "message", None)
+        nodes = getattr(message, "nodes", ())
+        if any(a.action_type == "waitForTrigger" for n in nodes for a in n.actions):
+            waits.setdefault(e.robot, e.t)
+    for e in script:
+        actions = getattr(getattr(e, "message", None), "actions", ())
+        if e.robot in waits and e.t >= waits[e.robot] and any(a.action_type == "cancelOrder" for a in actions):
+            del waits[e.robot]
+    for f in faults:
+        if getattr(f, "kind", None) == "trigger" and f.robot in waits and f.t >= waits[f.robot]:
+            del waits[f.robot]
+    return [Problem("", f"[[script]]: {robot}'s order at t = {t:g} has a waitForTrigger that no later trigger fault or "
+                        "cancelOrder ends, and [simulation] has no duration: with until_idle the run would never end; "
+                        "add a [[faults]] kind = \"trigger\", a cancelOrder or a duration") for robot, t in waits.items()]

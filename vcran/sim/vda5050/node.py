@@ -5,8 +5,14 @@ body's reports, a due timer, an incident the logic takes as an input) to the pur
 :class:`~vcran.core.vda5050.vehicle.Vehicle` with ``now`` and what the body shows, and carries out the
 effects it returns, in order: commands become the body's commands (the mapping table of docs/protocols.md),
 ``PublishState`` and ``PublishFactsheet`` become messages built there and then, every other effect is an
-event for the log. Actions the body cannot perform (finePositioning, waitForTrigger, the charging pair's
-bookkeeping) end at the instant they start, as the Yard's body does (vcran.testing.vda5050.yard).
+event for the log. How the body serves the Vehicle's actions (docs/vda5050.md, "In the simulation"), as the Yard's
+body does (vcran.testing.vda5050.yard): pick and drop are its load and unload; startCharging starts its charge
+(FAILED at once where the charge could not start) and stopCharging ends it where the battery stands (§6.8.2: each
+FINISHED once the charging process is started, stopped); waitForTrigger runs until the scenario's ``trigger``
+fault presses the vehicle's trigger; finePositioning takes the scenario's ``fine_positioning`` action duration
+(beside the rest, paused with the vehicle; none given: no time), the scenario's own types end as they start.
+The battery's low warning reaches the Vehicle from the power tick, raised and, once a charge or a swap has
+lifted the battery to its low level again, cleared.
 """
 
 from __future__ import annotations
@@ -20,9 +26,10 @@ import simpy
 from vcran.core.actions import ActionKind
 from vcran.core.incidents import BatteryLow, FaultEnded, FaultStarted
 from vcran.core.motion import Leg
+from vcran.core.validity.fleet import FINE_POSITIONING
 from vcran.core.vda5050 import effects as fx
 from vcran.core.vda5050.codec import Invalid
-from vcran.core.vda5050.enums import Topic
+from vcran.core.vda5050.enums import ActionStatus, Topic
 from vcran.core.vda5050.order import InstantActions, Order
 from vcran.core.vda5050.state import Load
 from vcran.core.vda5050.vehicle import Vehicle
@@ -42,8 +49,9 @@ PERFORMED = {"pick": ActionKind.LOAD, "drop": ActionKind.UNLOAD}
 #: The body's holds are counted by kind: the Vehicle's own (pause, a blocking instant action) are kept apart
 #: from the faults' (a docs/contract.md §4 pause or breakdown), which the Vehicle also hears of as inputs.
 HOLD_PREFIX = "vda5050."
-#: docs/contract.md §4's faults the Vehicle hears of when they start (a breakdown's end too): the pause button and a breakdown.
-VEHICLE_FAULTS = ("breakdown", "pause", "resume")
+#: docs/contract.md §4's faults the Vehicle hears of when they start (a breakdown's end too): the pause button, a breakdown,
+#: and the trigger a waitForTrigger waits for (its button pressed, §6.8.1).
+VEHICLE_FAULTS = ("breakdown", "pause", "resume", "trigger")
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,6 +76,11 @@ class Incident:
 
 
 @dataclass(frozen=True, slots=True)
+class BatteryRestored:
+    """Power tick -> Vehicle: the battery is back at or above its low level (docs/contract.md §4)."""
+
+
+@dataclass(frozen=True, slots=True)
 class FieldViolation:
     """Safety fields -> Vehicle: another robot is in (out of) this one's protective field (docs/contract.md §12)."""
 
@@ -88,9 +101,12 @@ class VehicleNode:
         self.inbox = Mailbox(body.env)
         self.errors = 0
         self._timers: dict[str, simpy.events.Event] = {}
+        #: The waitForTrigger actions the body waits in, in the order they started.
+        self._waiting: list[str] = []
         body.tell = self.inbox.put
         body.plan = self.leg_to
         body.log = self._incident
+        body.battery_restored = lambda: self.inbox.put(BatteryRestored())
         body.env.process(self._run())
 
     # --- the process --------------------------------------------------------------------------------------
@@ -142,14 +158,46 @@ class VehicleNode:
     # --- commands -------------------------------------------------------------------------------------------
 
     def _act(self, effect: fx.Act) -> None:
-        kind = PERFORMED.get(effect.action_type)
-        if kind is not None:
-            self.body.perform(kind, effect.action_id)
+        performed = PERFORMED.get(effect.action_type)
+        if performed is not None:
+            self.body.perform(performed, effect.action_id)
             return
-        if effect.action_type == "startCharging":
-            # The body's charge is its work, to the full battery (docs/protocols.md); the action itself ends now.
+        kind = effect.action_type
+        if kind == "waitForTrigger":
+            self._waiting.append(effect.action_id)  # until the trigger (a ``trigger`` fault) or an Interrupt
+            return
+        if kind == "startCharging":
+            # The body's charge is its work, to the full battery unless stopped (docs/protocols.md); the action
+            # is FINISHED once the charge runs (§6.8.2), FAILED if it cannot start (no charger in reach).
+            refused = self.body.charge_refused()
+            if refused is not None:
+                self.inbox.put(Acted(effect.action_id, False, refused.code, refused.message))
+                return
             self.body.act((None, ActionKind.CHARGE, CHARGE_TAG))
+        elif kind == "stopCharging":
+            self.body.stop_charging()  # FINISHED: "the charging process is stopped" (§6.8.2)
+        elif kind == "finePositioning" and self.body.durations.get(FINE_POSITIONING):
+            self.body.perform_for(self.body.durations[FINE_POSITIONING], effect.action_id)
+            return
         self.inbox.put(Acted(effect.action_id, True))
+
+    def _interrupt(self, effect: fx.Interrupt) -> None:
+        if effect.action_id in self._waiting:
+            self._waiting.remove(effect.action_id)
+        else:
+            self.body.interrupt(effect.action_id)
+
+    def _triggered(self, now: float) -> list[fx.Effect]:
+        """The vehicle's trigger: every waitForTrigger it waits in is FINISHED ("Trigger has been triggered",
+        §6.8.2), whatever its triggerType; one nobody waits for is lost. Those the Vehicle ended meanwhile (a
+        halt fails them without an Interrupt) are forgotten."""
+        waiting, self._waiting = self._waiting, []
+        out: list[fx.Effect] = []
+        for action_id in waiting:
+            run = self.vehicle.actions.get(action_id)
+            if run is not None and run.status is ActionStatus.RUNNING:
+                out += self.vehicle.on_acted(now, action_id)
+        return out
 
     def _start_timer(self, effect: fx.StartTimer) -> None:
         deadline = at(self.env, effect.at, DEADLINE)
@@ -203,6 +251,8 @@ class VehicleNode:
             return vehicle.on_repaired(now)
         if event.kind == "breakdown":
             return vehicle.on_breakdown(now)
+        if event.kind == "trigger":
+            return self._triggered(now)
         return vehicle.on_pause_button(now, event.kind == "pause")
 
 
@@ -217,6 +267,7 @@ _INBOX: dict[type, Callable[[VehicleNode, float, Any], list[fx.Effect] | None]] 
     TimerFired: VehicleNode._on_timer,
     Halted: lambda node, now, item: node.vehicle.on_halted(now, item.why, item.message),
     InService: lambda node, now, item: node.vehicle.on_serviced(now),
+    BatteryRestored: lambda node, now, item: node.vehicle.on_battery_low(now, False),
     Incident: VehicleNode._on_incident,
     FieldViolation: _field,
 }
@@ -228,7 +279,7 @@ _COMMANDS: dict[type, Callable[[VehicleNode, Any], object]] = {
     fx.StopNow: lambda node, effect: node.body.stop_now(),
     fx.Abandon: lambda node, effect: node.body.abandon(),
     fx.Act: VehicleNode._act,
-    fx.Interrupt: lambda node, effect: node.body.interrupt(effect.action_id),
+    fx.Interrupt: VehicleNode._interrupt,
     fx.Hold: lambda node, effect: node.body.hold(HOLD_PREFIX + effect.kind),
     fx.Release: lambda node, effect: node.body.release(HOLD_PREFIX + effect.kind),
     fx.Place: lambda node, effect: node.body.place(effect.x, effect.y, effect.theta),

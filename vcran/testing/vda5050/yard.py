@@ -9,10 +9,12 @@ pure :class:`~vcran.core.vda5050.vehicle.Vehicle` with a plain body:
 - it performs ``pick`` and ``drop`` for the scenario's ``load`` and ``unload`` durations at the station
   named by ``stationName``, within the station's reach: a pick takes a part from the station's stock and
   fails at an empty one, a drop puts the part back; ``startCharging`` within a charger's reach charges at
-  the battery's ``charge_rate`` until full (then the vehicle is told), ``stopCharging`` stops it; other
-  actions take no time;
+  the battery's ``charge_rate`` until full (then the vehicle is told), ``stopCharging`` stops it where the
+  battery stands; ``waitForTrigger`` runs until the test presses the vehicle's trigger (:meth:`Yard.trigger`);
+  ``finePositioning`` takes the scenario's ``fine_positioning`` duration (if any); other actions take no time;
 - its battery (the robot's ``[robots.battery]``) drains ``per_metre`` with each leg driven, and the
-  vehicle is told when it crosses the ``low`` level.
+  vehicle is told when it is below the ``low`` level (as it comes up, after a leg) and at the instant a
+  charge lifts it to that level again.
 
 Master and vehicles talk over a link of fixed ``latency`` each way, which loses the messages ``lose(serial,
 topic)`` says it does (MQTT's QoS 0, §6.2: any topic but ``connection``). What the master sends is encoded and
@@ -22,8 +24,9 @@ simulation's (vcran/sim/timing.py): messages reaching vehicles, completions, inj
 reaching the master, jobs, the master's timers.
 
 It is not the simulation (no collisions, fields, production or random faults; no loss on the link): a
-test injects what it needs with :meth:`Yard.call_at` (a part produced, :meth:`Yard.halt`). Once the SimPy
-glue exists, ``vcran.simulate`` runs the same master for real; the Yard stays for fast unit tests.
+test injects what it needs with :meth:`Yard.call_at` (a part produced, :meth:`Yard.halt`). ``vcran.simulate``
+runs the same master against the simulation's vehicles (:mod:`vcran.sim.vda5050.loop`); the Yard stays for fast
+unit tests.
 """
 
 from __future__ import annotations
@@ -128,6 +131,11 @@ class Yard:
         body.acting.clear()
         body.apply(body.vehicle.on_halted(self.now, why, message))
 
+    def trigger(self, serial: str) -> None:
+        """Press the trigger of ``serial`` (a button on the vehicle): every waitForTrigger it waits in finishes
+        (§6.8.2 "Trigger has been triggered"), whatever its triggerType; a press nobody waits for is lost."""
+        self.bodies[serial].triggered()
+
     def states(self, serial: str) -> list[State]:
         """Every state ``serial`` published, in order."""
         return self.bodies[serial].states
@@ -213,6 +221,7 @@ class _Body:
     def start(self) -> None:
         self.yard._to_master(self.serial, self.vehicle.connection(0.0, ConnectionState.ONLINE))
         self.apply(self.vehicle.start(0.0))
+        self.check_low()
 
     # --- inputs ------------------------------------------------------------------------------------------
 
@@ -245,6 +254,17 @@ class _Body:
             del self.timers[key]
             self.apply(self.vehicle.on_timer(self.yard.now, key))
 
+    def triggered(self) -> None:
+        for action_id in [a.action_id for a in self.acting.values() if a.action_type == "waitForTrigger"]:
+            del self.acting[action_id]
+            self.apply(self.vehicle.on_acted(self.yard.now, action_id))
+
+    def restored(self, token: int) -> None:
+        """The charge ``token`` lifted the battery to its low level, now (computed when it started)."""
+        if token == self._charge and self.charging_since is not None and self.low:
+            self.low = False
+            self.apply(self.vehicle.on_battery_low(self.yard.now, False))
+
     def full(self, token: int) -> None:
         if token == self._charge and self.charging_since is not None:
             self.level, self.charging_since = self.battery.capacity if self.battery else 0.0, None
@@ -265,7 +285,8 @@ class _Body:
                 self.route.clear()
             elif isinstance(e, Act):
                 self.acting[e.action_id] = e
-                yard.call_at(now + self.duration(e.action_type), self.acted, e.action_id, priority=COMPLETION)
+                if e.action_type != "waitForTrigger":  # that one waits for Yard.trigger
+                    yard.call_at(now + self.duration(e.action_type), self.acted, e.action_id, priority=COMPLETION)
             elif isinstance(e, Interrupt):
                 self.acting.pop(e.action_id, None)
             elif isinstance(e, Hold):
@@ -331,14 +352,19 @@ class _Body:
             self._charge += 1
             due = self.yard.now + (self.battery.capacity - self.level) / self.battery.charge_rate
             self.yard.call_at(due, self.full, self._charge, priority=COMPLETION)
+            if self.low:
+                lifted = self.yard.now + (self.battery.low * self.battery.capacity - self.level) / self.battery.charge_rate
+                self.yard.call_at(max(lifted, self.yard.now), self.restored, self._charge, priority=COMPLETION)
         elif kind == "stopCharging":
             self.level, self.charging_since = self.charge(), None
             self._charge += 1
+            self.check_low()
         return True, ""
 
     def duration(self, action_type: str) -> float:
         durations = self.yard.scenario.settings.durations
-        return {"pick": durations.get("load", 0.0), "drop": durations.get("unload", 0.0)}.get(action_type, 0.0)
+        return {"pick": durations.get("load", 0.0), "drop": durations.get("unload", 0.0),
+                "finePositioning": durations.get("fine_positioning", 0.0)}.get(action_type, 0.0)
 
     def in_reach(self, station_id: str) -> bool:
         s = next(s for s in self.yard.scenario.stations if s.id == station_id)
