@@ -104,3 +104,80 @@ def test_stamps_in_any_order_and_on_any_calendar_are_the_calendars(stamps: list[
     for epoch, now in stamps:
         assert timestamp(now, epoch) == calendar(now, epoch)
         assert timestamp(now, epoch) == calendar(now, epoch)  # the same instant again
+
+
+# --- the quick schema check ---------------------------------------------------------------------------------
+
+JSON_VALUES = st.recursive(
+    st.none() | st.booleans() | st.integers(-3, 3) | st.floats(-3.0, 3.0) | st.sampled_from([1.0, -1.0, 0.5]) |
+    st.sampled_from(["", "x", "HARD", "SOFT", "NONE", "map", "2.1.0", "AUTOMATIC"]),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.sampled_from(["x", "nodeId", "actions"]), inner,
+                                                                  max_size=3),
+    max_leaves=6)
+
+
+def places(doc: Any, path: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    """Every place in ``doc`` (the path of keys and indexes to it), the document itself first."""
+    out = [path]
+    if isinstance(doc, dict):
+        for key, value in doc.items():
+            out += places(value, (*path, key))
+    elif isinstance(doc, list):
+        for i, value in enumerate(doc):
+            out += places(value, (*path, i))
+    return out
+
+
+def changed(doc: Any, path: tuple[Any, ...], value: Any, remove: bool) -> Any:
+    """``doc`` with the value at ``path`` replaced by ``value`` (or removed, from an object)."""
+    if not path:
+        return value
+    copy: Any = dict(doc) if isinstance(doc, dict) else list(doc)
+    head, rest = path[0], path[1:]
+    if not rest and remove and isinstance(copy, dict):
+        del copy[head]
+    else:
+        copy[head] = changed(copy[head], rest, value, remove)
+    return copy
+
+
+@pytest.mark.parametrize("topic", SENT, ids=[t.value for t in SENT])
+@given(data=st.data())
+def test_the_quick_check_never_passes_what_jsonschema_refuses(topic: Topic, data: st.DataObject) -> None:
+    """A message of each kind and version, and the same with one value anywhere replaced by any JSON value or
+    removed: whenever the quick check says valid, jsonschema (the official schema, as received messages are
+    checked) says valid too; and a message vcran builds passes it, which is what makes decoding fast."""
+    from vcran.core.vda5050 import validation
+
+    version = data.draw(st.sampled_from([V20, V21]))
+    validator = validation.inbound(topic, version)
+    quick = validation._quick(validator)
+    if quick is None:
+        assert topic is Topic.FACTSHEET  # the one schema beyond the quick check's keywords: jsonschema alone
+        return
+    doc = codec.to_plain(data.draw(messages(topic, version)), version)
+    assert quick(doc) and validator.is_valid(doc)
+    for _ in range(5):
+        path = data.draw(st.sampled_from(places(doc)))
+        mutated = changed(doc, path, data.draw(JSON_VALUES), data.draw(st.booleans()))
+        if quick(mutated):
+            assert validator.is_valid(mutated), (path, mutated)
+
+
+def test_the_quick_check_compiles_only_its_keywords() -> None:
+    """Each keyword by hand (jsonschema's meaning, module docstring of vcran.core.vda5050.quickcheck)."""
+    from vcran.core.vda5050.quickcheck import compile_schema
+
+    schema = {"type": "object", "required": ["n"], "properties": {
+        "n": {"type": "integer", "minimum": 0, "maximum": 3}, "s": {"type": "string", "enum": ["A", "B"]},
+        "l": {"type": "array", "items": {"$ref": "#/definitions/p"}}, "u": {"anyOf": [{"type": "null"}, {"type": "number"}]}},
+        "definitions": {"p": {"type": ["boolean", "null"]}}}
+    check = compile_schema(schema)
+    assert check is not None
+    assert [check(d) for d in ({"n": 0}, {"n": 3.0}, {"n": 2, "s": "B", "l": [True, None], "u": 1.5}, {"n": 1, "x": {}})] \
+        == [True, True, True, True]
+    assert [check(d) for d in ({}, {"n": True}, {"n": 1.5}, {"n": -1}, {"n": 4}, {"n": 1, "s": "C"}, {"n": 1, "l": [1]},
+                               {"n": 1, "u": "x"}, {"n": 1, "l": {}}, [])] == [False] * 10
+    for beyond in ({"pattern": "^a"}, {"additionalProperties": False}, {"enum": [1, 2]}, {"items": [{}]},
+                   {"$ref": "other.json#/x"}, {"type": "int"}):
+        assert compile_schema({"type": "object", "properties": {"a": beyond}}) is None
