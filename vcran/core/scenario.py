@@ -71,6 +71,9 @@ class Settings:
     collision_resolution: float = 0.05
     #: What the robots speak: :data:`OPIL` or :data:`VDA5050` (docs/scenarios.md, "VDA 5050 vehicles").
     protocol: str = OPIL
+    #: Where simulated time 0 falls on the calendar of a VDA 5050 scenario's headers, as ISO 8601 UTC text
+    #: (``[simulation] epoch``, :mod:`vcran.core.epoch`); None: the protocol's default, 1970-01-01T00:00:00Z.
+    epoch: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -391,6 +394,7 @@ class Scenario:
                 "collisions": s.collisions if s.collisions != "report" else None,
                 "collision_resolution": s.collision_resolution if s.collision_resolution != 0.05 else None,
                 "protocol": s.protocol if s.protocol != OPIL else None,
+                "epoch": s.epoch,
             },
             "robots": [
                 {

@@ -12,6 +12,7 @@ import math
 from typing import Any
 
 from vcran.core.battery import BatteryConfig
+from vcran.core.epoch import epoch_problem
 from vcran.core.orion_rules import identifier_error
 from vcran.core.polygon import covers, polygon_problem
 from vcran.core.scenario import (
@@ -65,6 +66,7 @@ SETTINGS: dict[str, Rule] = {
     "collisions": Text(then=_collision_mode),
     "collision_resolution": Number(positive=True),
     "protocol": OneOf(PROTOCOLS, "protocol"),
+    "epoch": Text(absent=None, then=epoch_problem),
 }
 #: ``[simulation.action_durations]``: seconds per action (the model's :attr:`Settings.durations`); the optional
 #: ``fine_positioning`` is a VDA 5050 vehicle's finePositioning (absent: it takes no time, docs/vda5050.md).

@@ -3,7 +3,8 @@
 On the wire the header is five top-level fields, not an object; in vcran's models it is one ``header``
 field, flattened by the codec. A vehicle stamps what it sends with a :class:`Stamper`: ``headerId`` counts
 per topic ("incremented by 1 with each sent message", §6.4) and the timestamp is simulated time read on a
-fixed calendar (``epoch``), so a run's messages are the same bytes on every machine (docs/contract.md §5).
+fixed calendar (``epoch``: the scenario's, 1970 unless it sets one, the wall-clock start in a live run), so
+a run's messages are the same bytes on every machine and in its replay (docs/contract.md §5).
 """
 
 from __future__ import annotations
@@ -11,13 +12,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
+from functools import cache
 
+from vcran.core.epoch import epoch_instant
 from vcran.core.slots import slot_init
 from vcran.core.vda5050.enums import Version
 
-#: Where simulated time 0 falls on the calendar unless a vehicle is told otherwise (a live run passes the
-#: wall-clock start): the Unix epoch, a date no master mistakes for a real one.
+#: Where simulated time 0 falls on the calendar unless the scenario says otherwise (``[simulation] epoch``;
+#: a live run sets it to the wall-clock start): the Unix epoch, a date no master mistakes for a real one.
 DEFAULT_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+
+
+@cache
+def epoch_of(text: str | None) -> datetime:
+    """The calendar a scenario's ``[simulation] epoch`` names (:mod:`vcran.core.epoch`; checked as it loads),
+    :data:`DEFAULT_EPOCH` when it names none. One object per text: :func:`timestamp` keeps the seconds it
+    formatted for the epoch it was given last, which every vehicle of a fleet then shares."""
+    return DEFAULT_EPOCH if text is None else epoch_instant(text)
 
 
 @slot_init

@@ -61,7 +61,7 @@ class Vda5050:
         self._down: dict[str, tuple[float, dict[str, Publish]]] = {}
 
     def attach(self, body: Body) -> None:
-        node = VehicleNode(body, Vehicle(vehicle_config(body.config)), self)
+        node = VehicleNode(body, Vehicle(vehicle_config(body.config, self.model.scenario.settings)), self)
         self.nodes.append(node)
         self._by_id[node.id] = node
 
