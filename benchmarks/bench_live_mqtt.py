@@ -16,7 +16,10 @@ order 1 m along x and back (two nodes, one edge, from where it stands). It measu
   (states on events come on top);
 - whether the simulation keeps up: simulated seconds gained per wall second over the window, read off the
   states' timestamps (simulated time on the run's calendar, whose epoch is ONLINE's timestamp), which is F
-  when it does; and the live run's own figures at its end (its simulated time, wall time, messages/s, CPU);
+  when it does; each state's lag, its arrival against the wall instant its stamp stands for (epoch +
+  simulated / F; the simulation's start after the epoch is the same in all, so the quickest is taken as 0),
+  which grows over the window when it does not; and the live run's own figures at its end (its simulated
+  time, wall time, messages/s, CPU);
 - the ``vcran live`` process's CPU over the window (/proc/PID/stat utime + stime), and Mosquitto's;
 - latency from the master's publish of an order to the first state carrying its orderId (median, p99);
   ``vcran live``'s own arrival-to-state figure is printed beside it.
@@ -88,6 +91,7 @@ class Master:
     """The benchmark's VDA 5050 master: what it sent and when, what it got."""
 
     vehicles: dict[str, Vehicle]
+    factor: float
     counting: bool = False
     counts: dict[str, int] = field(default_factory=lambda: {"state": 0, "visualization": 0, "connection": 0})
     online: set[str] = field(default_factory=set)
@@ -97,6 +101,9 @@ class Master:
     completed: int = 0
     rejected: int = 0
     last_sim: float = 0.0  # the latest simulated time a state carried
+    #: Per state in the window: wall arrival minus the wall instant its stamp stands for (epoch + sim / factor);
+    #: the simulation's start after the epoch is a constant in it, so its spread is the delivery's lag.
+    lags: list[float] = field(default_factory=list)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
     def on_message(self, _client: Any, _userdata: Any, message: Any) -> None:
@@ -116,7 +123,10 @@ class Master:
                     self.epoch = stamp_seconds(doc["timestamp"])
                 return
             if self.epoch is not None:
-                self.last_sim = max(self.last_sim, stamp_seconds(doc["timestamp"]) - self.epoch)
+                sim = stamp_seconds(doc["timestamp"]) - self.epoch
+                self.last_sim = max(self.last_sim, sim)
+                if self.counting:
+                    self.lags.append(time.time() - (self.epoch + sim / self.factor))
             order_id = doc["orderId"]
             sent = self.sent_at.pop(order_id, None)
             if sent is not None:
@@ -201,7 +211,7 @@ def main() -> int:
             path.write_text(scenario(args.vehicles, args.state_interval))
             side = max(1, round(args.vehicles ** 0.5))
             master = Master({f"V{i:03d}": Vehicle(f"V{i:03d}", 5.0 * (i % side), 5.0 * (i // side))
-                             for i in range(args.vehicles)})
+                             for i in range(args.vehicles)}, args.factor)
             client = mqtt.Client(CallbackAPIVersion.VERSION2, client_id="bench-master")
             subscribed = threading.Event()
             client.on_connect = lambda c, *_: c.subscribe([(f"uagv/v2/+/+/{t}", 0)
@@ -245,7 +255,7 @@ def main() -> int:
             broker_cpu = cpu_of(broker.process.pid) - broker_cpu0
             own = time.process_time() - own0
             with master.lock:
-                sim1, latencies = master.last_sim, list(master.latencies)
+                sim1, latencies, lags = master.last_sim, list(master.latencies), list(master.lags)
                 counts, sent = dict(master.counts), sum(v.n for v in master.vehicles.values())
                 completed, rejected, unanswered = master.completed, master.rejected, len(master.sent_at)
             live.send_signal(signal.SIGTERM)
@@ -273,10 +283,15 @@ def main() -> int:
          f"{floor:.0f}"),
         ("simulated s per wall s over the window", f"{gained:.2f} (x{args.factor:g} keeps up: "
                                                    f"{'yes' if gained >= 0.98 * args.factor else 'NO'})"),
+        ("state lag beyond the quickest (arrival against its stamp's wall instant)",
+         f"median {(statistics.median(lags) - min(lags)) * 1000:.0f} ms, p99 "
+         f"{(percentile(lags, 0.99) - min(lags)) * 1000:.0f} ms; first tenth of the window "
+         f"{(statistics.median(lags[:len(lags) // 10]) - min(lags)) * 1000:.0f} ms, last tenth "
+         f"{(statistics.median(lags[-len(lags) // 10:]) - min(lags)) * 1000:.0f} ms" if len(lags) >= 10 else "-"),
         ("vcran live CPU over the window", f"{live_cpu:.1f} s, {live_cpu / wall * 100:.0f}% of one core"),
         ("Mosquitto CPU over the window", f"{broker_cpu:.1f} s, {broker_cpu / wall * 100:.0f}% of one core"),
         ("master (this process) CPU", f"{own:.1f} s, {own / wall * 100:.0f}% of one core"),
-        ("orders sent, completed, rejected, unanswered", f"{sent}, {completed}, {rejected}, {unanswered}"),
+        ("orders sent, completed, rejected, unanswered at the end (in flight)", f"{sent}, {completed}, {rejected}, {unanswered}"),
         ("order publish to first state with its orderId",
          f"median {statistics.median(latencies) * 1000:.0f} ms, p99 {percentile(latencies, 0.99) * 1000:.0f} ms "
          f"({len(latencies)} orders)" if latencies else "no order answered"),
