@@ -3,6 +3,7 @@ visualization at ``--factor 10`` (issue 31's must-show; docs/vda5050.md, "Live o
 
     python benchmarks/bench_live_mqtt.py                       # 100 vehicles, x10, 45 wall seconds of orders
     python benchmarks/bench_live_mqtt.py --vehicles 50 --factor 4 --seconds 30
+    python benchmarks/bench_live_mqtt.py --seconds 30 --profile live.prof   # where vcran live's time goes
 
 Against a Mosquitto on a free loopback port (tests/transports/mqtt/mosquitto.py): a generated VDA 5050
 scenario (vehicles 5 m apart on a grid, ``telemetry_period = 1`` so visualization is 1 Hz, ``[simulation]
@@ -192,6 +193,8 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=45.0, help="wall seconds of orders, measured")
     parser.add_argument("--state-interval", type=float, default=1.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--profile", metavar="FILE", type=Path,
+                        help="run vcran live under cProfile (its main thread, the simulation's), stats into FILE")
     args = parser.parse_args()
     sys.path.insert(0, str(ROOT))
     random.seed(args.seed)
@@ -225,7 +228,8 @@ def main() -> int:
             env = {**os.environ, "PYTHONUNBUFFERED": "1"}
             log_out, log_err = (work / "live.out").open("w"), (work / "live.err").open("w")
             started = time.monotonic()
-            live = subprocess.Popen([sys.executable, "-m", "vcran", "live", str(path), "--mqtt", broker.url,
+            profiled = ["-m", "cProfile", "-o", str(args.profile.resolve())] if args.profile else []
+            live = subprocess.Popen([sys.executable, *profiled, "-m", "vcran", "live", str(path), "--mqtt", broker.url,
                                      "--factor", f"{args.factor:g}", "--out", str(work / "run")],
                                     stdout=log_out, stderr=log_err, stdin=subprocess.DEVNULL, env=env, cwd=ROOT)
             deadline = time.monotonic() + 120
