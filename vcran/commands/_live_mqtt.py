@@ -32,10 +32,11 @@ def check(args: argparse.Namespace) -> None:
     given = [f"--{name.replace('_', '-')}" for name in ORION_ONLY if getattr(args, name) is not None]
     if given:
         raise CommandError(f"{', '.join(given)}: only with --orion (--mqtt has none of them)")
-    _url(args.mqtt)
+    broker_url(args.mqtt)
 
 
-def _url(text: str) -> BrokerUrl:
+def broker_url(text: str) -> BrokerUrl:
+    """``--mqtt``'s broker, or a CommandError saying what is wrong with it (also for vcran manage --mqtt)."""
     try:
         from transports.mqtt import MqttUrlError, parse_url
     except ModuleNotFoundError as exc:  # the vda5050 extra is missing: the message says how to install it
@@ -87,12 +88,12 @@ class MqttEdge:
 
 
 def connect(args: argparse.Namespace, scenario: Scenario) -> MqttEdge:
-    from transports.mqtt import FleetVehicle, MqttTransport, MqttUnavailable
-    from vcran.core.vda5050.fleet import vehicle_config
+    from transports.mqtt import MqttTransport, MqttUnavailable
+    from transports.mqtt.topics import fleet_of
 
-    url = _url(args.mqtt)
+    url = broker_url(args.mqtt)
     try:
-        transport = MqttTransport(url, [FleetVehicle.of(r.id, vehicle_config(r, scenario.settings)) for r in scenario.robots])
+        transport = MqttTransport(url, fleet_of(scenario))
     except ValueError as exc:  # two robots on the same topics, a level MQTT cannot carry
         raise CommandError(f"{scenario.source}: {exc}") from None
     try:
