@@ -21,7 +21,9 @@ order 1 m along x and back (two nodes, one edge, from where it stands). It measu
   simulated / F; the simulation's start after the epoch is the same in all, so the quickest is taken as 0),
   which grows over the window when it does not; and the live run's own figures at its end (its simulated
   time, wall time, messages/s, CPU);
-- the ``vcran live`` process's CPU over the window (/proc/PID/stat utime + stime), and Mosquitto's;
+- the ``vcran live`` process's CPU over the window (/proc/PID/stat utime + stime), and Mosquitto's; how long
+  its main thread, the simulation's, waited for a CPU while runnable (/proc/PID/schedstat), which is what a
+  loaded machine takes from it;
 - latency from the master's publish of an order to the first state carrying its orderId (median, p99);
   ``vcran live``'s own arrival-to-state figure is printed beside it.
 
@@ -65,6 +67,12 @@ def cpu_of(pid: int) -> float:
     """CPU seconds (user + system) of process ``pid`` so far."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / TICK
+
+
+def waited(pid: int) -> float:
+    """Seconds the main thread of process ``pid`` (the simulation's) spent runnable but waiting for a CPU
+    (/proc/PID/schedstat's second field): what the machine's other processes took from it."""
+    return int(Path(f"/proc/{pid}/schedstat").read_text().split()[1]) / 1e9
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -244,6 +252,7 @@ def main() -> int:
             with master.lock:
                 sim0 = master.last_sim
             live_cpu0, broker_cpu0, own0 = cpu_of(live.pid), cpu_of(broker.process.pid), time.process_time()
+            waited0 = waited(live.pid)
             master.counting = True
             t0 = time.monotonic()
             for v in master.vehicles.values():
@@ -256,6 +265,7 @@ def main() -> int:
             master.counting = False
             wall = time.monotonic() - t0
             live_cpu = cpu_of(live.pid) - live_cpu0
+            live_waited = waited(live.pid) - waited0
             broker_cpu = cpu_of(broker.process.pid) - broker_cpu0
             own = time.process_time() - own0
             with master.lock:
@@ -293,6 +303,8 @@ def main() -> int:
          f"{(statistics.median(lags[:len(lags) // 10]) - min(lags)) * 1000:.0f} ms, last tenth "
          f"{(statistics.median(lags[-len(lags) // 10:]) - min(lags)) * 1000:.0f} ms" if len(lags) >= 10 else "-"),
         ("vcran live CPU over the window", f"{live_cpu:.1f} s, {live_cpu / wall * 100:.0f}% of one core"),
+        ("vcran live's simulation thread waiting for a CPU (runnable) over the window",
+         f"{live_waited:.1f} s, {live_waited / wall * 100:.0f}% of the window"),
         ("Mosquitto CPU over the window", f"{broker_cpu:.1f} s, {broker_cpu / wall * 100:.0f}% of one core"),
         ("master (this process) CPU", f"{own:.1f} s, {own / wall * 100:.0f}% of one core"),
         ("orders sent, completed, rejected, unanswered at the end (in flight)", f"{sent}, {completed}, {rejected}, {unanswered}"),
