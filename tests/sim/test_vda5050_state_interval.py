@@ -10,30 +10,20 @@ passed since the last one, counted again from every state an event publishes.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 
 import pytest
 
+from tests.io.test_scenario_vda5050 import load, refused
+from tests.sim.test_vda5050_glue import ONE_VEHICLE
 from vcran.cli import main
 from vcran.core.validity import validate
 from vcran.core.vda5050.fleet import vehicle_config
-from vcran.io.scenario_file import ScenarioError, parse
 from vcran.io.scenario_schema import scenario_schema
 from vcran.io.trace import read_header, trace_in, trace_records
 
-IDLE = """
-[simulation]
-protocol = "vda5050"
-duration = 5.0
-state_interval = 1.0
-
-[[robots]]
-id = "agv"
-manufacturer = "acme"
-serial_number = "7"
-pose = [0.0, 0.0, 0.0]
-"""
+#: The glue tests' vehicle, idle for 5 s (no until_idle: it would end the run at once), a state each second.
+IDLE = ONE_VEHICLE.replace("until_idle = true\n", "").replace("duration = 100.0", "duration = 5.0\nstate_interval = 1.0")
 
 #: startPause at 2.5 s: ``paused`` turns true, an event (§6.10 "relevant events"), so a state goes out then.
 PAUSE_AT_2_5 = """
@@ -47,16 +37,6 @@ message = '{"actions": [{"actionType": "startPause", "actionId": "p1", "blocking
 OPIL = '[simulation]\nduration = 5.0\nstate_interval = 1.0\n[[robots]]\nid = "r1"\n'
 
 
-def load(text: str):
-    return parse(tomllib.loads(text), "x.toml")
-
-
-def refused(text: str) -> str:
-    with pytest.raises(ScenarioError) as caught:
-        load(text)
-    return str(caught.value)
-
-
 def test_state_interval_is_read_and_reaches_each_vehicle() -> None:
     s = load(IDLE)
     assert s.settings.state_interval == 1.0
@@ -66,7 +46,7 @@ def test_state_interval_is_read_and_reaches_each_vehicle() -> None:
     assert vehicle_config(unset.robots[0], unset.settings).state_interval == 30.0
     assert "state_interval" not in unset.fleet_dict()["simulation"]  # so every existing trace header stays
     assert s.fleet_dict()["simulation"]["state_interval"] == 1.0  # as written, which a replay reads back
-    assert load(IDLE.replace("1.0\n\n[[robots]]", "30\n\n[[robots]]")).settings.state_interval == 30  # "at the latest"
+    assert load(IDLE.replace("state_interval = 1.0", "state_interval = 30")).settings.state_interval == 30  # "at the latest"
     assert scenario_schema()["properties"]["simulation"]["properties"]["state_interval"]["type"] == "number"
 
 
