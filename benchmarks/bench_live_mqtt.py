@@ -216,6 +216,8 @@ def main() -> int:
         work = Path(folder)
         broker = Mosquitto(work)
         broker.start()
+        assert broker.process is not None
+        broker_pid = broker.process.pid
         live = None
         try:
             path = work / "fleet.toml"
@@ -251,7 +253,7 @@ def main() -> int:
             # The window: messages counted, orders sent, CPU read at both ends.
             with master.lock:
                 sim0 = master.last_sim
-            live_cpu0, broker_cpu0, own0 = cpu_of(live.pid), cpu_of(broker.process.pid), time.process_time()
+            live_cpu0, broker_cpu0, own0 = cpu_of(live.pid), cpu_of(broker_pid), time.process_time()
             waited0 = waited(live.pid)
             master.counting = True
             t0 = time.monotonic()
@@ -266,7 +268,7 @@ def main() -> int:
             wall = time.monotonic() - t0
             live_cpu = cpu_of(live.pid) - live_cpu0
             live_waited = waited(live.pid) - waited0
-            broker_cpu = cpu_of(broker.process.pid) - broker_cpu0
+            broker_cpu = cpu_of(broker_pid) - broker_cpu0
             own = time.process_time() - own0
             with master.lock:
                 sim1, latencies, lags = master.last_sim, list(master.latencies), list(master.lags)
