@@ -2,9 +2,10 @@
 (docs/contract.md §11; docs/vda5050.md, "Live over MQTT"); :mod:`vcran.commands.live` runs it.
 
 Each vehicle has its own connection, ONLINE (retained) before the run starts; the glue publishes its state
-on every event and at least every 30 s, its visualization every telemetry period. A run that ends (its
-duration, SIGINT or SIGTERM) says OFFLINE for every vehicle and disconnects. Every order and instantActions
-is recorded as its payload arrived, so ``vcran replay DIR --verify`` reproduces the run.
+on every event and at least every 30 s (or the scenario's state_interval), its visualization every telemetry
+period. A run that ends (its duration, SIGINT or SIGTERM) says OFFLINE for every vehicle and disconnects.
+Every order and instantActions is recorded as its payload arrived, so ``vcran replay DIR --verify``
+reproduces the run.
 """
 
 from __future__ import annotations

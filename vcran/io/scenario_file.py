@@ -213,6 +213,7 @@ def _settings(t: Table, default_name: str) -> Settings:
         collision_resolution=t.number("collision_resolution", 0.05),
         protocol=t.choice("protocol", default=OPIL),
         epoch=_epoch(t),
+        state_interval=t.number("state_interval", None),
     )
     t.done()
     return s

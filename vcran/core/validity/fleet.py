@@ -19,6 +19,7 @@ from vcran.core.scenario import (
     ACTION_KINDS,
     COLLISION_MODES,
     PROTOCOLS,
+    VDA5050_STATE_INTERVAL,
     VDA5050_VERSIONS,
     RobotConfig,
     Settings,
@@ -53,6 +54,13 @@ def _collision_mode(v: str) -> str | None:
     return f"expected one of {', '.join(map(repr, COLLISION_MODES))}, got {v!r}"
 
 
+def _state_interval(v: float) -> str | None:
+    if v > VDA5050_STATE_INTERVAL:
+        return (f"must be at most {VDA5050_STATE_INTERVAL:g} seconds, got {v} (VDA 5050 §6.10: a state \"at the "
+                f"latest every 30s\")")
+    return None
+
+
 SETTINGS: dict[str, Rule] = {
     "name": Text(),
     "seed": Integer(),
@@ -67,6 +75,7 @@ SETTINGS: dict[str, Rule] = {
     "collision_resolution": Number(positive=True),
     "protocol": OneOf(PROTOCOLS, "protocol"),
     "epoch": Text(absent=None, then=epoch_problem),
+    "state_interval": Number(positive=True, absent=None, then=_state_interval),
 }
 #: ``[simulation.action_durations]``: seconds per action (the model's :attr:`Settings.durations`); the optional
 #: ``fine_positioning`` is a VDA 5050 vehicle's finePositioning (absent: it takes no time, docs/vda5050.md).

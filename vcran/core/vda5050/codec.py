@@ -262,24 +262,36 @@ def _model(value: Any, version: Version) -> dict[str, Any]:
     return plain(value)
 
 
+#: The kinds whose values are JSON already.
+_PLAIN = frozenset({"str", "int", "float", "bool", "any"})
+
+
 def _put(model: Any, version: Version, out: dict[str, Any], path: str) -> None:
+    # The careful walk that names a refused field (to_plain, after the written-out encoder refused): a field's
+    # path is built only for an error or a field that holds more fields, and a plain value is copied as it is.
     cls: type = model.__class__
     for f in wire_form(cls, version):
         value = getattr(model, f.attr)
         if value is None:
             continue
-        here = f"{path}.{f.name}"
         if f.absent:
-            raise EncodeError(here, f"{f.name} does not exist in VDA 5050 {version.value}")
+            raise EncodeError(f"{path}.{f.name}", f"{f.name} does not exist in VDA 5050 {version.value}")
         if f.flatten:
             _put(value, version, out, path)
             continue
         missing = f.check(value) if f.check is not None else None
         if missing is not None:
-            raise EncodeError(f"{here}.{missing}", f"VDA 5050 {version.value} requires it here")
+            raise EncodeError(f"{path}.{f.name}.{missing}", f"VDA 5050 {version.value} requires it here")
         if f.no_object and isinstance(value, dict):
-            raise EncodeError(here, f"an object value needs VDA 5050 2.1.0 or later, not {version.value}")
-        out[f.name] = _value(f.kind, value, version, here)
+            raise EncodeError(f"{path}.{f.name}",
+                              f"an object value needs VDA 5050 2.1.0 or later, not {version.value}")
+        kind = f.kind
+        if kind in _PLAIN:
+            out[f.name] = value
+        elif kind == "enum":
+            out[f.name] = value.value
+        else:
+            out[f.name] = _value(kind, value, version, f"{path}.{f.name}")
 
 
 def _value(kind: str, value: Any, version: Version, path: str) -> Any:
