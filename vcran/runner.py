@@ -91,33 +91,36 @@ class RunResult:
         return self.summary["sim_time"] / self.wall_seconds if self.wall_seconds > 0 else float("inf")
 
 
-#: The live edges (``vcran live`` with --orion or --mqtt, the ``mode`` :func:`check_protocol` is given) and the
-#: protocol each one hosts.
-LIVE = {"vcran live --orion": OPIL, "vcran live --mqtt": VDA5050}
 #: The mode a run with a fleet manager is (:func:`check_protocol`): both protocols' closed loops are hosted.
 CLOSED_LOOP = "a closed loop"
-#: The modes besides a scripted run, a replay and its live edge the simulation hosts VDA 5050 vehicles in.
+#: The modes besides a scripted run, a replay and the edges the simulation hosts VDA 5050 vehicles in.
 VDA5050_MODES = frozenset({CLOSED_LOOP})
+#: The edges to a real broker (``vcran live`` and ``vcran manage`` with --orion or --mqtt, the ``mode``
+#: :func:`check_protocol` is given) and the protocol each one hosts.
+EDGES = {"vcran live --orion": OPIL, "vcran live --mqtt": VDA5050,
+         "vcran manage --orion": OPIL, "vcran manage --mqtt": VDA5050}
 
 
 def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     """A scenario whose robots speak a protocol the simulation does not host in ``mode`` is refused before
     anything runs (or any folder is made, or anything is connected to). ``mode`` None: a scripted run or a
-    replay, which host every protocol of :mod:`vcran.sim.protocols`; ``vcran live`` hosts each protocol on its own
-    edge (:data:`LIVE`); :data:`CLOSED_LOOP` hosts both (OPIL's fleet manager, VDA 5050's master); else what the
-    caller runs (manage over Orion, send ...), which hosts OPIL only so far: VDA 5050 vehicles would be driven as
-    OPIL robots, deaf to their orders (issue 31)."""
+    replay, which host every protocol of :mod:`vcran.sim.protocols`; :data:`CLOSED_LOOP`, which hosts both
+    (OPIL's fleet manager, VDA 5050's master); ``vcran live`` and ``vcran manage`` host each protocol on its own
+    edge (:data:`EDGES`); else what the caller runs, which hosts OPIL only: VDA 5050 vehicles would be driven
+    as OPIL robots, deaf to their orders."""
     protocol = scenario.settings.protocol
-    if mode in LIVE:  # docs/contract.md §11: each protocol's live edge (vcran live --orion, vcran live --mqtt)
-        if protocol != LIVE[mode]:
-            needed = next(edge for edge, hosted in LIVE.items() if hosted == protocol)
-            raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: its robots go live with "
-                                f"{needed.removeprefix('vcran live ')} URL, not {mode.removeprefix('vcran live ')}")
+    if mode in EDGES:  # docs/contract.md §11: each protocol's edge (--orion: OPIL, --mqtt: VDA 5050)
+        if protocol != EDGES[mode]:
+            command, given = mode.rsplit(" ", 1)
+            needed = next(edge for edge, hosted in EDGES.items() if hosted == protocol and edge.startswith(command))
+            verb = "go live" if command == "vcran live" else "are managed"
+            raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: its robots {verb} with "
+                                f"{needed.rsplit(' ', 1)[1]} URL, not {given}")
         return
     if protocol != OPIL and mode is not None and mode not in VDA5050_MODES:
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
                             f"VDA 5050 vehicles yet in {mode} (it runs their script and their master in a closed "
-                            "loop: vcran run, vcran.simulate, vcran replay; live: vcran live --mqtt)")
+                            "loop: vcran run, vcran.simulate, vcran replay; live: vcran live --mqtt, vcran manage --mqtt)")
 
 
 def execute(

@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import socket
 from collections.abc import Iterator
+from dataclasses import replace
+from datetime import UTC, datetime, timedelta, timezone
 
 import pytest
 
+import vcran
 from vcran.cli import main
+from vcran.commands.live import on_wall_clock
 
 
 @pytest.fixture
@@ -69,3 +73,23 @@ def test_a_broker_that_cannot_be_reached_is_one_line_and_no_folder(tmp_path, cap
     assert err == (f"vcran live: cannot connect to the broker: mqtt://127.0.0.1:{port}: not connected after 0.5 s "
                    f"(cannot reach the broker at mqtt://127.0.0.1:{port})\n")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_live_vda5050_run_is_on_the_wall_clock_unless_its_scenario_has_a_calendar() -> None:
+    """``on_wall_clock`` (vcran live --mqtt, vcran manage --mqtt): a VDA 5050 scenario without ``[simulation]
+    epoch`` gets the wall clock at the start, UTC, cut to the millisecond (21:30:12.3456789 is .345, never
+    the later .346); one that sets its own keeps it; an OPIL scenario, which has no calendar, is left as it is."""
+    at = datetime(2026, 11, 27, 21, 30, 12, 345_678, tzinfo=UTC)
+    vda = vcran.load_scenario("vda5050")
+    assert vda.settings.epoch is None
+    live = on_wall_clock(vda, at)
+    assert live.settings.epoch == "2026-11-27T21:30:12.345Z"
+    assert live == replace(vda, settings=replace(vda.settings, epoch="2026-11-27T21:30:12.345Z"))  # nothing else
+    east = datetime(2026, 11, 27, 22, 30, 12, 345_678, tzinfo=timezone(timedelta(hours=1)))
+    assert on_wall_clock(vda, east).settings.epoch == "2026-11-27T21:30:12.345Z"  # the same instant, in UTC
+    own = replace(vda, settings=replace(vda.settings, epoch="2026-01-01T00:00:00Z"))
+    assert on_wall_clock(own, at) is own
+    demo = vcran.load_scenario("demo")
+    assert on_wall_clock(demo, at) is demo
+    now = on_wall_clock(vda).settings.epoch  # the wall clock itself: a real instant, not 1970's
+    assert now is not None and abs(datetime.fromisoformat(now) - datetime.now(UTC)) < timedelta(hours=1)

@@ -95,7 +95,6 @@ def test_vda5050_warehouse_runs_its_master_in_the_closed_loop_deterministically_
 
 @pytest.mark.parametrize("argv", [
     ["send", "vda5050", "--orion", "http://127.0.0.1:9"],
-    ["manage", "vda5050-warehouse", "--orion", "http://127.0.0.1:9"],
     ["orion", "init", "vda5050", "--orion", "http://127.0.0.1:9"],
 ])
 def test_every_scenario_command_refuses_a_vda5050_scenario_before_it_connects(tmp_path, capsys, monkeypatch, argv):

@@ -118,6 +118,29 @@ def test_slot_init_keeps_the_dataclass_constructor_behaviour():  # issue 14 item
         a.t = 3.0
 
 
+def test_slot_init_keeps_keyword_only_fields_keyword_only():  # issue 31: VDA 5050's models are kw_only
+    from vcran.core.slots import slot_init
+
+    def record(fast):
+        @dataclasses.dataclass(frozen=True, slots=True)
+        class Record:
+            t: float
+            note: str = "n"
+            tags: list = dataclasses.field(default_factory=list, kw_only=True)
+            level: int = dataclasses.field(kw_only=True)  # required, after defaults: keyword-only allows it
+        return slot_init(Record) if fast else Record
+
+    fast, plain = record(True), record(False)
+    for make in (fast, plain):
+        a = make(1.0, level=2)
+        assert (a.t, a.note, a.tags, a.level) == (1.0, "n", [], 2)
+        assert make(1.0, "x", level=3, tags=[1]) == make(t=1.0, note="x", tags=[1], level=3)
+        with pytest.raises(TypeError):  # level is keyword-only
+            make(1.0, "x", [], 2)
+        with pytest.raises(TypeError):  # and required
+            make(1.0)
+
+
 def test_repeated_tasks_are_built_again_under_their_names_with_one_header():  # issue 14 item 5
     from vcran.core.opil import build
 

@@ -3,7 +3,8 @@ protocol``, a VDA 5050 vehicle's identity on ``[[robots]]``, and a script of ``o
 messages stamped by vcran and checked against the vehicle's version's official schema as the file loads.
 
 Expected values come from the files and the text: headers as §6.4 and docs/scenarios.md say vcran stamps
-them (headerId from 0 per robot and topic in time order; the entry's time on the 1970 calendar), problems
+them (headerId from 0 per robot and topic in time order; the entry's time on the scenario's calendar, 1970
+unless ``[simulation] epoch`` says otherwise), problems
 in the wording docs/scenarios.md gives, located by the file's own keys.
 """
 
@@ -89,6 +90,20 @@ def test_a_vda5050_scenario_loads_its_vehicles_and_stamps_its_messages() -> None
     assert pause.message.header.timestamp == "1970-01-01T00:00:02.50Z"
     [action] = pause.message.actions
     assert (action.action_type, action.action_id, action.blocking_type) == ("startPause", "pause_1", BlockingType.HARD)
+
+
+def test_a_scenario_sets_its_calendar_and_its_script_is_stamped_on_it() -> None:
+    """``[simulation] epoch`` (docs/scenarios.md): simulated second 0 is that instant, so a message sent at t
+    is stamped epoch + t (§6.4: ISO 8601, UTC), cut to the hundredth as every vcran stamp. By hand:
+    23:59:58.5 on 1 March 2026 plus 1 s is 23:59:59.50; plus 2.5 s is 00:00:01.00 on 2 March; plus 0.004 s is
+    23:59:58.504, cut to 23:59:58.50."""
+    fleet = FLEET.replace('protocol = "vda5050"\n', 'protocol = "vda5050"\nepoch = "2026-03-01T23:59:58.5Z"\n')
+    s = load(fleet + entry(1.0, "order", ORDER) + entry(2.5, "instantActions", f"message = '{PAUSE}'")
+             + entry(0.004, "instantActions", f"message = '{PAUSE}'"))
+    assert s.settings.epoch == "2026-03-01T23:59:58.5Z"  # as written: the trace header records it so
+    assert [(e.t, e.message.header.timestamp) for e in s.script] == [
+        (0.004, "2026-03-01T23:59:58.50Z"), (1.0, "2026-03-01T23:59:59.50Z"), (2.5, "2026-03-02T00:00:01.00Z")]
+    assert load(FLEET).settings.epoch is None  # unset: the protocol's default calendar, 1970 (above)
 
 
 def test_header_ids_count_per_robot_and_topic_in_the_order_sent_not_the_files() -> None:
@@ -211,6 +226,24 @@ def test_the_bundled_vda5050_scenarios_load() -> None:
      "and topic in the order sent); leave it out, or send the message as it is with payload"),
     (FLEET + entry(1.0, "order", ORDER + "message.zoneSetId = 1979-05-27"),
      "x.toml: script[0]: field 'message': not a JSON value: Object of type date is not JSON serializable"),
+    (FLEET.replace("duration", 'epoch = "2026-01-01T01:00:00+01:00"\nduration'),
+     "x.toml: simulation: field 'epoch': '2026-01-01T01:00:00+01:00' is not a UTC date and time as ISO 8601 "
+     "writes it: \"2026-01-01T00:00:00Z\" (seconds, optionally with up to six decimals, then Z for UTC)"),
+    (FLEET.replace("duration", 'epoch = "2026-01-01"\nduration'),
+     "x.toml: simulation: field 'epoch': '2026-01-01' is not a UTC date and time as ISO 8601 writes it: "
+     "\"2026-01-01T00:00:00Z\" (seconds, optionally with up to six decimals, then Z for UTC)"),
+    (FLEET.replace("duration", 'epoch = "2026-02-29T00:00:00Z"\nduration'),  # 2026 is no leap year
+     "x.toml: simulation: field 'epoch': '2026-02-29T00:00:00Z': day is out of range for month"),
+    (FLEET.replace("duration", 'epoch = "1969-12-31T23:59:59Z"\nduration'),
+     "x.toml: simulation: field 'epoch': '1969-12-31T23:59:59Z': the years of the calendar are 1970 to 2999"),
+    (FLEET.replace("duration", 'epoch = ""\nduration'),
+     "x.toml: simulation: field 'epoch': expected a non-empty string, got ''"),
+    (FLEET.replace("duration", "epoch = 2026-01-01T01:00:00+01:00\nduration"),  # TOML's own date-time
+     "x.toml: simulation: field 'epoch': a TOML date-time; write it in UTC as a string, in quotes: "
+     "epoch = \"2026-01-01T00:00:00Z\""),
+    ('[simulation]\nduration = 100.0\nepoch = "2026-01-01T00:00:00Z"\n[[robots]]\nid = "r1"\n',
+     "x.toml: simulation: field 'epoch': the calendar of VDA 5050 headers; this scenario's robots speak opil, "
+     "whose messages carry none (set [simulation] protocol = \"vda5050\")"),
     (FLEET + entry(1.0, "order", ORDER.replace('nodeId = "b", sequenceId = 2, released = true, ',
                                                'nodeId = "b", sequenceId = 2, ')),
      "x.toml: script[0]: field 'message': $.nodes[1].released: required field missing (VDA 5050 2.1.0's schema)"),
@@ -236,6 +269,13 @@ def test_the_model_is_checked_without_a_file() -> None:
     both = replace(s.script[0], raw="{}")
     assert str(validate(replace(s, script=(both,)))[0]) == (
         "script[0]: field 'payload': give either message or payload, not both")
+    settings = s.settings
+    assert str(validate(replace(s, settings=replace(settings, epoch="2026-01-01 00:00:00Z")))[0]) == (
+        "simulation: field 'epoch': '2026-01-01 00:00:00Z' is not a UTC date and time as ISO 8601 writes it: "
+        "\"2026-01-01T00:00:00Z\" (seconds, optionally with up to six decimals, then Z for UTC)")
+    assert str(validate(replace(s, settings=replace(settings, protocol="opil", epoch="2026-01-01T00:00:00Z")))[0]) \
+        == ("simulation: field 'epoch': the calendar of VDA 5050 headers; this scenario's robots speak opil, whose "
+            "messages carry none (set [simulation] protocol = \"vda5050\")")
     neither = ScriptEntry(1.0, "r1", "order")
     assert str(validate(replace(s, script=(neither,)))[0]) == (
         "script[0]: field 'payload': expected the payload as text, got NoneType")
@@ -268,6 +308,18 @@ def test_the_writer_writes_a_vda5050_scenario_back() -> None:
     assert again == s
 
 
+def test_the_writer_writes_the_calendar_back_and_checks_headers_on_it() -> None:
+    """A scenario with an epoch written back loads as the same scenario: its script's headers stamped on that
+    calendar, which the writer checks they are."""
+    fleet = FLEET.replace("duration", 'epoch = "2026-01-01T00:00:00.125Z"\nduration')
+    s = load(fleet + entry(1.0, "order", ORDER))
+    assert s.script[0].message.header.timestamp == "2026-01-01T00:00:01.12Z"  # 1.125 s, cut to hundredths
+    assert parse(tomllib.loads(dumps(scenario_dict(s, s.script))), "x.toml") == s
+    on_1970 = load(FLEET + entry(1.0, "order", ORDER)).script
+    with pytest.raises(ValueError, match="vcran stamps .*'2026-01-01T00:00:01.12Z'.*, the message has .*'1970-01-01T00:00:01.00Z'"):
+        scenario_dict(s, on_1970)
+
+
 def test_the_writer_writes_a_vda5050_closed_loop_back() -> None:
     """vcran fuzz --manager saves a shrunk failing scenario with loop_dict: the protocol and the vehicles too."""
     s = vcran.load_scenario("vda5050-warehouse")
@@ -288,5 +340,8 @@ def test_the_trace_header_carries_the_protocol_and_identity_only_when_set() -> N
     assert vda["simulation"]["protocol"] == "vda5050"
     assert {k: vda["robots"][0][k] for k in ("manufacturer", "serial_number")} == {"manufacturer": "acme",
                                                                                   "serial_number": "0001"}
+    assert "epoch" not in vda["simulation"]  # unset: left out, as every key added since
+    dated = load(FLEET.replace("duration", 'epoch = "2026-01-01T00:00:00Z"\nduration')).fleet_dict()
+    assert dated["simulation"]["epoch"] == "2026-01-01T00:00:00Z"  # as written, which a replay reads back
     opil = vcran.load_scenario("demo").fleet_dict()
     assert "protocol" not in opil["simulation"] and "manufacturer" not in opil["robots"][0]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 
 import pytest
 
@@ -15,7 +16,7 @@ from vcran.core.faults import FaultSpec
 from vcran.core.opil.messages import MotionAssignment
 from vcran.core.scenario import Scenario, ScriptEntry, TrafficSettings
 from vcran.core.traffic.fields import FieldSpec
-from vcran.io.scenario_file import load
+from vcran.io.scenario_file import bundled, load, parse
 
 
 def of(result: vcran.Result, *names: str) -> list[dict]:
@@ -109,6 +110,44 @@ def test_s12_a_breakdown_while_blocked_ends_the_block_and_the_robot_blocks_again
     assert brief(of(result, "blocked", "unblocked", "task_completed")) == [
         (12.0, "A", "blocked", "B"), (20.0, "A", "unblocked", 8.0), (25.0, "A", "blocked", "B"),
         (32.0, "A", "unblocked", 7.0), (42.0, "B", "task_completed", "west"), (42.0, "A", "task_completed", "east")]
+
+
+def turning(cancel: bool) -> Scenario:
+    """The corridor with turns at 1 rad/s, A sent back west to W at 20 (task ``back``); ``cancel``:
+    ``on_deadlock = "cancel"``."""
+    data = tomllib.loads(bundled()["corridor"].read_text())
+    for r in data["robots"]:
+        r["max_angular_velocity"] = 1.0
+    if cancel:
+        data["traffic"]["on_deadlock"] = "cancel"
+    data["script"].append({"t": 20.0, "robot": "A", "kind": "task", "task": "back", "path": [[0.0, 0.0]]})
+    return parse(data, "<corridor, turning>")
+
+
+def test_s12_a_robot_facing_another_turns_and_drives_away() -> None:
+    """docs/robots.md "Fields": a turn in place does not translate, so the field points where the leg will
+    drive. The corridor with turns at 1 rad/s blocks and deadlocks as before (both robots face their goals:
+    no turn), and the deadlock cancels both tasks at 11: A rests at 9 facing B at 11. Sent back west at 20,
+    A turns pi (1 rad/s) with its field pointing west, away from B, then drives its 9 m: 2 s up (1 m), 7 s
+    at 1 m/s, 2 s down: ``back`` completed at 20 + pi + 11, no block, no second deadlock (A's turning
+    square reaches 9 + 0.71, short of B's side at 10.5: no contact)."""
+    result = vcran.simulate(turning(cancel=True))
+    assert brief(of(result, "blocked", "deadlock", "task_completed", "collision")) == [
+        (9.0, "A", "blocked", "B"), (9.0, "B", "blocked", "A"), (11.0, "A", "deadlock", "B", "cycle", 2.0),
+        (round(31.0 + math.pi, 6), "A", "task_completed", "back")]
+    a = result.summary["robots"]["A"]
+    assert (a["final_pose"]["x"], a["final_pose"]["theta"], a["distance"]) == (
+        pytest.approx(0.0, abs=1e-9), pytest.approx(math.pi), pytest.approx(18.0))
+    assert result.summary["traffic"] == {"blocks": 2, "blocked_time": pytest.approx(4.0), "deadlocks": 1}
+
+
+def test_s12_without_the_cancel_the_task_sent_back_waits_behind_the_blocked_one() -> None:
+    """The same without ``on_deadlock = "cancel"``: A's ``east`` task is still blocked (RanLogic runs tasks in
+    order, docs/contract.md §3), so ``back`` waits behind it: nothing turns, nothing else happens to the end
+    at 60 (the cycle is reported once; robots in it are not reported again past the bound)."""
+    result = vcran.simulate(turning(cancel=False))
+    assert brief(of(result, "blocked", "unblocked", "deadlock", "task_completed")) == [
+        (9.0, "A", "blocked", "B"), (9.0, "B", "blocked", "A"), (11.0, "A", "deadlock", "B", "cycle", 2.0)]
 
 
 def test_s12_the_same_corridor_twice_is_the_same_run(corridor: Scenario, tmp_path) -> None:

@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import json
 import math
+from datetime import UTC, datetime, timedelta
 
 import pytest
 
 from vcran.cli import main
 from vcran.core.vda5050 import validation
 from vcran.core.vda5050.enums import Topic, Version
-from vcran.io.trace import event_records, trace_records
+from vcran.io.trace import event_records, read_header, trace_in, trace_records
 
 
 def leg(d: float) -> float:
@@ -279,3 +280,30 @@ def test_spec_4_faults_reach_the_vehicle(tmp_path):
     assert levels[3.0] == [("breakdown", "FATAL")] and levels[7.0] == []
     assert [s["paused"] for t, s in states if t in (10.0, 12.0)] == [True, False]
     assert all(s["actionStates"] == [] for t, s in states if t < 20.0)
+
+
+def test_a_scenario_epoch_is_the_calendar_of_every_timestamp_and_the_replay_keeps_it(tmp_path):
+    """``[simulation] epoch`` (docs/scenarios.md, docs/vda5050.md "Timestamps"): every message of the run, the
+    script's order and the vehicle's states and factsheet, is stamped epoch + t (§6.4: ISO 8601, UTC), cut to
+    the hundredth. By hand, from 23:59:58.5 on 1 March 2026: the factsheet and first state at t = 0 are
+    23:59:58.50; the order at 1 and the state answering it 23:59:59.50; b, 6 m on from rest (8 s, as above),
+    reached at 9: 00:00:07.50 on 2 March. The trace header records the epoch as written, so the replay stamps
+    the same bytes."""
+    path = tmp_path / "dated.toml"
+    path.write_text(ONE_VEHICLE.replace("duration", 'epoch = "2026-03-01T23:59:58.5Z"\nduration')
+                    + order(1.0, "agv", "o1", [("a", 0.0), ("b", 6.0)]))
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    records = trace_records(out)
+    stamps = [(r["t"], r["attr"], r["raw"]["timestamp"]) for r in records]
+    assert stamps[:2] == [(0.0, "factsheet", "2026-03-01T23:59:58.50Z"), (0.0, "state", "2026-03-01T23:59:58.50Z")]
+    assert (1.0, "order", "2026-03-01T23:59:59.50Z") in stamps and (1.0, "state", "2026-03-01T23:59:59.50Z") in stamps
+    at_b = next(r for r in records if r["attr"] == "state" and r["raw"]["lastNodeId"] == "b")
+    assert (at_b["t"], at_b["raw"]["timestamp"]) == (pytest.approx(9.0), "2026-03-02T00:00:07.50Z")
+    # Every other one alike: the epoch plus the record's time, cut to the hundredth (datetime's arithmetic).
+    epoch = datetime(2026, 3, 1, 23, 59, 58, 500_000, tzinfo=UTC)
+    for t, _, stamp in stamps:
+        at = epoch + timedelta(microseconds=round(t * 1e6))
+        assert stamp == f"{at:%Y-%m-%dT%H:%M:%S}.{at.microsecond // 10_000:02d}Z"
+    assert read_header(trace_in(out))["fleet"]["simulation"]["epoch"] == "2026-03-01T23:59:58.5Z"
+    assert main(["replay", str(out), "--verify", "--quiet"]) == 0

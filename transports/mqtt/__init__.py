@@ -5,7 +5,8 @@ master's client, on paho-mqtt 2.x (the ``vda5050`` extra).
 * :mod:`~transports.mqtt.client`: one connection with reconnect and back-off, shared by both sides;
 * :mod:`~transports.mqtt.connection`: the ``connection`` topic and the last will (§6.14);
 * :mod:`~transports.mqtt.transport`: :class:`MqttTransport`, the simulated fleet's side;
-* :mod:`~transports.mqtt.master`: :class:`MqttMaster`, a master's side.
+* :mod:`~transports.mqtt.master`: :class:`MqttMaster`, a master's side;
+* :mod:`~transports.mqtt.manage`: :class:`~transports.mqtt.manage.MqttLoop`, a Python master on it (``vcran manage --mqtt``).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The master's side of VDA 5050 over MQTT: what ``vcran manage --mqtt`` will use to run a Python master
+"""The master's side of VDA 5050 over MQTT: what ``vcran manage --mqtt`` uses to run a Python master
 live (docs/contract.md §11), and what tests use to drive vcran's vehicles as any master would.
 
 One connection (a master has no last will in VDA 5050), subscribed with wildcards to the ``state``,
@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable, Iterable
+
+import paho.mqtt.client as mqtt
 
 from transports.mqtt.client import BrokerClient, MqttOptions, Tally, screened, start_all
 from transports.mqtt.topics import DELIVERY, TO_VEHICLE, BrokerUrl, FleetVehicle, check_fleet, fleet_filter, parse_topic
@@ -29,6 +31,7 @@ from vcran.core.vda5050.order import InstantActions, Order
 from vcran.core.wire import Inbound
 
 _MASTERS = itertools.count(1)
+_QUEUED = (mqtt.MQTT_ERR_SUCCESS, mqtt.MQTT_ERR_AGAIN)  # a publish paho holds to write
 _TOPICS = {Order: Topic.ORDER, InstantActions: Topic.INSTANT_ACTIONS}
 
 
@@ -44,6 +47,7 @@ class MqttMaster:
         self.tally = Tally()
         self.counts: Counter[str] = Counter()  # sent, unsent (broker unreachable), received
         self._on_message = on_message
+        self._in_flight: deque[mqtt.MQTTMessageInfo] = deque()  # taken by paho, not yet written (:attr:`idle`)
         self._by_topic = {v.address.topic(t): (v.robot, t) for v in self.vehicles.values()
                           for t in (Topic.STATE, Topic.CONNECTION, Topic.FACTSHEET, Topic.VISUALIZATION)}
         topics = [Topic.STATE, Topic.CONNECTION, Topic.FACTSHEET] + ([Topic.VISUALIZATION] if visualization else [])
@@ -71,10 +75,20 @@ class MqttMaster:
         if topic is None:
             raise ValueError(f"a master sends orders and instant actions, not {type(message).__name__}")
         delivery = DELIVERY[topic]
-        sent = self.client.publish(vehicle.address.topic(topic), encode(message, vehicle.version),
-                                   delivery.qos, delivery.retain) is not None
-        self.counts["sent" if sent else "unsent"] += 1
-        return sent
+        info = self.client.publish(vehicle.address.topic(topic), encode(message, vehicle.version),
+                                   delivery.qos, delivery.retain)
+        self.counts["sent" if info is not None else "unsent"] += 1
+        if info is not None and not info.is_published():
+            self._in_flight.append(info)
+        return info is not None
+
+    @property
+    def idle(self) -> bool:
+        """Every message :meth:`send` took has been written to the broker connection (QoS 0: nothing more
+        is known of it), or the connection it was queued on is gone. Call it from the thread that sends."""
+        while self._in_flight and (self._in_flight[0].rc not in _QUEUED or self._in_flight[0].is_published()):
+            self._in_flight.popleft()  # written, or lost with its connection (paho sets rc: CONN_LOST)
+        return not self._in_flight
 
     def close(self) -> None:
         self.client.stop()

@@ -13,8 +13,10 @@ from dataclasses import dataclass
 from datetime import datetime
 from urllib.parse import urlsplit
 
+from vcran.core.scenario import Scenario
 from vcran.core.vda5050.config import VehicleConfig
 from vcran.core.vda5050.enums import Topic, Version
+from vcran.core.vda5050.fleet import vehicle_config
 from vcran.core.vda5050.header import DEFAULT_EPOCH
 
 #: The port MQTT brokers listen on without TLS (IANA).
@@ -173,6 +175,13 @@ class FleetVehicle:
         if self.address.major != self.version.major:
             raise ValueError(f"{self.robot}: majorVersion {self.address.major!r} does not match version "
                              f"{self.version.value} ({self.version.major})")
+
+
+def fleet_of(scenario: Scenario) -> list[FleetVehicle]:
+    """A VDA 5050 scenario's vehicles as both sides of the broker address them: each robot's identity,
+    version and calendar (:func:`~vcran.core.vda5050.fleet.vehicle_config`) under its own ``interface_name``
+    (``uagv`` unless it says otherwise, §6.3)."""
+    return [FleetVehicle.of(r.id, vehicle_config(r, scenario.settings), r.vda5050_identity[0]) for r in scenario.robots]
 
 
 def check_fleet(vehicles: Iterable[FleetVehicle]) -> dict[str, FleetVehicle]:

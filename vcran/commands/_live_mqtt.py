@@ -2,9 +2,10 @@
 (docs/contract.md §11; docs/vda5050.md, "Live over MQTT"); :mod:`vcran.commands.live` runs it.
 
 Each vehicle has its own connection, ONLINE (retained) before the run starts; the glue publishes its state
-on every event and at least every 30 s, its visualization every telemetry period. A run that ends (its
-duration, SIGINT or SIGTERM) says OFFLINE for every vehicle and disconnects. Every order and instantActions
-is recorded as its payload arrived, so ``vcran replay DIR --verify`` reproduces the run.
+on every event and at least every 30 s (or the scenario's state_interval), its visualization every telemetry
+period. A run that ends (its duration, SIGINT or SIGTERM) says OFFLINE for every vehicle and disconnects.
+Every order and instantActions is recorded as its payload arrived, so ``vcran replay DIR --verify``
+reproduces the run.
 """
 
 from __future__ import annotations
@@ -31,10 +32,11 @@ def check(args: argparse.Namespace) -> None:
     given = [f"--{name.replace('_', '-')}" for name in ORION_ONLY if getattr(args, name) is not None]
     if given:
         raise CommandError(f"{', '.join(given)}: only with --orion (--mqtt has none of them)")
-    _url(args.mqtt)
+    broker_url(args.mqtt)
 
 
-def _url(text: str) -> BrokerUrl:
+def broker_url(text: str) -> BrokerUrl:
+    """``--mqtt``'s broker, or a CommandError saying what is wrong with it (also for vcran manage --mqtt)."""
     try:
         from transports.mqtt import MqttUrlError, parse_url
     except ModuleNotFoundError as exc:  # the vda5050 extra is missing: the message says how to install it
@@ -86,12 +88,12 @@ class MqttEdge:
 
 
 def connect(args: argparse.Namespace, scenario: Scenario) -> MqttEdge:
-    from transports.mqtt import FleetVehicle, MqttTransport, MqttUnavailable
-    from vcran.core.vda5050.fleet import vehicle_config
+    from transports.mqtt import MqttTransport, MqttUnavailable
+    from transports.mqtt.topics import fleet_of
 
-    url = _url(args.mqtt)
+    url = broker_url(args.mqtt)
     try:
-        transport = MqttTransport(url, [FleetVehicle.of(r.id, vehicle_config(r)) for r in scenario.robots])
+        transport = MqttTransport(url, fleet_of(scenario))
     except ValueError as exc:  # two robots on the same topics, a level MQTT cannot carry
         raise CommandError(f"{scenario.source}: {exc}") from None
     try:

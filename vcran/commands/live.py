@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -48,6 +50,22 @@ class Edge(Protocol):
     def close(self) -> None: ...
 
 
+def on_wall_clock(scenario: Scenario, now: datetime | None = None) -> Scenario:
+    """A VDA 5050 scenario on the calendar of a live run: simulated time 0 is the wall clock ``now`` (UTC, cut
+    to the millisecond), so its headers are real time scaled by ``--factor`` from the start (VDA 5050 §6.4:
+    "time when the message was sent"), unless the scenario sets its own ``[simulation] epoch``. Call it once,
+    before anything is connected or recorded: the vehicles, a master and the connection topic all read the
+    scenario's calendar, and the trace header records it, so a replay stamps the same bytes. An OPIL
+    scenario, which has no calendar, is returned as it is. (``vcran live --mqtt``; ``vcran manage --mqtt``.)"""
+    from vcran.core.epoch import epoch_text
+    from vcran.core.scenario import VDA5050
+
+    s = scenario.settings
+    if s.protocol != VDA5050 or s.epoch is not None:
+        return scenario
+    return replace(scenario, settings=replace(s, epoch=epoch_text(datetime.now(UTC) if now is None else now)))
+
+
 def latency_line(what: str, stats: dict[str, float], messages: str) -> str | None:
     """An end-of-run figure: median and 99th percentile of wall seconds, in ms (None without any)."""
     if not stats:
@@ -77,7 +95,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import resource
-    from dataclasses import replace
 
     from vcran.commands import _live_mqtt, _live_orion
     from vcran.io.progress import LiveStatus, StatusLine
@@ -94,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
     check_view(args.view, args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
     scenario: Scenario = replace(scenario, script=(), cycles=(), settings=replace(scenario.settings, until_idle=False))
+    scenario = on_wall_clock(scenario)  # before connecting: the connection topic's ONLINE is on the calendar too
     env = LiveEnvironment(speed=args.factor)
     edge: Edge = side.connect(args, scenario)  # connected: a broker that cannot be reached is an error now
 

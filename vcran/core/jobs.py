@@ -5,6 +5,11 @@ reaching the manager) and what the manager reported through its handle (a task s
 done or failed), as ``job_*`` events and, at the end, :class:`JobRecord` rows and the ``jobs`` section of
 ``summary.json``. A report that makes no sense (a job done twice, or one that never arrived) is the
 manager's bug and raises :class:`JobError` at once, naming the job.
+
+A VDA 5050 job's task is an order: how an order ended, read from one event (:func:`order_end`), is defined
+here, in the shared core, because the waiting spans below need it and the shared core imports no protocol;
+VDA 5050's order-by-order reading (:mod:`vcran.core.vda5050.outcomes`: ``vcran report``, ``vcran sweep``)
+calls it.
 """
 
 from __future__ import annotations
@@ -137,22 +142,60 @@ class JobBook:
         self.open -= 1
 
 
-def order_unsuccessful(event: dict[str, Any]) -> str | None:
-    """The orderId of a VDA 5050 order that ``event`` (one of ``events.jsonl``, docs/vda5050.md) records ending
-    without success, else None: the vehicle refused it (``order_rejected``), gave it up or had it cancelled
-    (``order_ended`` other than ``completed``), or one of its actions FAILED (an ``actionFailed`` error naming
-    the order; the order itself then ends ``completed``). An order is a VDA 5050 job's task (``job_assigned``)."""
+#: How a VDA 5050 order ends besides ``completed`` and the halts, as :func:`order_end` names it: the vehicle
+#: refused it, or one of its actions FAILED.
+REJECTED, ACTION_FAILED = "rejected", "action_failed"
+
+
+@dataclass(frozen=True, slots=True)
+class OrderEnd:
+    """What one event of a VDA 5050 run says about how order ``order_id`` ended (:func:`order_end`).
+
+    ``how``: ``completed``, ``cancelled`` or the halt that gave it up (``battery_empty``, ``motion_failed``,
+    ``collision``, ``deadlock``), from its ``order_ended``; :data:`REJECTED` from an ``order_rejected``; or
+    :data:`ACTION_FAILED`, from an ``actionFailed`` error naming it: the order goes on and ends later, then
+    counts as ended with an action failed if it ended ``completed``. ``order_id``: None when the event
+    names no order (an ``order_ended`` logged without it; its vehicle's current order is meant).
+    """
+
+    order_id: str | None
+    how: str
+
+    @property
+    def unsuccessful(self) -> bool:
+        return self.how != COMPLETED
+
+
+def order_end(event: dict[str, Any]) -> OrderEnd | None:
+    """How a VDA 5050 order ended, as ``event`` (one of ``events.jsonl``, docs/vda5050.md) records it, or
+    None when it records no end: the one definition of an order's outcome, which the loop properties
+    (:func:`order_unsuccessful`), ``vcran report`` and ``vcran sweep``
+    (:class:`vcran.core.vda5050.outcomes.OrderLog`) read. An action's failure is an ``actionFailed`` error
+    whose ``orderId`` reference names the order (only an order's action has one; an instant action's
+    failure names none)."""
     kind = event["event"]
-    if kind == "order_rejected" or (kind == "order_ended" and event.get("how") != COMPLETED):
+    if kind == "order_ended" or kind == "order_rejected":
         order = event.get("order_id")
-        return order if isinstance(order, str) else None
+        return OrderEnd(order if isinstance(order, str) else None,
+                        str(event.get("how")) if kind == "order_ended" else REJECTED)
     if kind == "error_raised":
-        error = event.get("error") or {}
-        if error.get("errorType") == "actionFailed":
-            refs = {r.get("referenceKey"): r.get("referenceValue") for r in error.get("errorReferences") or ()}
-            order = refs.get("orderId")
-            return order if isinstance(order, str) else None
+        error = event.get("error")
+        if not isinstance(error, dict) or error.get("errorType") != "actionFailed":
+            return None
+        for ref in error.get("errorReferences") or ():
+            if isinstance(ref, dict) and ref.get("referenceKey") == "orderId":
+                order = ref.get("referenceValue")
+                return OrderEnd(order, ACTION_FAILED) if isinstance(order, str) else None
     return None
+
+
+def order_unsuccessful(event: dict[str, Any]) -> str | None:
+    """The orderId of a VDA 5050 order that ``event`` records ending without success (:func:`order_end`),
+    else None: the vehicle refused it (``order_rejected``), gave it up or had it cancelled (``order_ended``
+    other than ``completed``), or one of its actions FAILED (the order itself then ends ``completed``). An
+    order is a VDA 5050 job's task (``job_assigned``)."""
+    end = order_end(event)
+    return end.order_id if end is not None and end.unsuccessful else None
 
 
 def waiting_spans(events: list[dict[str, Any]], end: float) -> list[tuple[str, float, float]]:

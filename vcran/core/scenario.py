@@ -52,6 +52,9 @@ VDA5050_VERSIONS = ("2.1.0", "2.0.0")
 INTERFACE_NAME = "uagv"
 #: The topics a VDA 5050 script sends on (a script entry's ``attribute``).
 VDA5050_TOPICS = ("order", "instantActions")
+#: The longest a VDA 5050 vehicle goes without publishing its state (§6.10: "at the latest every 30s"), the
+#: default and the upper bound of ``[simulation] state_interval``.
+VDA5050_STATE_INTERVAL = 30.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,6 +74,12 @@ class Settings:
     collision_resolution: float = 0.05
     #: What the robots speak: :data:`OPIL` or :data:`VDA5050` (docs/scenarios.md, "VDA 5050 vehicles").
     protocol: str = OPIL
+    #: Where simulated time 0 falls on the calendar of a VDA 5050 scenario's headers, as ISO 8601 UTC text
+    #: (``[simulation] epoch``, :mod:`vcran.core.epoch`); None: the protocol's default, 1970-01-01T00:00:00Z.
+    epoch: str | None = None
+    #: A VDA 5050 vehicle's state at least this often, seconds (``[simulation] state_interval``, at most
+    #: :data:`VDA5050_STATE_INTERVAL`); None: the protocol's default, that same 30 s.
+    state_interval: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -399,6 +408,8 @@ class Scenario:
                 "collisions": s.collisions if s.collisions != "report" else None,
                 "collision_resolution": s.collision_resolution if s.collision_resolution != 0.05 else None,
                 "protocol": s.protocol if s.protocol != OPIL else None,
+                "epoch": s.epoch,
+                "state_interval": s.state_interval,
             },
             "robots": [
                 {

@@ -51,19 +51,22 @@ def _constructor(cls: type, *, init: bool) -> Callable[..., Any]:
     """Generated once per class: ``make(fields...)`` returning a new instance (``init=False``), or an
     ``__init__(o, fields...)`` that ends with ``__post_init__`` when the class has one."""
     helpers: dict[str, Any] = {"_new": object.__new__, "_cls": cls, "_NONE": _NONE}
-    params, body = ["o"] if init else [], []
+    params, keywords, body = ["o"] if init else [], [], []
     for f in fields(cls):
         helpers[f"_s_{f.name}"] = _setter(cls, f.name)
+        named = keywords if f.kw_only else params  # as the dataclass __init__: keyword-only ones after a "*"
         if f.default is not MISSING:
             helpers[f"_d_{f.name}"] = f.default
-            params.append(f"{f.name}=_d_{f.name}")
+            named.append(f"{f.name}=_d_{f.name}")
         elif f.default_factory is not MISSING:
             helpers[f"_f_{f.name}"] = f.default_factory
-            params.append(f"{f.name}=_NONE")
+            named.append(f"{f.name}=_NONE")
             body.append(f" if {f.name} is _NONE: {f.name} = _f_{f.name}()")
         else:
-            params.append(f.name)
+            named.append(f.name)
         body.append(f" _s_{f.name}(o, {f.name})")
+    if keywords:
+        params += ["*", *keywords]
     if init:
         source = f"def make({', '.join(params)}):\n" + "\n".join(body) + "\n"
         if hasattr(cls, "__post_init__"):

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
+from datetime import UTC, date, datetime, time
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -141,8 +142,7 @@ def read(top: Table, default_name: str = "scenario") -> Scenario:
             script.extend(entry)
             owners.extend([i] * len(entry))
     if drafts:
-        for place, stamped_entry in zip(drafts, stamped(list(drafts.values()), {r.id: r for r in robots},
-                                                        settings.protocol)):
+        for place, stamped_entry in zip(drafts, stamped(list(drafts.values()), {r.id: r for r in robots}, settings)):
             script[place] = stamped_entry
     in_file = list(script)
     script.sort(key=_time)  # stable: equal times keep file order (so do jobs and faults)
@@ -212,9 +212,22 @@ def _settings(t: Table, default_name: str) -> Settings:
         collisions=t.string("collisions", "report"),
         collision_resolution=t.number("collision_resolution", 0.05),
         protocol=t.choice("protocol", default=OPIL),
+        epoch=_epoch(t),
+        state_interval=t.number("state_interval", None),
     )
     t.done()
     return s
+
+
+def _epoch(t: Table) -> str | None:
+    """``epoch``, a text: a TOML date-time (the same written without quotes) has no JSON form for the trace
+    header, which records the scenario, and would leave the file's schema."""
+    v = t.data.get("epoch")
+    if isinstance(v, (datetime, date, time)):
+        utc = isinstance(v, datetime) and v.utcoffset() is not None
+        shown = v.astimezone(UTC).isoformat().replace("+00:00", "Z") if utc else "2026-01-01T00:00:00Z"
+        t.fail("epoch", f'a TOML date-time; write it in UTC as a string, in quotes: epoch = "{shown}"')
+    return t.string("epoch", None)  # type: ignore[no-any-return]
 
 
 def _robot(t: Table) -> RobotConfig:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterable
+from datetime import datetime
 from typing import Any
 
 from vcran.core.opil.build import CATEGORY_OF
@@ -21,6 +22,7 @@ from vcran.core.opil.ids import Id, id_for
 from vcran.core.opil.messages import ActionAssignment, CancelTask, MotionAssignment
 from vcran.core.scenario import VDA5050_TOPICS, RobotConfig, Scenario, ScriptEntry
 from vcran.core.vda5050.enums import Version
+from vcran.core.vda5050.header import epoch_of
 from vcran.io.scenario_vda5050 import HEADER, header
 
 
@@ -30,13 +32,14 @@ def scenario_dict(scenario: Scenario, script: Iterable[ScriptEntry]) -> dict[str
     header is not the one the reader would stamp raises :class:`ValueError`."""
     data = scenario.fleet_dict()
     vehicles = {r.id: r for r in scenario.robots}
+    epoch = epoch_of(scenario.settings.epoch)
     counts: dict[tuple[str, str], int] = {}
     tables = []
     for e in script:
         if e.attribute in VDA5050_TOPICS and e.message is not None:
             n = counts.get((e.robot, e.attribute), 0)
             counts[(e.robot, e.attribute)] = n + 1
-            tables.append(_vda5050_message(e, vehicles.get(e.robot), n))
+            tables.append(_vda5050_message(e, vehicles.get(e.robot), n, epoch))
         else:
             tables.append(entry_table(e))
     data["script"] = tables
@@ -81,16 +84,17 @@ def entry_table(e: ScriptEntry) -> dict[str, Any]:
     raise ValueError(f"a script cannot hold {type(m).__name__}")
 
 
-def _vda5050_message(e: ScriptEntry, vehicle: RobotConfig | None, n: int) -> dict[str, Any]:
-    """A VDA 5050 script message (``n``-th of its robot and topic) as its ``[[script]]`` table."""
+def _vda5050_message(e: ScriptEntry, vehicle: RobotConfig | None, n: int, epoch: datetime) -> dict[str, Any]:
+    """A VDA 5050 script message (``n``-th of its robot and topic; on the scenario's calendar, ``epoch``) as its
+    ``[[script]]`` table."""
     from vcran.core.vda5050.codec import to_plain
 
     if vehicle is None:
         raise ValueError(f"a script message for {e.robot!r}, which is no robot of the scenario")
     plain = to_plain(e.message, Version(vehicle.vda5050_identity[3]))
     stamped = {key: plain.pop(key, None) for key in HEADER}
-    _require(stamped == header(vehicle, n, e.t), "header",
-             f"vcran stamps {header(vehicle, n, e.t)}, the message has {stamped}")
+    expected = header(vehicle, n, e.t, epoch)
+    _require(stamped == expected, "header", f"vcran stamps {expected}, the message has {stamped}")
     return {"t": e.t, "robot": e.robot, "kind": e.attribute, "message": plain}
 
 

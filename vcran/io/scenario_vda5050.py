@@ -22,11 +22,12 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any
 
-from vcran.core.scenario import VDA5050, RobotConfig, ScriptEntry
+from vcran.core.scenario import VDA5050, RobotConfig, ScriptEntry, Settings
 from vcran.core.vda5050.enums import Topic, Version
-from vcran.core.vda5050.header import timestamp
+from vcran.core.vda5050.header import DEFAULT_EPOCH, epoch_of, timestamp
 from vcran.io.toml_table import Table
 
 __all__ = ["HEADER", "Draft", "draft", "header", "stamped"]
@@ -79,20 +80,24 @@ def _json_text(t: Table, key: str, value: dict[str, Any]) -> str:
         t.fail(key, f"not a JSON value: {exc}")
 
 
-def header(robot: RobotConfig, n: int, t: float) -> dict[str, Any]:
-    """The header vcran stamps on ``robot``'s ``n``-th script message of a topic (from 0), sent at ``t``."""
+def header(robot: RobotConfig, n: int, t: float, epoch: datetime = DEFAULT_EPOCH) -> dict[str, Any]:
+    """The header vcran stamps on ``robot``'s ``n``-th script message of a topic (from 0), sent at ``t``
+    (on the scenario's calendar, ``epoch``)."""
     _, manufacturer, serial, version = robot.vda5050_identity
-    return {"headerId": n, "timestamp": timestamp(t), "version": version, "manufacturer": manufacturer,
+    return {"headerId": n, "timestamp": timestamp(t, epoch), "version": version, "manufacturer": manufacturer,
             "serialNumber": serial}
 
 
-def stamped(drafts: Sequence[Draft], robots: Mapping[str, RobotConfig], protocol: str) -> list[ScriptEntry]:
+def stamped(drafts: Sequence[Draft], robots: Mapping[str, RobotConfig], settings: Settings) -> list[ScriptEntry]:
     """The drafts as script entries, in the same order: each message with its header, checked against its
-    vehicle's version's schema. Headers count in time order (equal times in the drafts' order, the file's).
-    Outside a VDA 5050 scenario, or for a robot that is not one of its vehicles, the body is kept as it is
-    (``raw``) for the scenario's rules to refuse with the reason."""
+    vehicle's version's schema. Headers count in time order (equal times in the drafts' order, the file's),
+    timestamps on the scenario's calendar (its ``epoch``, read and checked already). Outside a VDA 5050
+    scenario, or for a robot that is not one of its vehicles, the body is kept as it is (``raw``) for the
+    scenario's rules to refuse with the reason."""
     from vcran.core.vda5050 import codec  # here: the schemas' validators cost an OPIL scenario's load 0.1 s
 
+    protocol = settings.protocol
+    epoch = epoch_of(settings.epoch) if protocol == VDA5050 else DEFAULT_EPOCH
     order = sorted(range(len(drafts)), key=lambda i: drafts[i].t)
     counts: dict[tuple[str, str], int] = {}
     out: list[ScriptEntry | None] = [None] * len(drafts)
@@ -106,7 +111,7 @@ def stamped(drafts: Sequence[Draft], robots: Mapping[str, RobotConfig], protocol
         n = counts.get((d.robot, d.topic), 0)
         counts[(d.robot, d.topic)] = n + 1
         version = robot.vda5050_identity[3]
-        message = codec.decode(Topic(d.topic), {**header(robot, n, d.t), **d.body}, Version(version))
+        message = codec.decode(Topic(d.topic), {**header(robot, n, d.t, epoch), **d.body}, Version(version))
         if isinstance(message, codec.Invalid):
             d.table.fail("message", f"{message.path}: {message.problem} (VDA 5050 {version}'s schema)")
         out[i] = ScriptEntry(d.t, d.robot, d.topic, message)

@@ -108,6 +108,25 @@ def test_a_new_leg_for_a_blocked_robot_ends_its_block() -> None:
     assert not t.blocked(0) and type(effects[0]).__name__ == "Unblocked"
 
 
+def test_a_new_leg_into_the_robot_in_the_field_blocks_again_at_once() -> None:
+    """docs/robots.md "Fields": an order from outside ends a block, and the new leg's field is blocked at
+    once if it still holds someone. Robot 0 is blocked by robot 1 resting at (15, 0) at 12 and stops at 12
+    at t = 14 (above). At 20 it is sent on east to (16, 0): ``unblocked``, and its field from rest (2 m from
+    its front at 12.5: to 14.5, cut at 4 + 2 m past the goal) touches robot 1's back at 14.5: ``blocked``
+    again at 20, stopped at once (no speed), at 12. It never drives into robot 1 (its square would reach
+    16.5 at the goal, over robot 1's 14.5 .. 15.5)."""
+    t = traffic([(0.0, 0.0, 0.0), (15.0, 0.0, 0.0)])
+    body = Body(t)
+    body.send(0, Leg(0.0, 0.0, 0.0, 0.0, 20.0, 0.0, None, LIMITS))
+    body.send(0, Leg(20.0, 12.0, 0.0, 0.0, 16.0, 0.0, None, LIMITS))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "drive_on", "arrived") == [
+        (12.0, "blocked", 0, 1), (20.0, "unblocked", 0, None), (20.0, "blocked", 0, 1)]
+    brakes = [(round(t, 6), round(d[0], 6), round(d[1][0], 6)) for t, what, _, d in log if what == "brake"]
+    assert brakes == [(12.0, 14.0, 12.0), (20.0, 20.0, 12.0)]
+    assert t.blocked(0) and t.watch.holding(0) == {1}
+
+
 def test_a_robot_parked_more_than_the_margin_beyond_the_goal_does_not_block_the_arrival() -> None:
     """docs/robots.md "Fields": the field is cut ``margin`` (2 m) past the front of the footprint at the goal.
     Robot 0 drives (0, 0) -> (20, 0), arriving at t = 22, its front at the goal at 20.5: its field never
@@ -126,6 +145,66 @@ def test_a_robot_parked_more_than_the_margin_beyond_the_goal_does_not_block_the_
     assert events(log, "blocked", "unblocked", "arrived") == [(19.9, "blocked", 0, 1)]
     brakes = [(round(t, 6), robot, round(d[0], 6), round(d[1][0], 6)) for t, what, robot, d in log if what == "brake"]
     assert brakes == [(19.9, 0, 21.9, 19.9)]
+
+
+TURNING = Limits(1.0, 0.5, 0.5, 1.0)  # turns in place at 1 rad/s
+
+
+def test_a_robot_facing_another_turns_and_drives_away() -> None:
+    """docs/robots.md "Fields" (issue 32's turn): robot 0 rests at (9, 0) facing east, 1 m from robot 1
+    resting at (11, 0) (fronts at 9.5 and 10.5), as the corridor's robots stop. At 20 robot 0 is sent west
+    to (0, 0): it turns pi at 1 rad/s, then drives 9 m (2 s up, 7 s at 1 m/s, 2 s down). Its field points
+    west from the start (x 8.5 .. 6.5 at rest): robot 1, behind it, never enters it: no block, arrived at
+    20 + pi + 11."""
+    body = Body(traffic([(9.0, 0.0, 0.0), (11.0, 0.0, math.pi)], bound=30.0))
+    body.send(0, Leg(20.0, 9.0, 0.0, 0.0, 0.0, 0.0, None, TURNING))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "arrived", "deadlock") == [
+        (round(31.0 + math.pi, 6), "arrived", 0, (0.0, 0.0))]
+
+
+def test_a_robot_where_the_leg_drives_blocks_it_before_it_turns() -> None:
+    """Robot 0 as above, robot 2 resting at (6.2, 0) (its side at 6.7). Sent west at 20, robot 0's field
+    from rest points west, 2 m from its front at 8.5 (to 6.5, cut at 9 + 2): robot 2 is in it: blocked at
+    20, before turning, stopped at once (no speed), still facing east. Its waiting field (3 m, for the
+    1 m/s it will drive on at) points west too (robot 1, east, is not in it). Robot 2 drives south from 30:
+    its top side leaves the field's y range (-0.5 .. 0.5) 1 m on (2 s from rest): clear at 32. Robot 0
+    drives on from rest: the turn (pi s) and the 9 m (11 s): arrived at 43 + pi."""
+    body = Body(traffic([(9.0, 0.0, 0.0), (11.0, 0.0, math.pi), (6.2, 0.0, -math.pi / 2)]))
+    body.send(0, Leg(20.0, 9.0, 0.0, 0.0, 0.0, 0.0, None, TURNING))
+    body.send(2, Leg(30.0, 6.2, 0.0, -math.pi / 2, 6.2, -10.0, None, TURNING))
+    log = body.run(100.0)
+    assert events(log, "blocked", "unblocked", "drive_on", "arrived") == [
+        (20.0, "blocked", 0, 2), (32.0, "unblocked", 0, None), (32.0, "drive_on", 0, None),
+        (42.0, "arrived", 2, (6.2, -10.0)), (round(43.0 + math.pi, 6), "arrived", 0, (0.0, 0.0))]
+    [(_, _, _, (t_stop, pose))] = [e for e in log if e[1] == "brake"]
+    assert (t_stop, pose) == (20.0, (9.0, 0.0, 0.0))
+
+
+def test_a_turn_in_place_alone_has_no_field() -> None:
+    """A leg that does not travel drives into nothing: robot 0 at (9, 0) facing robot 1 1 m ahead turns in
+    place to face west (pi at 1 rad/s): no block, done at 20 + pi."""
+    body = Body(traffic([(9.0, 0.0, 0.0), (11.0, 0.0, math.pi)], bound=30.0))
+    body.send(0, Leg(20.0, 9.0, 0.0, 0.0, 9.0, 0.0, math.pi, TURNING))
+    assert events(body.run(100.0), "blocked", "arrived") == [(round(20.0 + math.pi, 6), "arrived", 0, (9.0, 0.0))]
+
+
+def test_a_robot_leaving_a_field_as_it_blocks_is_no_cycle() -> None:
+    """docs/robots.md "Deadlock": a cycle needs every robot in it to wait at rest. Robot 1 rests at (0, 3)
+    facing east and is sent 1 m east at 0: its field from rest (x 0.5 .. 2.5, y 2.5 .. 3.5) touches the
+    corner (0.5, 3.5) of robot 0 resting at (0, 4): blocked at 0, stopped at once. At 1 robot 0 is sent to
+    (1, 0) and turns at once to face it (heading atan2(-4, 1)): its turned square meets x = 0.5 only above
+    y = 3.6, out of robot 1's field, while robot 1 (1 m ahead of it, at (0.97, -0.24) in its frame) is in
+    its field: robot 0 is blocked at 1, and robot 1 is clear at that same instant and drives on (1 m from
+    rest, a triangle: 2 sqrt(2) s, arriving at 1 + 2 sqrt(2)). Each waited for the other, never both at
+    once: no cycle (a hypothesis example: the braked robot's stop was judged before the exit it caused)."""
+    body = Body(traffic([(0.0, 4.0, 0.0), (0.0, 3.0, 0.0)], bound=50.0))
+    body.send(1, Leg(0.0, 0.0, 3.0, 0.0, 1.0, 3.0, None, LIMITS))
+    body.send(0, Leg(1.0, 0.0, 4.0, 0.0, 1.0, 0.0, None, LIMITS))
+    log = body.run(10.0)
+    assert events(log, "blocked", "unblocked", "drive_on", "arrived", "deadlock") == [
+        (0.0, "blocked", 1, 0), (1.0, "blocked", 0, 1), (1.0, "unblocked", 1, None), (1.0, "drive_on", 1, None),
+        (round(1 + 2 * math.sqrt(2), 6), "arrived", 1, (1.0, 3.0))]
 
 
 @settings(max_examples=60, deadline=None)

@@ -63,13 +63,35 @@ def test_a_field_growing_with_speed_is_entered_while_speeding_up() -> None:
     assert first_entry(driving(0, field, a), robot(1, (4.0, 0.0, 0.0)), 0.0, 20.0, RES) == pytest.approx(2.0, abs=1e-6)
 
 
-def test_a_field_swings_with_a_turn_in_place() -> None:
-    """Facing +y, turning to +x at 1 rad/s, field 2 m at rest (x 0.5 .. 2.5, y -0.5 .. 0.5): its far right
-    corner (2.5, -0.5), at angle -atan(0.2), sweeps down onto the square at (3, 0), whose corner (2.5, 0.5)
-    lies at the same distance: they meet when the robot faces 2 atan(0.2), at t = pi/2 - 2 atan(0.2)."""
+def test_a_field_points_where_the_leg_drives_while_the_robot_turns() -> None:
+    """docs/robots.md "Fields": turning in place the robot does not translate, so its field points the way
+    its leg will drive. Facing +y, turning to +x at 1 rad/s (pi/2 s) to drive to (10, 0): its field (2 m at
+    rest, cut at 10 + 2) covers x 0.5 .. 2.5, y -0.5 .. 0.5 from the start. A square at (3, 0) (its side
+    at x 2.5) is in it at once, before the robot has turned at all; a square at (0, 2.5), in the field of
+    the way the robot faced (y 0.5 .. 2.5 there, its side at 2), never enters it: the robot drives away
+    from it along y = 0 (the field's y range stays -0.5 .. 0.5, the square's starts at 2)."""
     leg = Leg(0.0, 0.0, 0.0, math.pi / 2, 10.0, 0.0, None, Limits(1.0, 0.5, 0.5, 1.0))
-    t = first_entry(driving(0, CORRIDOR, leg), robot(1, (3.0, 0.0, 0.0)), 0.0, leg.t_end, RES)
-    assert t == pytest.approx(math.pi / 2 - 2 * math.atan(0.2), abs=1e-6)
+    assert leg.t_turn1 == pytest.approx(math.pi / 2)
+    field = driving(0, CORRIDOR, leg)
+    assert first_entry(field, robot(1, (3.0, 0.0, 0.0)), 0.0, leg.t_end, RES) == 0.0
+    assert first_entry(field, robot(1, (0.0, 2.5, 0.0)), 0.0, leg.t_end, RES) is None
+    # at rest, before the leg, the robot faces +y: a field pointing that way would hold the second square
+    facing = waiting(0, CORRIDOR, 0.0, None, (0.0, 0.0, math.pi / 2))
+    assert bool(inside(facing, robot(1, (0.0, 2.5, 0.0)), np.array([0.0]))[0])
+    # a waiting field given the leg's heading points where the robot will drive, whatever it faces
+    ahead = waiting(0, CORRIDOR, 0.0, None, (0.0, 0.0, math.pi / 2), heading=leg.heading)
+    assert not inside(ahead, robot(1, (0.0, 2.5, 0.0)), np.array([0.0]))[0]
+    assert inside(ahead, robot(1, (3.0, 0.0, 0.0)), np.array([0.0]))[0]
+
+
+def test_a_field_keeps_pointing_the_way_the_robot_came_in_its_last_turn() -> None:
+    """Driving (0, 0) -> (4, 0) and then turning at 1 rad/s to face +y (pi/2 s): 4 m is 2 s up (1 m), 2 s
+    at 1 m/s, 2 s down (1 m), so the turn runs from 6 to 6 + pi/2. A square resting at (4, 2.5)
+    (its side at y 2) is beside the drive (the field's y range -0.5 .. 0.5) and would be 0.5 .. 2.5 ahead of
+    the turned robot: it never enters the field, which keeps pointing +x, cut at margin past the goal."""
+    leg = Leg(0.0, 0.0, 0.0, 0.0, 4.0, 0.0, math.pi / 2, Limits(1.0, 0.5, 0.5, 1.0))
+    assert leg.t_end == pytest.approx(6.0 + math.pi / 2)
+    assert first_entry(driving(0, CORRIDOR, leg), robot(1, (4.0, 2.5, 0.0)), 0.0, leg.t_end, RES) is None
 
 
 def test_a_robot_passing_beside_enters_only_a_widened_field() -> None:
@@ -100,6 +122,9 @@ def test_field_track_bounds() -> None:
     assert track.radius == pytest.approx(math.hypot(3.5, 0.5))
     # its far edge moves at 1 m/s plus the growth (2 * 1 * 1 m per m/s) * 0.5 m/s^2 = 1 m/s: 2 m/s
     assert track.speed == pytest.approx(2.0)
+    # turns in place add nothing: the field does not turn with the robot (it points the way the leg travels)
+    turning = driving(0, CORRIDOR, Leg(0.0, 0.0, 0.0, math.pi, 20.0, 0.0, 0.5, Limits(1.0, 0.5, 0.5, 1.0)))
+    assert turning.speed == pytest.approx(2.0)
     r = track.radius
     assert track.box() == pytest.approx((-r, -r, 20.0 + r, r), abs=1e-5)
 

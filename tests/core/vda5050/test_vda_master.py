@@ -12,6 +12,7 @@ from __future__ import annotations
 import random
 import tomllib
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import orjson
@@ -179,6 +180,17 @@ def test_header_ids_count_per_topic_and_vehicle_and_timestamps_are_simulated_tim
     assert isinstance(instant, InstantActions)
     assert [(a.action_type, a.action_id, a.blocking_type.value) for a in instant.actions] == [
         ("startPause", "startPause_1", "NONE")]
+
+
+def test_the_master_stamps_on_the_scenarios_calendar() -> None:
+    """``[simulation] epoch`` is the calendar of the master's headers too (MasterFleet.of gives every vehicle
+    the scenario's, as the simulation's vehicles have it): 2.5 s after 2026-01-01T00:00:00Z, by hand."""
+    scenario = line()
+    dated = replace(scenario, settings=replace(scenario.settings, epoch="2026-01-01T00:00:00Z"))
+    handle = Handle(MasterFleet.of(dated))
+    handle.t = 2.5
+    handle.order("agv1", ["p"])
+    assert handle.sent[0][2].header.timestamp == "2026-01-01T00:00:02.50Z"
 
 
 def test_resend_sends_the_last_order_again_with_a_new_header() -> None:

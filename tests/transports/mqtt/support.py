@@ -45,6 +45,8 @@ class Seen:
     payload: bytes
     qos: int
     retain: bool
+    #: When it arrived, on the wall clock (time.time(): the calendar a master reads timestamps against).
+    received: float = 0.0
 
     @property
     def doc(self) -> Any:
@@ -77,7 +79,7 @@ class Watcher:
 
     def _message(self, _client: Any, _userdata: Any, message: mqtt.MQTTMessage) -> None:
         with self._lock:
-            self.seen.append(Seen(message.topic, message.payload, message.qos, bool(message.retain)))
+            self.seen.append(Seen(message.topic, message.payload, message.qos, bool(message.retain), time.time()))
 
     def of(self, kind: str | None = None, topic: str | None = None) -> list[Seen]:
         with self._lock:

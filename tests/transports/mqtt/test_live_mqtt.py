@@ -12,6 +12,8 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +60,7 @@ class Master:
 
 
 def test_a_paho_master_drives_vcran_live_mqtt_and_the_run_replays(broker, live_fleet):
+    started = time.time()
     live = live_fleet(broker.url, "vda5050", VEHICLE, factor=FACTOR)
     master = Master(broker.url)
     try:
@@ -108,6 +111,19 @@ def test_a_paho_master_drives_vcran_live_mqtt_and_the_run_replays(broker, live_f
     for kind in ("state", "visualization", "connection"):
         ids = [m.doc["headerId"] for m in seen if m.kind == kind]
         assert ids == list(range(ids[0], ids[0] + len(ids))), (kind, ids)
+    # §6.4: "timestamp ... ISO8601, UTC" of when the message was sent. The run's calendar is the wall clock at its
+    # start (docs/vda5050.md, "Timestamps"), recorded in the trace header's scenario: between the test's start and
+    # the retained ONLINE, which is stamped at simulated 0, the epoch itself (cut to the hundredth). A state
+    # stamped at simulated t went out at the wall's epoch + t / FACTOR or later (the clock starts once the fleet
+    # is connected and built) and arrived within a few seconds of that: real time, scaled by --factor.
+    epoch_text = read_header(trace_in(live.out))["fleet"]["simulation"]["epoch"]
+    epoch = datetime.fromisoformat(epoch_text).timestamp()
+    assert started - 0.001 <= epoch <= online.received, (started, epoch_text, online.received)
+    assert online.doc["timestamp"] == epoch_text[:22] + "Z"  # YYYY-MM-DDTHH:MM:SS.ff of ...SS.fffZ
+    for state in master.watcher.of("state"):
+        simulated = datetime.fromisoformat(state.doc["timestamp"]).timestamp() - epoch  # cut: up to 0.01 s short
+        assert -0.01 < simulated and state.received - 3.0 <= epoch + simulated / FACTOR <= state.received + 0.5, (
+            epoch_text, state.doc["timestamp"], state.received)
     # What a newcomer gets: the retained OFFLINE (a graceful end, not the last will's CONNECTIONBROKEN).
     assert retained(broker.url, (f"{VEHICLE}/connection",))[f"{VEHICLE}/connection"].doc["connectionState"] == "OFFLINE"
 

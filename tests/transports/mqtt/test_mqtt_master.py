@@ -1,4 +1,4 @@
-"""The master's side of VDA 5050 over MQTT (what ``vcran manage --mqtt`` will use) against a real Mosquitto
+"""The master's side of VDA 5050 over MQTT (what ``vcran manage --mqtt`` uses, tests/transports/mqtt/test_mqtt_manage_link.py) against a real Mosquitto
 and vcran's own vehicles' side."""
 
 from __future__ import annotations

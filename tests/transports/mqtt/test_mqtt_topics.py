@@ -3,9 +3,12 @@ flags (§6.2, §6.14, §6.15) and the connection topic's headerIds (§6.4, §6.1
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import orjson
 import pytest
 
+import vcran
 from tests.transports.mqtt.support import config
 from transports.mqtt.connection import ConnectionTopic
 from transports.mqtt.topics import (
@@ -19,6 +22,7 @@ from transports.mqtt.topics import (
     parse_url,
 )
 from vcran.core.vda5050.enums import Topic, Version
+from vcran.core.vda5050.fleet import vehicle_config
 
 
 @pytest.mark.parametrize(("text", "host", "port"), [
@@ -119,3 +123,16 @@ def test_connection_header_ids_count_without_gaps_in_the_order_a_subscriber_sees
     assert read(topic.will()[1])[:2] == ("CONNECTIONBROKEN", 3)
     assert read(topic.online())[:2] == ("ONLINE", 2)
     assert read(topic.offline())[:2] == ("OFFLINE", 3)
+
+
+def test_the_connection_topic_is_on_the_scenarios_calendar():
+    """The edge stamps connection messages on the vehicle's calendar, which ``vcran live --mqtt`` takes from the
+    scenario (``vehicle_config(robot, settings)``, as the simulation's vehicles and a master do): ONLINE before
+    the run, at simulated 0, is the epoch itself; a will set at 12.5 s is 12.5 s later (by hand)."""
+    scenario = vcran.load_scenario("vda5050")
+    dated = replace(scenario.settings, epoch="2026-11-27T21:30:00.123Z")
+    now = [0.0]
+    topic = ConnectionTopic(FleetVehicle.of("robot_1", vehicle_config(scenario.robots[0], dated)), lambda: now[0])
+    assert orjson.loads(topic.online())["timestamp"] == "2026-11-27T21:30:00.12Z"
+    now[0] = 12.5
+    assert orjson.loads(topic.will()[1])["timestamp"] == "2026-11-27T21:30:12.62Z"

@@ -36,6 +36,9 @@ the length for the speed it will drive on at: :mod:`vcran.core.traffic.fields`),
 rest when that field is clear and it has stopped, whichever comes last. ``blocked``/``unblocked`` pair up:
 a blocked robot given a new leg or rest from outside is ``unblocked`` then, so a robot's blocked time is
 the sum of its intervals. Robots with no field (``None``) never block, and are seen in others' fields.
+A field points the way its robot's leg travels, also while the robot turns in place to start it, and a
+waiting field the way the braked leg did; a leg that does not travel (a turn in place only) has no field
+(:mod:`vcran.core.traffic.fields`).
 """
 
 from __future__ import annotations
@@ -127,9 +130,8 @@ class Traffic:
         """Robot ``i`` starts ``leg`` at ``now``."""
         effects = self._release(i)
         self.legs[i] = leg
-        field = self.fields[i]
         track = Track(i, self.footprints[i], leg, (leg.x0, leg.y0, leg.theta0), leg.t_end)
-        return effects + self._update(i, track, driving(i, field, leg) if field else None, now)
+        return effects + self._update(i, track, self._driving(i, leg), now)
 
     def rest(self, i: int, pose: Pose, now: float) -> list[Effect]:
         """Robot ``i`` rests at ``pose`` from ``now`` and does not drive on (it has no field)."""
@@ -174,7 +176,7 @@ class Traffic:
         field = self.fields[i]
         assert field is not None
         track = Track(i, self.footprints[i], None, b.pose, math.inf)
-        effects = self._update(i, track, waiting(i, field, _hold(b), None, b.pose, _goal(b)), now)
+        effects = self._update(i, track, waiting(i, field, _hold(b), None, b.pose, _goal(b), b.leg.heading), now)
         found = self.waits.stopped(i, now)
         if found is not None:
             effects.append(Deadlocked(found))
@@ -193,8 +195,12 @@ class Traffic:
         start = b.stop.pose_at(now)[:3] if b.stop is not None else b.pose
         until = b.stop.t_end if b.stop is not None else math.inf
         track = Track(i, self.footprints[i], b.stop, start, until)
-        effects: list[Effect] = [Brake(i, b), Wake(i, b.t_stop, BRAKED, self.spells[i])]
-        return effects + self._update(i, track, waiting(i, field, _hold(b), b.stop, b.pose, _goal(b)), now)
+        # The wake last: changes the brake itself causes at the instant it stops (a robot stopped at once,
+        # turned out of another's field) come first, so its stop is judged on fields up to date (no cycle
+        # with a robot that is clear at that instant).
+        effects: list[Effect] = [Brake(i, b)]
+        effects += self._update(i, track, waiting(i, field, _hold(b), b.stop, b.pose, _goal(b), b.leg.heading), now)
+        return [*effects, Wake(i, b.t_stop, BRAKED, self.spells[i])]
 
     def _drive_on(self, i: int, now: float) -> list[Effect]:
         b = self.brakings.pop(i)
@@ -202,17 +208,26 @@ class Traffic:
         self.waits.clear(i)
         leg = b.remainder(now)
         self.legs[i] = leg
-        field = self.fields[i]
         track = Track(i, self.footprints[i], leg, b.pose, leg.t_end)
-        return [DriveOn(i, leg), *self._update(i, track, driving(i, field, leg) if field else None, now)]
+        return [DriveOn(i, leg), *self._update(i, track, self._driving(i, leg), now)]
 
     def _release(self, i: int) -> list[Effect]:
-        """Robot ``i`` is no longer blocked, by an order from outside: its spell ends (``unblocked``)."""
+        """Robot ``i`` is no longer blocked, by an order from outside: its spell ends (``unblocked``). The
+        field of what it does next starts empty, so a robot still in it enters it at once and blocks it
+        again (else a new leg the same way would drive into it, unblocked)."""
+        self.watch.forget(i)
         self.waits.clear(i)
         self.stopped.discard(i)
         if self.brakings.pop(i, None) is None:
             return []
         return [Unblocked(i)]
+
+    def _driving(self, i: int, leg: Leg) -> FieldTrack | None:
+        """Robot ``i``'s field driving ``leg``, pointing the way the leg travels; none for a robot without
+        one, or for a leg that does not travel (a turn in place only drives into nothing:
+        :mod:`vcran.core.traffic.fields`)."""
+        field = self.fields[i]
+        return driving(i, field, leg) if field is not None and leg.distance > 0 else None
 
     def _update(self, i: int, track: Track, field: FieldTrack | None, now: float) -> list[Effect]:
         return [Predicted(c) for c in self.watch.update(i, track, field, now)]

@@ -2,8 +2,15 @@
 
 Geometry. In the robot frame (x forward) the field spans ``x`` from the footprint's front (its largest
 ``x``) to that front plus the field's length, and ``y`` across the footprint's width (its smallest to its
-largest ``y``) widened by ``side`` on each side. It turns and moves with the robot, so it always points
-the way the robot drives (a leg turns first, then drives straight ahead; it never reverses).
+largest ``y``) widened by ``side`` on each side. It moves with the robot and points the way the robot's
+leg travels (:attr:`FieldTrack.heading`, the leg's :attr:`~vcran.core.motion.Leg.heading`), whatever the
+robot's own heading: a leg turns in place first, then drives straight ahead (it never reverses), and while
+it turns it does not translate, so what it can drive into is what lies ahead *in the direction it will
+drive*. A robot turning to drive away from a robot in front of it is not blocked by that robot (turning,
+its field would sweep over it and block it at once and for good); a robot standing where it is about to
+drive blocks it before it turns. During a leg's last turn, to the goal's heading, the field keeps pointing
+the way the robot came (cut to ``margin``: nothing is left to drive). A leg that does not travel (a turn in
+place only) drives into nothing and has no field, as a robot at rest (:mod:`vcran.core.traffic.control`).
 
 Length, one formula for the three usual kinds of field::
 
@@ -13,8 +20,7 @@ Length, one formula for the three usual kinds of field::
 term is the braking distance at the robot's deceleration, so a robot whose field has ``margin > 0`` stops
 at least ``margin`` short of an obstacle standing still (a robot coming the other way brakes too, and
 both close the gap: each margin must exceed the other's braking distance, docs/robots.md "Head-on: how
-long fields must be"). A turn in place has speed 0: the field keeps its length at rest and turns with the
-robot.
+long fields must be"). A turn in place has speed 0: the field keeps its length at rest.
 
 The field never reaches more than ``margin`` past where the robot will stop: it is cut at the distance from
 the robot to the end of its motion (every leg ends at rest) plus ``margin``. A robot slowing to its goal at
@@ -108,7 +114,8 @@ class Field:
 
 @dataclass(slots=True)
 class FieldTrack:
-    """Robot ``index``'s field along ``leg`` (or at rest at ``pose``) until ``until``.
+    """Robot ``index``'s field along ``leg`` (or at rest at ``pose``) until ``until``, pointing at ``heading``
+    (radians, world frame: the direction the leg travels, module docstring).
 
     ``fixed``: the length of a waiting field (module docstring); None: the length follows the speed.
     ``goal``: where the robot's motion ends: the field is cut at the robot's distance to it plus the margin
@@ -121,6 +128,7 @@ class FieldTrack:
     leg: Leg | None
     pose: tuple[float, float, float]
     until: float
+    heading: float
     fixed: float | None = None
     goal: tuple[float, float] | None = None
 
@@ -143,9 +151,9 @@ class FieldTrack:
 
     @property
     def speed(self) -> float:
-        """Fastest any point of the field moves on this track (m/s): the robot's speed, the turns swinging
-        the field's far corners, and the field's far edge growing while the robot speeds up or slows down
-        (a ramp without a limit is a jump, which sampling sees on either side of it)."""
+        """Fastest any point of the field moves on this track (m/s): the robot's speed and the field's far
+        edge growing while the robot speeds up or slows down (a ramp without a limit is a jump, which
+        sampling sees on either side of it). The field does not turn with the robot's turns in place."""
         leg = self.leg
         if leg is None:
             return 0.0
@@ -154,7 +162,7 @@ class FieldTrack:
         if self.fixed is None:
             ramp = max(leg.limits.accel, leg.limits.decel, 0.0)
             growth = (f.reaction + 2.0 * f.brake * leg.peak) * ramp
-        return leg.peak + growth + self.radius * max(abs(leg.rate1), abs(leg.rate2))
+        return leg.peak + growth
 
     def box(self, t0: float = -math.inf, t1: float = math.inf) -> Box:
         """A bounding box of the field between ``t0`` and ``t1`` (see :meth:`vcran.core.collisions.Track.box`)."""
@@ -172,14 +180,17 @@ class FieldTrack:
 
 def driving(index: int, field: Field, leg: Leg) -> FieldTrack:
     """The field of robot ``index`` driving ``leg``: its length follows the speed, cut ``margin`` past the
-    leg's end."""
-    return FieldTrack(index, field, leg, (leg.x0, leg.y0, leg.theta0), leg.t_end, goal=(leg.x1, leg.y1))
+    leg's end, pointing the way the leg travels (also while it turns in place)."""
+    return FieldTrack(index, field, leg, (leg.x0, leg.y0, leg.theta0), leg.t_end, leg.heading, goal=(leg.x1, leg.y1))
 
 
 def waiting(index: int, field: Field, speed: float, leg: Leg | None, pose: tuple[float, float, float],
-            goal: tuple[float, float] | None = None) -> FieldTrack:
+            goal: tuple[float, float] | None = None, heading: float | None = None) -> FieldTrack:
     """The waiting field of robot ``index``, blocked: the length for ``speed`` (the speed it will drive on
     at), along its braking ``leg`` or at rest at ``pose`` (``leg`` None), cut ``margin`` past ``goal`` (the
-    end of the motion it will drive on; None: not cut)."""
+    end of the motion it will drive on; None: not cut), pointing at ``heading``: the way the braked leg
+    travels, so a robot blocked before or during its first turn waits for what lies where it will drive
+    (None: the way ``pose`` faces)."""
     until = leg.t_end if leg is not None else math.inf
-    return FieldTrack(index, field, leg, pose, until, fixed=field.length(speed), goal=goal)
+    toward = pose[2] if heading is None else heading
+    return FieldTrack(index, field, leg, pose, until, toward, fixed=field.length(speed), goal=goal)

@@ -7,8 +7,8 @@ edge also moves as the field grows or shrinks with speed) nor of the other footp
 skipped; the first sample whose answer changed is refined to 1 ns. An intrusion that begins and ends
 between two samples (thinner than the resolution) is missed, as a graze is by collision detection.
 
-The test at one instant: the field is a rectangle in its robot's frame whose length depends on the speed
-at that instant (:class:`~vcran.core.traffic.fields.Field`). A convex footprint is tested by the
+The test at one instant: the field is a rectangle in its robot's frame (turned to the way its leg
+travels) whose length depends on the speed at that instant (:class:`~vcran.core.traffic.fields.Field`). A convex footprint is tested by the
 separating axis theorem in numpy (the rectangle's two axes in its robot's frame, the footprint's edge
 normals in the other's frame); any other footprint as shapely polygons. Touching counts as inside, as it
 counts as contact. A robot without a footprint (``footprint = []``) never enters a field.
@@ -40,17 +40,19 @@ def first_exit(field: FieldTrack, other: Track, t0: float, t1: float, resolution
 
 
 def states(field: FieldTrack, times: np.ndarray) -> np.ndarray:
-    """``(len(times), 4)``: the field's robot's ``x, y, theta`` and the field's length at each of ``times``
-    (cut at the robot's distance to its goal plus the margin: vcran.core.traffic.fields)."""
+    """``(len(times), 4)``: the field's robot's ``x, y``, the field's heading (the way its leg travels, not
+    the robot's heading while it turns: vcran.core.traffic.fields) and the field's length at each of
+    ``times`` (cut at the robot's distance to its goal plus the margin)."""
     out = np.empty((len(times), 4))
     leg = field.leg
     if leg is None:
-        out[:, :3] = field.pose
+        out[:, :2] = field.pose[:2]
         speeds = np.zeros(len(times))
     else:
         sampled = sample_leg(leg, times)
-        out[:, :3] = sampled[:, :3]
+        out[:, :2] = sampled[:, :2]
         speeds = sampled[:, 3]
+    out[:, 2] = field.heading
     if field.fixed is not None:
         out[:, 3] = field.fixed
     else:

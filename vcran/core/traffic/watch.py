@@ -16,7 +16,9 @@ box and the other's box overlap over the time both tracks hold.
 Fields. A robot has a field while it drives (:func:`~vcran.core.traffic.fields.driving`) and while it
 is blocked (:func:`~vcran.core.traffic.fields.waiting`); at rest and idle it has none (``field=None``): a
 parked robot is not blocked by a robot passing in front of it. A field's set of robots inside persists
-across updates; a new field that no longer holds one of them predicts its exit at once.
+across updates (a robot braking, waiting, driving on); a new field that no longer holds one of them predicts
+its exit at once. A motion given from outside starts afresh (:meth:`FieldWatch.forget`): whoever is in its
+field enters it at once.
 
 What a robot does about it (brake, wait, drive on, report deadlocks) is
 :class:`vcran.core.traffic.control.Traffic`'s part, which drives this watch.
@@ -81,6 +83,12 @@ class FieldWatch:
     def holding(self, owner: int) -> frozenset[int]:
         """The robots in ``owner``'s field now (as far as changes handed to :meth:`due` tell)."""
         return frozenset(self.inside.get(owner, ()))
+
+    def forget(self, owner: int) -> None:
+        """``owner``'s field starts afresh (an order from outside replaced its motion): it holds nobody until
+        the next :meth:`update` finds them again (a robot still in it enters at once)."""
+        for other in self.inside.pop(owner, set()):
+            self.within[other].discard(owner)
 
     def update(self, i: int, track: Track, field: FieldTrack | None, now: float) -> list[Change]:
         """Robot ``i`` goes on along ``track`` with ``field`` (None: none) from ``now``: the changes its

@@ -27,6 +27,7 @@ from vcran.core.validity.fleet import robot_problems, settings_problems, station
 from vcran.core.validity.protocol import duration_problems, trigger_problems, vehicle_problems
 from vcran.core.validity.protocol import link_problems as protocol_link_problems
 from vcran.core.validity.protocol import script_problems as protocol_script_problems
+from vcran.core.validity.protocol import settings_problems as protocol_settings_problems
 from vcran.core.validity.safety import traffic_problems
 from vcran.core.validity.workload import (
     fault_problems,
@@ -54,6 +55,8 @@ def validate(scenario: Scenario, *, fields_checked: bool = False) -> list[Proble
         return [Problem("", f"expected a Scenario, got {type(scenario).__name__}")]
     sc, own = scenario, not fields_checked
     out = settings_problems(sc.settings, own)
+    if not out and isinstance(sc.settings, Settings):
+        out += protocol_settings_problems(sc.settings)
     end = sc.settings.duration if isinstance(sc.settings, Settings) and is_number(sc.settings.duration) else None
     if not sc.robots:
         out.append(Problem("", "at least one [[robots]] entry is needed"))

@@ -12,12 +12,14 @@ import math
 from typing import Any
 
 from vcran.core.battery import BatteryConfig
+from vcran.core.epoch import epoch_problem
 from vcran.core.orion_rules import identifier_error
 from vcran.core.polygon import covers, polygon_problem
 from vcran.core.scenario import (
     ACTION_KINDS,
     COLLISION_MODES,
     PROTOCOLS,
+    VDA5050_STATE_INTERVAL,
     VDA5050_VERSIONS,
     RobotConfig,
     Settings,
@@ -52,6 +54,13 @@ def _collision_mode(v: str) -> str | None:
     return f"expected one of {', '.join(map(repr, COLLISION_MODES))}, got {v!r}"
 
 
+def _state_interval(v: float) -> str | None:
+    if v > VDA5050_STATE_INTERVAL:
+        return (f"must be at most {VDA5050_STATE_INTERVAL:g} seconds, got {v} (VDA 5050 §6.10: a state \"at the "
+                f"latest every 30s\")")
+    return None
+
+
 SETTINGS: dict[str, Rule] = {
     "name": Text(),
     "seed": Integer(),
@@ -65,6 +74,8 @@ SETTINGS: dict[str, Rule] = {
     "collisions": Text(then=_collision_mode),
     "collision_resolution": Number(positive=True),
     "protocol": OneOf(PROTOCOLS, "protocol"),
+    "epoch": Text(absent=None, then=epoch_problem),
+    "state_interval": Number(positive=True, absent=None, then=_state_interval),
 }
 #: ``[simulation.action_durations]``: seconds per action (the model's :attr:`Settings.durations`); the optional
 #: ``fine_positioning`` is a VDA 5050 vehicle's finePositioning (absent: it takes no time, docs/vda5050.md).

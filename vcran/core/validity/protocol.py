@@ -1,12 +1,13 @@
-"""The rules of a scenario's protocol (docs/contract.md §11, docs/scenarios.md "VDA 5050 vehicles"): which robots'
-fields and which script entries it allows.
+"""The rules of a scenario's protocol (docs/contract.md §11, docs/scenarios.md "VDA 5050 vehicles"): which settings,
+robots' fields and script entries it allows.
 
 A scenario speaks one protocol (``[simulation] protocol``). In a VDA 5050 scenario every robot names its
 manufacturer and serial number (two levels of its topics, §6.3), no two robots share their topics, and the
 script sends ``order`` and ``instantActions`` messages, or payload texts sent as they are. In an OPIL
-scenario none of that may appear, and in a VDA 5050 one no OPIL message or task cycle: each would be
-silently meaningless to the robots that get it. Like OPIL's, a VDA 5050 message is checked as it is built
-(the file's reader decodes it against its vehicle's version's official schema,
+scenario none of that may appear, nor the calendar of VDA 5050's headers (``epoch``) or its state's cadence
+(``state_interval``), and in a VDA 5050 one no OPIL message or task cycle: each would be silently
+meaningless to the robots that get it. Like OPIL's, a VDA 5050 message is checked as it is built (the
+file's reader decodes it against its vehicle's version's official schema,
 :mod:`vcran.io.scenario_vda5050`), not here: the shared core imports no protocol; a message built in code
 is validated by its vehicle when it arrives, as every message a vehicle receives is.
 """
@@ -16,11 +17,30 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from vcran.core.scenario import POLLING, VDA5050, VDA5050_TOPICS, LinkSettings, RobotConfig, ScriptEntry
+from vcran.core.scenario import POLLING, VDA5050, VDA5050_TOPICS, LinkSettings, RobotConfig, ScriptEntry, Settings
 from vcran.core.validity.fields import Problem
 from vcran.core.validity.fleet import FINE_POSITIONING, VEHICLE
 
 _SET_PROTOCOL = f'set [simulation] protocol = "{VDA5050}"'
+
+
+def settings_problems(settings: Settings) -> list[Problem]:
+    """``epoch`` is the calendar of VDA 5050's headers (§6.4); OPIL's messages carry no calendar (their stamps
+    are simulated seconds), so an OPIL scenario that sets one asks for what nothing would read. Likewise
+    ``state_interval``, the longest a VDA 5050 vehicle goes without a state (§6.10): OPIL's robots send
+    theirs every ``telemetry_period``."""
+    if settings.protocol == VDA5050:
+        return []
+    out = []
+    if settings.epoch is not None:
+        out.append(Problem("simulation.epoch", f"the calendar of VDA 5050 headers; this scenario's robots speak "
+                                               f"{settings.protocol}, whose messages carry none ({_SET_PROTOCOL})"))
+    if settings.state_interval is not None:
+        out.append(Problem("simulation.state_interval",
+                           f"the longest a VDA 5050 vehicle goes without a state (§6.10); this scenario's "
+                           f"robots speak {settings.protocol}, whose telemetry_period says how often they send "
+                           f"theirs ({_SET_PROTOCOL})"))
+    return out
 
 
 def vehicle_problems(robots: Sequence[Any], protocol: str) -> list[Problem]:

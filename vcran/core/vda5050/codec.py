@@ -18,6 +18,7 @@ import enum
 import math
 import types
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from typing import Any, TypeVar
@@ -160,7 +161,11 @@ def to_plain(message: Any, version: Version) -> dict[str, Any]:
     """``message`` as a JSON-ready dict in ``version``'s spelling; raises :class:`EncodeError` for what
     ``version`` cannot carry."""
     out: dict[str, Any] = {}
-    _put(message, version, out, "$")
+    try:
+        _encoder(message.__class__, version)(message, out)
+    except _Refused:  # the careful walk names the field
+        out = {}
+        _put(message, version, out, "$")
     if version is Version.V2_0_0 and type(message) is InstantActions:
         # The official 2.0.0 schema requires actionName, the 2.0.0 text actionType (validation.py):
         # both, so that every 2.0.0 vehicle finds its spelling and the official schema passes.
@@ -169,24 +174,124 @@ def to_plain(message: Any, version: Version) -> dict[str, Any]:
     return out
 
 
+class _Refused(Exception):
+    """The fast encoder met what the version cannot carry; :func:`_put` then says where (internal)."""
+
+
+#: Per version, the encoder of each model class met so far (:func:`_encoder`), and the same as a function that
+#: returns a new dict (``_PLAINS``: a nested model of the class its field names).
+_ENCODERS: dict[Version, dict[type, Callable[[Any, dict[str, Any]], None]]] = {v: {} for v in Version}
+_PLAINS: dict[Version, dict[type, Callable[[Any], dict[str, Any]]]] = {v: {} for v in Version}
+
+
+def _encoder(cls: type, version: Version) -> Callable[[Any, dict[str, Any]], None]:
+    """:func:`_put` for ``cls`` in ``version``, written out as Python once, field after field, as
+    :mod:`dataclasses` writes its methods: a fleet's trace encodes every state message it sends, and field by
+    field through :func:`wire_form`, each field's JSON path built in case of an error, the encoding cost more
+    than building the messages (issue 31's 100-vehicle hour). What ``version`` cannot carry raises
+    :class:`_Refused`, and :func:`to_plain` walks the message again with :func:`_put` to name the field."""
+    found = _ENCODERS[version].get(cls)
+    if found is None:
+        _write(cls, version)
+        found = _ENCODERS[version][cls]
+    return found
+
+
+def _write(cls: type, version: Version, writing: frozenset[type] = frozenset()) -> None:
+    """Write out ``put(m, out)`` and ``plain(m) -> dict`` for ``cls`` in ``version`` (and for the models its
+    fields name, which a nested value of exactly that class is encoded with directly; those being written
+    further out, ``writing``, through ``_model`` when it runs)."""
+    writing |= {cls}
+    names: dict[str, Any] = {"_Refused": _Refused, "_encoder": _encoder, "_version": version, "_model": _model}
+    body = []
+    for n, f in enumerate(wire_form(cls, version)):
+        body += [f"    v = m.{f.attr}", "    if v is not None:"]
+        if f.absent:
+            body.append("        raise _Refused")
+            continue
+        if f.flatten:
+            body.append("        _encoder(v.__class__, _version)(v, out)")
+            continue
+        if f.check is not None:
+            names[f"_check{n}"] = f.check
+            body.append(f"        if _check{n}(v) is not None: raise _Refused")
+        if f.no_object:
+            body.append("        if isinstance(v, dict): raise _Refused")
+        direct = f.kind in ("model", "tuple:model") and f.cls not in writing
+        if direct:
+            if f.cls not in _PLAINS[version]:
+                _write(f.cls, version, writing)
+            names[f"_C{n}"], names[f"_plain{n}"] = f.cls, _PLAINS[version][f.cls]
+        body.append(f"        out[{f.name!r}] = {_expression(f, n, 'v') if direct else _kind_expression(f.kind, 'v', 0)}")
+    source = "\n".join(["def put(m, out):", *body, "    return None", "def plain(m):", "    out = {}", *body,
+                        "    return out"])
+    exec(source, names)  # noqa: S102 (source built here from the models' own field names)
+    _ENCODERS[version][cls], _PLAINS[version][cls] = names["put"], names["plain"]
+
+
+def _expression(f: WireField, n: int, value: str) -> str:
+    """The Python expression :func:`_value` computes for ``value`` of field ``f`` (the ``n``-th): a model of the
+    field's own class (or a tuple of them) through that class's ``plain``, any other model through ``_model``."""
+    if f.kind == "model":
+        return f"(_plain{n}({value}) if {value}.__class__ is _C{n} else _model({value}, _version))"
+    if f.kind == "tuple:model":
+        return f"[_plain{n}(x) if x.__class__ is _C{n} else _model(x, _version) for x in {value}]"
+    return _kind_expression(f.kind, value, 0)
+
+
+def _kind_expression(kind: str, value: str, depth: int) -> str:
+    if kind == "enum":
+        return f"{value}.value"
+    if kind == "model":
+        return f"_model({value}, _version)"
+    if kind.startswith("tuple:"):
+        item = kind[6:]
+        if item in ("str", "float", "int", "bool", "any"):
+            return f"list({value})"
+        x = f"x{depth}"
+        return f"[{_kind_expression(item, x, depth + 1)} for {x} in {value}]"
+    return value  # str, int, float, bool, any: JSON already
+
+
+def _model(value: Any, version: Version) -> dict[str, Any]:
+    """A nested model's wire form, whatever its class."""
+    plain = _PLAINS[version].get(value.__class__)
+    if plain is None:
+        _write(value.__class__, version)
+        plain = _PLAINS[version][value.__class__]
+    return plain(value)
+
+
+#: The kinds whose values are JSON already.
+_PLAIN = frozenset({"str", "int", "float", "bool", "any"})
+
+
 def _put(model: Any, version: Version, out: dict[str, Any], path: str) -> None:
+    # The careful walk that names a refused field (to_plain, after the written-out encoder refused): a field's
+    # path is built only for an error or a field that holds more fields, and a plain value is copied as it is.
     cls: type = model.__class__
     for f in wire_form(cls, version):
         value = getattr(model, f.attr)
         if value is None:
             continue
-        here = f"{path}.{f.name}"
         if f.absent:
-            raise EncodeError(here, f"{f.name} does not exist in VDA 5050 {version.value}")
+            raise EncodeError(f"{path}.{f.name}", f"{f.name} does not exist in VDA 5050 {version.value}")
         if f.flatten:
             _put(value, version, out, path)
             continue
         missing = f.check(value) if f.check is not None else None
         if missing is not None:
-            raise EncodeError(f"{here}.{missing}", f"VDA 5050 {version.value} requires it here")
+            raise EncodeError(f"{path}.{f.name}.{missing}", f"VDA 5050 {version.value} requires it here")
         if f.no_object and isinstance(value, dict):
-            raise EncodeError(here, f"an object value needs VDA 5050 2.1.0 or later, not {version.value}")
-        out[f.name] = _value(f.kind, value, version, here)
+            raise EncodeError(f"{path}.{f.name}",
+                              f"an object value needs VDA 5050 2.1.0 or later, not {version.value}")
+        kind = f.kind
+        if kind in _PLAIN:
+            out[f.name] = value
+        elif kind == "enum":
+            out[f.name] = value.value
+        else:
+            out[f.name] = _value(kind, value, version, f"{path}.{f.name}")
 
 
 def _value(kind: str, value: Any, version: Version, path: str) -> Any:

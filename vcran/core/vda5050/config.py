@@ -18,6 +18,9 @@ from vcran.core.vda5050.header import DEFAULT_EPOCH
 
 INSTANT, NODE, EDGE = ActionScope.INSTANT, ActionScope.NODE, ActionScope.EDGE
 ANY_BLOCKING = frozenset(BlockingType)
+#: §6.10: a state "at the latest every 30s", unless the scenario asks for more often (``[simulation]
+#: state_interval``).
+STATE_INTERVAL = 30.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,7 +108,7 @@ class VehicleConfig:
     #: cancelOrder while driving: stop at once (True) or at the next node (False, the default) (§6.6.3).
     stop_between_nodes: bool = False
     #: §6.10: a state at least this often, seconds.
-    state_interval: float = 30.0
+    state_interval: float = STATE_INTERVAL
     #: Report a paused action as PAUSED (the text, §6.11) instead of RUNNING: the official state schemas of
     #: both versions leave PAUSED out of actionStatus, so the default sends what they accept.
     report_paused: bool = False

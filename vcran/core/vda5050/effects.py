@@ -30,6 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from vcran.core.slots import slot_init
 from vcran.core.vda5050.enums import ActionStatus
 from vcran.core.vda5050.order import ActionParameter
 from vcran.core.vda5050.state import Error, Load
@@ -37,6 +38,7 @@ from vcran.core.vda5050.state import Error, Load
 # --- what the vehicle is told about its body -------------------------------------------------------------
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Where:
     """The body at an input's instant: pose on the vehicle's map and the distance it has driven in all
@@ -48,6 +50,7 @@ class Where:
     odometer: float = 0.0
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Body:
     """What the body shows at the instant a ``state`` or ``visualization`` message is built."""

@@ -17,19 +17,24 @@ from typing import TYPE_CHECKING
 from vcran.core.traffic.paths import Graph
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.vda5050.builder import Stop
-from vcran.core.vda5050.config import VehicleConfig
+from vcran.core.vda5050.config import STATE_INTERVAL, VehicleConfig
 from vcran.core.vda5050.enums import Version
+from vcran.core.vda5050.header import epoch_of
 
 if TYPE_CHECKING:  # types only: VDA 5050 imports nothing of OPIL's, which the scenario module still does
     from vcran.core.scenario import LinkSettings, RobotConfig, Scenario, Settings, StationConfig
 
 
-def vehicle_config(robot: RobotConfig) -> VehicleConfig:
-    """A robot's vehicle configuration: the identity and version a VDA 5050 scenario gives it; a robot
-    without one (a layout of an OPIL scenario, in tests) is serial number its id, manufacturer its
-    ``vendor``, version 2.1.0."""
+def vehicle_config(robot: RobotConfig, settings: Settings) -> VehicleConfig:
+    """A robot's vehicle configuration: the identity and version a VDA 5050 scenario gives it, on the
+    scenario's calendar (``settings.epoch``: the vehicles' headers, the master's and the connection
+    topic's all read simulated time on it), publishing its state at least every ``settings.state_interval``
+    (§6.10; unset: the configuration's 30 s); a robot without one (a layout of an OPIL scenario, in tests)
+    is serial number its id, manufacturer its ``vendor``, version 2.1.0."""
     version = Version(robot.version) if robot.version is not None else Version.V2_1_0
-    return VehicleConfig(robot.manufacturer or robot.vendor, robot.serial_number or robot.id, version=version)
+    interval = STATE_INTERVAL if settings.state_interval is None else settings.state_interval
+    return VehicleConfig(robot.manufacturer or robot.vendor, robot.serial_number or robot.id, version=version,
+                         epoch=epoch_of(settings.epoch), state_interval=interval)
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +86,7 @@ class MasterFleet:
         ``configs``, :func:`vehicle_config`'s. The settings are a copy: a master that writes to its
         ``durations`` changes nothing of the run."""
         if configs is None:
-            configs = [vehicle_config(r) for r in scenario.robots]
+            configs = [vehicle_config(r, scenario.settings) for r in scenario.robots]
         if len(configs) != len(scenario.robots):
             raise ValueError(f"{len(configs)} vehicle configurations for {len(scenario.robots)} robots")
         settings = replace(scenario.settings, durations=dict(scenario.settings.durations))

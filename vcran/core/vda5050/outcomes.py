@@ -1,13 +1,13 @@
-"""How each order of a VDA 5050 run ended, read from its event log: the one definition `vcran report` and
-`vcran sweep` share (docs/report.md "VDA 5050 runs").
+"""How each order of a VDA 5050 run ended, read from its event log, order by order: what `vcran report` and
+`vcran sweep` count (docs/report.md "VDA 5050 runs").
 
 A vehicle holds one order at a time (§6.6.2, Figure 8): an order is open from the ``order_accepted`` that
-opened it (an update of an order that had ended opens it again) to its ``order_ended``. It ended
-``completed``, ``cancelled`` (§6.6.3) or given up by a halt (``battery_empty``, ``motion_failed``,
-``collision``, ``deadlock``); one that ended completed while one of its own actions FAILED is
-``action_failed``: the vehicle raised an ``actionFailed`` error naming the order (its ``orderId`` reference,
-which only an order's action has; an instant action's failure names none). ``order_rejected`` events are
-the orders and updates the vehicle refused (§6.6.4).
+opened it (an update of an order that had ended opens it again) to its ``order_ended``. What each event says
+about how an order ended is :func:`vcran.core.jobs.order_end`'s, the one definition the loop properties
+read too (:func:`vcran.core.jobs.order_unsuccessful`): ``completed``, ``cancelled`` (§6.6.3) or given up by
+a halt (``battery_empty``, ``motion_failed``, ``collision``, ``deadlock``); one that ended completed while
+one of its own actions FAILED is ``action_failed``; ``order_rejected`` events are the orders and updates
+the vehicle refused (§6.6.4).
 """
 
 from __future__ import annotations
@@ -15,7 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-ACTION_FAILED = "action_failed"
+from vcran.core.jobs import ACTION_FAILED, COMPLETED, REJECTED, order_end
+
+__all__ = ["ACTION_FAILED", "Ended", "Opened", "OrderLog", "order_logs"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,24 +52,20 @@ class OrderLog:
         if kind == "order_accepted" and self.current is None:
             self.current, self.failed = str(event["order_id"]), False
             return Opened(self.current, t)
-        if kind == "order_ended" and self.current is not None:
-            how = str(event["how"])
-            done = Ended(self.current, t, ACTION_FAILED if how == "completed" and self.failed else how)
+        end = order_end(event)
+        if end is None:
+            return None
+        if end.how == REJECTED:
+            self.rejected += 1
+        elif end.how == ACTION_FAILED:
+            if end.order_id == self.current:
+                self.failed = True
+        elif self.current is not None:  # its order_ended: the current order's, whatever id it names
+            done = Ended(self.current, t, ACTION_FAILED if end.how == COMPLETED and self.failed else end.how)
             self.current = None
             self.ended.append(done)
             return done
-        if kind == "error_raised" and self.current is not None and _names_failed_action(event.get("error"), self.current):
-            self.failed = True
-        elif kind == "order_rejected":
-            self.rejected += 1
         return None
-
-
-def _names_failed_action(error: Any, order_id: str) -> bool:
-    if not isinstance(error, dict) or error.get("errorType") != "actionFailed":
-        return False
-    return any(r.get("referenceKey") == "orderId" and r.get("referenceValue") == order_id
-               for r in error.get("errorReferences") or () if isinstance(r, dict))
 
 
 def order_logs(events: list[dict[str, Any]]) -> dict[str, OrderLog]:

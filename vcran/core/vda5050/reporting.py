@@ -10,6 +10,7 @@ velocity, battery).
 from __future__ import annotations
 
 import math
+from functools import cache
 from typing import TYPE_CHECKING
 
 from vcran.core.vda5050.effects import Body
@@ -129,4 +130,10 @@ class ReportingMixin:
         """§6.7.2 (2.1.0 only): the vehicle's one map, enabled."""
         if not self.config.version.at_least(Version.V2_1_0):
             return None
-        return (Map(map_id=self.config.map_id, map_version=self.config.map_version, map_status=MapStatus.ENABLED),)
+        return _enabled(self.config.map_id, self.config.map_version)
+
+
+@cache
+def _enabled(map_id: str, map_version: str) -> tuple[Map, ...]:
+    """The one map, enabled: the same (frozen) tuple for every state that lists it."""
+    return (Map(map_id=map_id, map_version=map_version, map_status=MapStatus.ENABLED),)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from vcran.core.slots import slot_init
 from vcran.core.vda5050.enums import (
     ActionStatus,
     ConnectionState,
@@ -24,6 +25,7 @@ from vcran.core.vda5050.header import Header
 from vcran.core.vda5050.order import NodePosition, Trajectory
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Map:
     """§6.7.2 (2.1.0 only)."""
@@ -34,6 +36,7 @@ class Map:
     map_status: MapStatus
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class NodeState:
     """A node still to traverse. 2.0.0 requires ``theta`` in its ``nodePosition``."""
@@ -52,6 +55,7 @@ def _weights(trajectory: Trajectory) -> str | None:
     return None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class EdgeState:
     """An edge still to traverse. 2.0.0 requires every control point's ``weight`` in its trajectory."""
@@ -63,6 +67,7 @@ class EdgeState:
     trajectory: Trajectory | None = wire(None, v2_0_check=_weights)
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class AgvPosition:
     x: float
@@ -75,6 +80,7 @@ class AgvPosition:
     deviation_range: float | None = None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Velocity:
     vx: float | None = None
@@ -97,6 +103,7 @@ class LoadDimensions:
     height: float | None = None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Load:
     load_id: str | None = None
@@ -107,6 +114,7 @@ class Load:
     weight: float | None = None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ActionState:
     action_id: str
@@ -116,6 +124,7 @@ class ActionState:
     result_description: str | None = None
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class BatteryState:
     """``battery_health`` (%) and ``reach`` (m) are integers in 2.0.0 and numbers in 2.1.0: integers suit
@@ -165,6 +174,7 @@ class SafetyState:
     field_violation: bool
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class State:
     """§6.10.6, fields in the specification's order."""
@@ -193,6 +203,7 @@ class State:
     safety_state: SafetyState
 
 
+@slot_init
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Visualization:
     """§6.13: position and velocity at a higher rate than ``state``."""

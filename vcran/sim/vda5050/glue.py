@@ -61,7 +61,7 @@ class Vda5050:
         self._down: dict[str, tuple[float, dict[str, Publish]]] = {}
 
     def attach(self, body: Body) -> None:
-        node = VehicleNode(body, Vehicle(vehicle_config(body.config)), self)
+        node = VehicleNode(body, Vehicle(vehicle_config(body.config, self.model.scenario.settings)), self)
         self.nodes.append(node)
         self._by_id[node.id] = node
 
@@ -81,8 +81,9 @@ class Vda5050:
             t = k * period
             yield at(self.env, t, TELEMETRY)
             if transport.wants_frames:
+                publish = self.publish
                 for node in self.nodes:
-                    self.publish(node, "visualization", node.vehicle.visualization(t, node.shown()))
+                    publish(node, "visualization", node.vehicle.visualization(t, _moving(node.body)))
             if self._after_tick is not None:
                 self._after_tick(t)
             if stop_when_idle():
@@ -183,8 +184,9 @@ class Vda5050:
     def log(self, node: VehicleNode, event: Any) -> None:
         now, kind, index = self.env.now, type(event), node.index
         version = node.vehicle.config.version
-        self.events.write(now, node.id, EVENT_NAMES[kind], {f.name: _plain(getattr(event, f.name), version)
-                                                             for f in fields(event)})
+        names = _FIELDS.get(kind) or _FIELDS.setdefault(kind, tuple(f.name for f in fields(event)))
+        self.events.write(now, node.id, EVENT_NAMES[kind], {name: _plain(getattr(event, name), version)
+                                                             for name in names})
         model = self.model
         if kind is fx.OrderAccepted:
             if model.busy_since[index] is None:
@@ -204,8 +206,24 @@ class Vda5050:
         self.events.write(self.env.now, node.id, event.NAME, event.fields())
 
 
+def _moving(body: Body) -> fx.Body:
+    """The body as a visualization shows it (§6.13: position and velocity; ``vx`` along the heading, as
+    :meth:`VehicleNode.shown`), without what only a state shows (odometer, charge, loads): a visualization per
+    vehicle per tick is most of what an in-memory or closed-loop fleet run publishes."""
+    x, y, theta, speed, omega = body.motion()
+    return fx.Body(fx.Where(x, y, theta), vx=speed, omega=omega)
+
+
+#: Each event class's field names, as :func:`dataclasses.fields` lists them (asked once per class, not per event).
+_FIELDS: dict[type, tuple[str, ...]] = {}
+#: The field values that are JSON as they are: most of them (a str-valued enum is not one of these types).
+_JSON = frozenset({str, int, float, bool, type(None)})
+
+
 def _plain(value: Any, version: Version) -> Any:
     """An event's field as JSON: models in their wire form, enums by value."""
+    if type(value) in _JSON:
+        return value
     if isinstance(value, Enum):
         return value.value
     if is_dataclass(value):

@@ -46,7 +46,7 @@ def check_run(records: list[dict[str, Any]], events: list[dict[str, Any]], scena
               finished: bool) -> list[str]:
     """Every violation of the properties (module docstring) in a run's trace ``records`` and ``events``;
     ``finished``: the run went idle."""
-    configs = {r.id: vehicle_config(r) for r in scenario.robots}
+    configs = {r.id: vehicle_config(r, scenario.settings) for r in scenario.robots}
     return (check_schema(records, configs) + check_verdicts(records, events, configs)
             + check_orders_end(records, events, finished))
 
