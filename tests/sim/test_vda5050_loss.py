@@ -23,7 +23,8 @@ from dataclasses import replace
 import pytest
 
 import vcran
-from tests.sim.test_vda5050_loop import HEAD, seen
+from tests.sim.test_vda5050_loop import seen
+from tests.testing.test_vda_loop_properties import EMPTY_PICKUP
 from vcran.cli import main
 from vcran.core.scenario import LinkSettings
 from vcran.io.scenario_file import ScenarioError, parse
@@ -31,25 +32,8 @@ from vcran.io.trace import records
 from vcran.managers.vda5050 import MasterControl
 
 LOSS = 0.001
-ONE_JOB = HEAD + """
-[simulation.action_durations]
-load = 5.0
-unload = 5.0
-[[stations]]
-id = "a"
-position = [2.0, 1.0]
-dock = [2.0, 0.0, 0.0]
-parts = 1
-[[stations]]
-id = "b"
-position = [6.0, 1.0]
-dock = [6.0, 0.0, 0.0]
-[[jobs]]
-t = 0.5
-id = "j1"
-pickup = "a"
-dropoff = "b"
-"""
+#: tests/testing/test_vda_loop_properties.py's stations, ``a`` with one part, and the job at 0.5.
+ONE_JOB = EMPTY_PICKUP.replace("parts = 0", "parts = 1").replace('t = 1.0\nid = "j1"', 't = 0.5\nid = "j1"')
 
 
 def losing(only: set[int], loss: float, draws: int = 1000) -> int:
@@ -62,7 +46,7 @@ def losing(only: set[int], loss: float, draws: int = 1000) -> int:
 
 
 def one_job(seed: int, loss: float, duration: float = 100.0) -> vcran.Scenario:
-    text = ONE_JOB.replace("[link]", f"[link]\nloss = {loss}").replace("duration = 100.0",
+    text = ONE_JOB.replace("[link]", f"[link]\nloss = {loss}").replace("duration = 300.0",
                                                                        f"duration = {duration}\nseed = {seed}")
     return parse(tomllib.loads(text), "<one job>")
 

@@ -1,5 +1,6 @@
 """The reference VDA 5050 master: :class:`MasterControl` (docs/contract.md §11). docs/vda5050.md ("The reference master")
-walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in orders instead of tasks.
+walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in orders instead of tasks. One concept,
+the reference master's decisions, kept in one file (a little over 450 lines) so that it reads in one sitting.
 
 * Jobs wait in a queue: higher ``priority`` first, then in arrival order.
 * Whenever a job waits and a vehicle is idle, the job at the head goes to the idle vehicle nearest to its
