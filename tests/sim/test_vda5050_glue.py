@@ -307,3 +307,32 @@ def test_a_scenario_epoch_is_the_calendar_of_every_timestamp_and_the_replay_keep
         assert stamp == f"{at:%Y-%m-%dT%H:%M:%S}.{at.microsecond // 10_000:02d}Z"
     assert read_header(trace_in(out))["fleet"]["simulation"]["epoch"] == "2026-03-01T23:59:58.5Z"
     assert main(["replay", str(out), "--verify", "--quiet"]) == 0
+
+
+def test_the_factsheet_describes_the_body_that_drives(run):
+    """§6.15.1: the factsheet's physicalParameters and footprint envelope are the scenario's robot, so a master
+    planning with them plans with the body that drives (they said 1 m/s and 0.5 m/s^2 whatever the robot). By
+    hand from scenarios/vda5050.toml: max_velocity 1.0, max_acceleration 0.5 and no max_deceleration (the
+    acceleration's); the default footprint (docs/scenarios.md) spans x -0.87 .. 0.27 and y -0.35 .. 0.35."""
+    sheet = next(r["raw"] for r in trace_records(run) if r.get("dir") == "out" and r["attr"] == "factsheet")
+    body = sheet["physicalParameters"]
+    assert (body["speedMax"], body["accelerationMax"], body["decelerationMax"]) == (1.0, 0.5, 0.5)
+    assert body["length"] == pytest.approx(1.14) and body["width"] == pytest.approx(0.7)
+    outline = sheet["agvGeometry"]["envelopes2d"][0]["polygonPoints"]
+    assert [(p["x"], p["y"]) for p in outline] == [(0.27, 0.35), (-0.87, 0.35), (-0.87, -0.35), (0.27, -0.35)]
+
+
+def test_a_faster_robot_says_so_in_its_factsheet(tmp_path):
+    """The same for a robot of its own limits: 1.5 m/s, 0.75 m/s^2 up, 0.25 m/s^2 down, a 1 m x 0.5 m outline."""
+    scenario = tmp_path / "fast.toml"
+    fast = ONE_VEHICLE.replace("max_velocity = 1.0\nmax_acceleration = 0.5\n", "max_velocity = 1.5\nmax_acceleration = 0.75\n"
+                               "max_deceleration = 0.25\nfootprint = [[0.5, 0.25], [-0.5, 0.25], [-0.5, -0.25], [0.5, -0.25]]\n")
+    assert fast != ONE_VEHICLE
+    scenario.write_text(fast)
+    out = tmp_path / "run"
+    assert main(["run", str(scenario), "--out", str(out), "--quiet"]) == 0
+    sheet = next(r["raw"] for r in trace_records(out) if r.get("dir") == "out" and r["attr"] == "factsheet")
+    body = sheet["physicalParameters"]
+    assert (body["speedMax"], body["accelerationMax"], body["decelerationMax"]) == (1.5, 0.75, 0.25)
+    assert (body["length"], body["width"]) == (1.0, 0.5)
+    assert validation.first_problem(validation.outbound(Topic.FACTSHEET, Version.V2_1_0), sheet) is None

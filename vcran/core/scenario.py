@@ -331,17 +331,25 @@ class LinkSettings:
     Every message takes ``latency`` plus a uniform draw from ``[0, jitter)`` seconds, in order per
     robot and direction. With ``inbound = "subscription"`` every change of an attribute reaches the RAN;
     with ``"polling"`` the RAN reads what Orion holds every ``poll_interval`` seconds, so a write that
-    is overwritten before the next read is lost.
+    is overwritten before the next read is lost. ``loss`` is the probability that one message is lost on
+    its way, each direction, drawn from the link's seed: VDA 5050's link only (MQTT's QoS 0, §6.2; an OPIL
+    scenario refuses it, docs/loop.md).
     """
 
     latency: float = 0.05
     jitter: float = 0.0
     inbound: str = SUBSCRIPTION
     poll_interval: float = 0.25
+    loss: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
-        return {"latency": self.latency, "jitter": self.jitter, "inbound": self.inbound,
-                "poll_interval": self.poll_interval}
+        """The settings as a scenario file writes them; ``loss`` only when there is some (a run without loss
+        writes the header it always wrote)."""
+        out: dict[str, Any] = {"latency": self.latency, "jitter": self.jitter, "inbound": self.inbound,
+                               "poll_interval": self.poll_interval}
+        if self.loss:
+            out["loss"] = self.loss
+        return out
 
 
 @dataclass(frozen=True, slots=True)

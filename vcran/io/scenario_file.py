@@ -399,6 +399,7 @@ def _link(t: Table) -> LinkSettings:
         jitter=t.number("jitter", 0.0),
         inbound=t.choice("inbound", default=SUBSCRIPTION),
         poll_interval=t.number("poll_interval", 0.25),
+        loss=t.number("loss", 0.0),
     )
     t.done()
     return link

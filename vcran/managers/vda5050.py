@@ -1,5 +1,6 @@
 """The reference VDA 5050 master: :class:`MasterControl` (docs/contract.md §11). docs/vda5050.md ("The reference master")
-walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in orders instead of tasks.
+walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in orders instead of tasks. One concept,
+the reference master's decisions, kept in one file (a little over 450 lines) so that it reads in one sitting.
 
 * Jobs wait in a queue: higher ``priority`` first, then in arrival order.
 * Whenever a job waits and a vehicle is idle, the job at the head goes to the idle vehicle nearest to its
@@ -20,8 +21,12 @@ walks through it; it is OPIL's :class:`~vcran.managers.Dispatcher` told in order
   the job a try: the same vehicle tries again from where it stands (a pick that found nothing, in place)
   after ``retry_after`` seconds, doubled for each further try. After ``max_tries`` the job is failed with the
   reason. A vehicle with a FATAL error gets no order until the error has cleared.
-* Orders travel at QoS 0 (§6.2): one that a vehicle's state shows neither taken nor refused ``resend_after``
-  seconds after it went out is sent again.
+* Messages travel at QoS 0 (§6.2) and may be lost (the scenario's ``[link] loss``; any broker): an order that a
+  vehicle's state shows neither taken nor refused ``resend_after`` seconds after it went out is sent again; a
+  vehicle on an errand that has been quiet for its state interval (30 s) plus ``resend_after`` (its periodic
+  state was lost too) is sent a ``stateRequest``, again every ``resend_after`` until it is heard; a
+  ``stopCharging`` is sent again when a state ``resend_after`` later still shows the vehicle charging. A lost
+  state costs nothing else: every state carries the whole picture.
 * Charging: a vehicle without a job whose battery is below ``charge_below`` (a fraction) goes to the
   nearest charger and ``startCharging`` there; at ``charge_until`` it is sent ``stopCharging`` (a vehicle
   that is full stops by itself) and works again.
@@ -35,6 +40,7 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
+from vcran.core.manager import Timer
 from vcran.core.scenario import Job
 from vcran.core.traffic.reservations import Move, Reservations
 from vcran.core.vda5050.builder import Stop, action
@@ -104,8 +110,10 @@ class MasterControl(Master):
         self.trips: dict[str, Trip] = {}              # vehicle -> the job it works on
         self.errands: dict[str, Errand] = {}          # vehicle -> what it is doing
         self.charging: set[str] = set()               # vehicles charging at a charger
-        self.stopping: set[str] = set()               # ... that were sent stopCharging
+        self.stopping: dict[str, float] = {}          # ... that were sent stopCharging, when
         self.stalled: set[str] = set()                # vehicles waiting for a FATAL error to clear
+        self.heard: dict[str, float] = {}             # vehicle -> when its latest state arrived
+        self.watchdogs: dict[str, Timer] = {}         # vehicle on an errand -> when to ask for its state
         self._rank = {s: i for i, s in enumerate(self.fleet.serials)}
         self._arrivals = self._errands = 0
         self.graph = self.fleet.graph if self.routing == "roadmap" else None
@@ -127,6 +135,7 @@ class MasterControl(Master):
         self.dispatch()
 
     def on_state(self, serial: str, state: State) -> None:
+        self.heard[serial] = self.handle.now
         errand = self.errands.get(serial)
         if errand is not None:
             self.follow(serial, errand, state)
@@ -206,7 +215,7 @@ class MasterControl(Master):
             self.advance()
 
     def errand_done(self, serial: str, errand: Errand) -> None:
-        del self.errands[serial]
+        self.end_errand(serial)
         trip = self.trips.get(serial)
         if errand.kind == CHARGE:
             self.charging.add(serial)
@@ -223,7 +232,7 @@ class MasterControl(Master):
     def errand_failed(self, serial: str, errand: Errand, reason: str) -> None:
         """A try lost: again after the back-off, or the job failed after ``max_tries``; a charge or a park
         that failed leaves the vehicle idle (it charges, or parks, when next free) once it holds no route."""
-        del self.errands[serial]
+        self.end_errand(serial)
         if self.reservations is not None and serial in self.reservations.pending():
             self.reservations.request(serial, self.reservations.held(serial)[0])  # withdrawn: it stays
         trip = self.trips.get(serial)
@@ -253,10 +262,11 @@ class MasterControl(Master):
         battery = state.battery_state
         if not battery.charging:
             self.charging.discard(serial)
-            self.stopping.discard(serial)
+            self.stopping.pop(serial, None)
             self.available(serial)
-        elif battery.battery_charge >= 100.0 * self.charge_until and serial not in self.stopping:
-            self.stopping.add(serial)
+        elif battery.battery_charge >= 100.0 * self.charge_until and \
+                self.handle.now >= self.stopping.get(serial, -math.inf) + self.resend_after:
+            self.stopping[serial] = self.handle.now  # again if it was lost: still charging resend_after later
             self.handle.instant(serial, "stopCharging")
 
     def low(self, state: State | None) -> bool:
@@ -315,6 +325,8 @@ class MasterControl(Master):
         """Start ``errand``: an order straight to the dock; on the roadmap, from where the vehicle stands, the
         rest of a route it was reserved before (an order given up on the way), or a route asked for."""
         self.errands[serial] = errand
+        if serial not in self.watchdogs:
+            self.watch(serial, self.handle.now + self.quiet_after(serial))
         if self.reservations is None:
             here = self.here(serial)
             self.send(serial, errand, [here] if here.node_id == errand.goal else [here, self.dock(errand)], None)
@@ -370,6 +382,29 @@ class MasterControl(Master):
             return
         self.handle.resend(serial)
         self.handle.call_later(self.resend_after, self.arrived, serial, order_id, update_id)
+
+    def end_errand(self, serial: str) -> None:
+        del self.errands[serial]
+        watchdog = self.watchdogs.pop(serial, None)
+        if watchdog is not None:
+            watchdog.cancel()  # a pending timer would keep the run from ending
+
+    def quiet_after(self, serial: str) -> float:
+        """How long a vehicle on an errand may be quiet: its periodic state is then overdue by ``resend_after``."""
+        return self.fleet.vehicle(serial).config.state_interval + self.resend_after
+
+    def watch(self, serial: str, when: float) -> None:
+        self.watchdogs[serial] = self.handle.call_at(when, self.quiet, serial)
+
+    def quiet(self, serial: str) -> None:
+        """The watchdog of a vehicle on an errand: not heard from for :meth:`quiet_after` seconds, its states
+        (the periodic one too) were lost: ask for one (``stateRequest``), and again ``resend_after`` later."""
+        due = self.heard.get(serial, 0.0) + self.quiet_after(serial)
+        if self.handle.now < due:
+            self.watch(serial, due)  # heard meanwhile: the same sum, so exactly then
+        else:
+            self.handle.instant(serial, "stateRequest")
+            self.watch(serial, self.handle.now + self.resend_after)
 
     def actions(self, errand: Errand) -> list[Action]:
         if errand.action_id is None:

@@ -20,6 +20,15 @@ The link knows attributes by name only: which of them are ``periodic`` (publishe
 they never keep a run from ending idle) and of which ``every`` value waits out a ``link_down`` (the others
 coalesce to the latest) are the protocol's to say (OPIL: ``robot_description``; ``ran_error``).
 
+**loss** (a broker's link only, ``holds`` False: VDA 5050, whose messages travel at MQTT's QoS 0, §6.2): each
+message, either way, is lost with probability ``loss``. It draws once from the link's seeded generator when it is
+sent (the manager's write; the robot's publication, in the order published), before the draw of its jitter; a
+lost message draws nothing more, never reaches the other side and is on its way to nobody (it keeps no run
+alive). With ``loss`` 0 nothing is drawn, so the draws of a run without loss are those it always made. A lost
+write never reaches the robot, so the trace (what reached it) does not have it, and a replay needs nothing
+else to reproduce the loss (docs/contract.md §6). Orion's link loses nothing (HTTP over TCP): what an OPIL scenario
+loses is a polling read's overwrite (docs/contract.md §7), and its scenarios refuse ``loss``.
+
 ``outage`` is the hook for the ``link_down`` fault (docs/contract.md §4): while a robot's link is down nothing
 reaches it and nothing it publishes leaves; afterwards it reads what Orion holds (the latest value per
 attribute) and its missed publications go out coalesced (the latest per attribute; every ``ran_error``
@@ -80,6 +89,7 @@ class Link:
         self._rng, self._deliver, self._notify = rng, deliver, notify
         self._periodic, self._every, self._holds = periodic, every, holds
         self._polling = settings.inbound == POLLING
+        self._loss = 0.0 if holds else settings.loss
         # manager -> RAN
         self._seq = 0
         self._last_in: dict[str, float] = {}
@@ -101,7 +111,9 @@ class Link:
     # --- manager -> RAN ---------------------------------------------------------------------------------
 
     def write(self, robot: str, attribute: str, message: Any, raw: Any = None) -> None:
-        """The manager writes ``attribute`` of ``robot`` now; it lands after the latency."""
+        """The manager writes ``attribute`` of ``robot`` now; it lands after the latency (unless it is lost)."""
+        if self._loss and self._lost():
+            return
         self._seq += 1
         w = _Write(self._seq, robot, attribute, message, raw)
         arrival = max(self._delay(), self._last_in.get(robot, 0.0))
@@ -173,6 +185,8 @@ class Link:
             if kept is None:
                 return
             out = kept
+        if self._loss and not isinstance(out, Frame) and self._lost():
+            return
         batch = self._batch
         if batch is None or batch.t != self.env.now:
             batch = self._batch = _Batch(self.env.now)
@@ -225,6 +239,10 @@ class Link:
             missed[:] = [m for m in missed if m.attribute != out.attribute]
         missed.append(out)
         return None
+
+    def _lost(self) -> bool:
+        """One message's loss draw (module docstring: once per message, before its jitter)."""
+        return self._rng.random() < self._loss
 
     def _delay(self) -> float:
         s = self.settings

@@ -7,7 +7,8 @@ Strategies draw what a fleet manager meets in a warehouse it does not control:
 * :func:`stocks` — how many parts each pickup station holds at the start (an empty line makes a load
   fail, and its task is cancelled with ``action_failed``: the manager must re-plan or give up);
 * :func:`links` — the link's latency, seeded jitter, and loss: under ``polling`` a write overwritten
-  before the RAN reads it is lost, as with Orion (docs/contract.md §7);
+  before the RAN reads it is lost, as with Orion (docs/contract.md §7); a VDA 5050 fleet's broker loses
+  messages outright (``loss``, MQTT's QoS 0, §6.2);
 * :func:`fault_lists` — docs/contract.md §4 faults at random times: breakdowns, motion and action failures,
   ``link_down`` (shrinks to none);
 * :func:`loop_variants` — all four applied to a base scenario, as a :class:`~vcran.core.scenario.Scenario`.
@@ -107,19 +108,24 @@ def stocks(pickups: Sequence[str], max_parts: int = 10) -> st.SearchStrategy[dic
 #: Latencies and jitters drawn by :func:`links`, the default first: from a LAN to a slow, loaded Orion.
 LATENCIES = (0.05, 0.001, 0.01, 0.2, 0.5, 1.0, 2.0)
 JITTERS = (0.0, 0.01, 0.1, 0.5, 1.0)
+#: Message losses drawn for a broker's link (a VDA 5050 fleet's, MQTT's QoS 0): none first, up to one in ten.
+LOSSES = (0.0, 0.01, 0.02, 0.05, 0.1)
 
 
 def links(latencies: Sequence[float] = LATENCIES, jitters: Sequence[float] = JITTERS,
-          inbounds: Sequence[str] = (SUBSCRIPTION, POLLING)) -> st.SearchStrategy[LinkSettings]:
-    """Link settings: latency, seeded jitter, and subscription or (lossy) polling semantics. Values come
-    from short lists, so a failure shrinks in a few steps towards the defaults (50 ms, no jitter,
-    subscription). A VDA 5050 fleet's link is a broker's: ``inbounds=(SUBSCRIPTION,)`` (polling is OPIL's)."""
+          inbounds: Sequence[str] = (SUBSCRIPTION, POLLING), losses: Sequence[float] = (0.0,),
+          ) -> st.SearchStrategy[LinkSettings]:
+    """Link settings: latency, seeded jitter, subscription or (lossy) polling semantics, and message loss.
+    Values come from short lists, so a failure shrinks in a few steps towards the defaults (50 ms, no
+    jitter, subscription, no loss). A VDA 5050 fleet's link is a broker's: ``inbounds=(SUBSCRIPTION,)``
+    (polling is OPIL's) and ``losses=LOSSES`` (Orion's link loses nothing: an OPIL scenario refuses loss)."""
     return st.builds(
         LinkSettings,
         latency=st.sampled_from(latencies),
         jitter=st.sampled_from(jitters),
         inbound=st.sampled_from(list(inbounds)),
         poll_interval=st.sampled_from([0.25, 0.1, 1.0]),
+        loss=st.sampled_from(list(losses)),
     )
 
 
@@ -176,7 +182,8 @@ def loop_variants(draw: st.DrawFn, base: Scenario, *, max_jobs: int = 8, horizon
         stock = draw(stocks(sorted({j.pickup for j in jobs})))
         stations = tuple(replace(s, parts=stock[s.id]) if s.id in stock else s for s in stations)
     broker = base.settings.protocol == VDA5050  # MQTT has no polling (docs/vda5050.md, "In the closed loop")
-    link = draw(links(inbounds=(SUBSCRIPTION,) if broker else (SUBSCRIPTION, POLLING))) if vary_link else base.link
+    link = (draw(links(inbounds=(SUBSCRIPTION,), losses=LOSSES) if broker else links()) if vary_link
+            else base.link)
     duration = horizon + settle
     if base.settings.duration is not None:
         duration = min(duration, base.settings.duration)
@@ -207,12 +214,24 @@ def check_protocol(result: Any) -> list[str]:
     could not take, §6.6.4).
 
     Rejections of a robot while its link is down, up to the instant it is back (docs/contract.md §4), are the outage's: what
-    the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out).
+    the manager wrote meanwhile was held and is judged against a world that moved on (a task timed out). A VDA 5050
+    vehicle's ``orderError`` while it is broken down (not in running condition, §6.6.4) is the breakdown's: the
+    master learns of the FATAL error from a state, which may still be on its way, or lost (QoS 0, §6.2).
     """
-    cut_off = fault_spans(result.events, float(result.summary["sim_time"]), frozenset({"link_down"}))
+    end = float(result.summary["sim_time"])
+    cut_off = fault_spans(result.events, end, frozenset({"link_down"}))
+    broken = fault_spans(result.events, end, frozenset({"breakdown"}))
     return [_protocol_error(e) for e in result.events
             if ((e["event"] == "rejected" and e.get("code") in PROTOCOL_ERRORS) or e["event"] == "order_rejected")
-            and not any(a <= e["t"] <= b for a, b in cut_off.get(e["robot"], []))]
+            and not any(a <= e["t"] <= b for a, b in cut_off.get(e["robot"], []))
+            and not (e["event"] == "order_rejected" and _not_running(e.get("error") or {})
+                     and any(a <= e["t"] <= b for a, b in broken.get(e["robot"], [])))]
+
+
+def _not_running(error: dict[str, Any]) -> bool:
+    """The refusal of an order by a vehicle with a FATAL error (vcran.core.vda5050.acceptance, §6.6.4)."""
+    return error.get("errorType") == "orderError" and str(error.get("errorDescription", "")).startswith(
+        "the vehicle is not in running condition")
 
 
 def _protocol_error(e: dict[str, Any]) -> str:

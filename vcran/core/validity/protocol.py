@@ -73,10 +73,17 @@ def vehicle_problems(robots: Sequence[Any], protocol: str) -> list[Problem]:
 
 def link_problems(link: Any, protocol: str) -> list[Problem]:
     """Polling is how OPIL's RAN reads what Orion holds (docs/contract.md §9); a VDA 5050 vehicle gets each message as
-    it is sent (MQTT, §6.2), so a VDA 5050 scenario that asks for polling asks for what cannot be."""
-    if protocol == VDA5050 and isinstance(link, LinkSettings) and link.inbound == POLLING:
+    it is sent (MQTT, §6.2), so a VDA 5050 scenario that asks for polling asks for what cannot be. Loss is the other way
+    round: MQTT's QoS 0 loses messages (§6.2), Orion's HTTP link loses none (docs/loop.md), so an OPIL scenario
+    that asks for loss asks for what cannot be."""
+    if not isinstance(link, LinkSettings):
+        return []
+    if protocol == VDA5050 and link.inbound == POLLING:
         return [Problem("link.inbound", f"{POLLING!r} is how OPIL's RAN reads Orion; a VDA 5050 vehicle gets each "
                                         f"message as it is sent (MQTT): leave inbound out")]
+    if protocol != VDA5050 and link.loss:
+        return [Problem("link.loss", "is VDA 5050's (MQTT's QoS 0 loses messages); Orion's link loses none, what an "
+                                     "OPIL manager loses is a polling read's overwrite (inbound = 'polling'): leave loss out")]
     return []
 
 

@@ -191,6 +191,8 @@ LINK: dict[str, Rule] = {
     "jitter": Number(minimum=0.0),
     "inbound": OneOf((SUBSCRIPTION, POLLING), "inbound"),
     "poll_interval": Number(positive=True),
+    "loss": Number(minimum=0.0, then=lambda v: f"must be below 1 (a probability: 1 would lose every message), got {v!r}"
+                   if v >= 1 else None),
 }
 _MANAGER_PATH = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_][\w.]*")
 

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from vcran.core.traffic.paths import Graph
 from vcran.core.traffic.roadmap import Roadmap
 from vcran.core.vda5050.builder import Stop
-from vcran.core.vda5050.config import STATE_INTERVAL, VehicleConfig
+from vcran.core.vda5050.config import STATE_INTERVAL, Physical, VehicleConfig
 from vcran.core.vda5050.enums import Version
 from vcran.core.vda5050.header import epoch_of
 
@@ -34,7 +34,20 @@ def vehicle_config(robot: RobotConfig, settings: Settings) -> VehicleConfig:
     version = Version(robot.version) if robot.version is not None else Version.V2_1_0
     interval = STATE_INTERVAL if settings.state_interval is None else settings.state_interval
     return VehicleConfig(robot.manufacturer or robot.vendor, robot.serial_number or robot.id, version=version,
-                         epoch=epoch_of(settings.epoch), state_interval=interval)
+                         epoch=epoch_of(settings.epoch), state_interval=interval, physical=physical(robot))
+
+
+def physical(robot: RobotConfig) -> Physical:
+    """What the factsheet says of the robot's body (§6.15.1 physicalParameters, the footprint envelope): its speed
+    and acceleration limits as the scenario gives them, so that a master planning with the factsheet plans with
+    the body that drives. A deceleration of 0 is the acceleration's (docs/scenarios.md); an acceleration of 0
+    (vcran's "changes speed at once") is sent as 0, the one number the schema allows for no limit
+    (docs/vda5050.md). Width and length are the footprint's extent."""
+    xs = [x for x, _ in robot.footprint]
+    ys = [y for _, y in robot.footprint]
+    return Physical(speed_max=robot.max_velocity, acceleration_max=robot.max_acceleration,
+                    deceleration_max=robot.max_deceleration or robot.max_acceleration,
+                    width=max(ys) - min(ys), length=max(xs) - min(xs), footprint=tuple(robot.footprint))
 
 
 @dataclass(frozen=True, slots=True)
