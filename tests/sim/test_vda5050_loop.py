@@ -21,10 +21,10 @@ import vcran
 from vcran.cli import main
 from vcran.core.scenario import Job
 from vcran.core.vda5050.builder import OrderLine, Stop
+from vcran.core.vda5050.enums import Topic
 from vcran.core.vda5050.factsheet import Factsheet
 from vcran.core.vda5050.header import Header, timestamp
 from vcran.core.vda5050.master import Master
-from vcran.core.vda5050.enums import Topic
 from vcran.core.vda5050.state import State, Visualization
 from vcran.io.scenario_file import parse
 from vcran.managers.vda5050 import MasterControl
