@@ -8,6 +8,7 @@ import os
 import re
 import sys
 import tomllib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -60,6 +61,35 @@ def test_in_memory_and_folder_runs_give_the_same_result(tmp_path, monkeypatch):
     assert memory.events == folder.events and len(memory.events) == memory.event_count > 0
     assert np.array_equal(memory.telemetry, folder.telemetry)
     assert memory.jobs == folder.jobs
+
+
+def test_a_vda5050_run_in_memory_has_the_telemetry_of_its_folder_run(tmp_path):
+    """VDA 5050 vehicles publish no telemetry frame (docs/vda5050.md): an in-memory run's telemetry is evaluated
+    from its legs as a folder run's is, bit for bit. By hand (tests/sim/test_vda5050_visualization.py's
+    derivation): the bundled vda5050 vehicle takes order 100 at t = 1 and speeds up at 0.5 m/s² from home
+    along +x, so at t = 2, 3, 4 it is 0.25, 1.0, 1.75 m along at 0.5, 1.0, 0.5 m/s."""
+    memory = vcran.simulate("vda5050")
+    folder = vcran.simulate("vda5050", out=tmp_path / "run")
+    assert len(memory.telemetry) == int(memory.summary["sim_time"]) + 1  # one vehicle, one row a second from 0
+    assert np.array_equal(memory.telemetry, folder.telemetry)
+    early = memory.telemetry[1:5]
+    assert list(early["t"]) == [1.0, 2.0, 3.0, 4.0]
+    assert list(early["x"]) == pytest.approx([0.0, 0.25, 1.0, 1.75], abs=1e-9)
+    assert list(early["v"]) == pytest.approx([0.0, 0.5, 1.0, 0.5], abs=1e-9)
+
+
+def test_a_vda5050_closed_loop_in_memory_has_the_telemetry_of_its_folder_run(tmp_path):
+    """The same in the closed loop, where the master (MasterControl, which hears states only) is sent no
+    visualization: the telemetry comes from the legs either way."""
+    from vcran.managers.vda5050 import MasterControl
+
+    scenario = vcran.load_scenario("vda5050-warehouse")
+    short = replace(scenario, settings=replace(scenario.settings, duration=300.0))
+    memory = vcran.simulate(short, manager=MasterControl())
+    folder = vcran.simulate(short, manager=MasterControl(), out=tmp_path / "run")
+    assert memory.summary == folder.summary and memory.summary["jobs"]["completed"] > 0
+    assert len(memory.telemetry) == len(scenario.robots) * (int(memory.summary["sim_time"]) + 1) > 0
+    assert np.array_equal(memory.telemetry, folder.telemetry)
 
 
 def test_telemetry_is_one_named_row_per_tick_and_robot():

@@ -57,6 +57,11 @@ class RecordingTransport(Transport):
         return self.inner.wants_frames or self.writer.wants_frames or self._after_frame is not None
 
     @property
+    def wants_visualization(self) -> bool:  # type: ignore[override]
+        """The inner transport's: a trace does not record visualization (the leg log determines it)."""
+        return self.inner.wants_visualization
+
+    @property
     def exhausted(self) -> bool:
         return self.inner.exhausted
 

@@ -29,8 +29,8 @@ class TraceError(ValueError):
 
 
 class ReplayTransport(Transport):
-    #: Outbound messages are dropped (the replay's own trace records them): no frames to sample.
-    wants_frames = False
+    #: Outbound messages are dropped (the replay's own trace records them): no frames to sample, no visualization.
+    wants_frames = wants_visualization = False
 
     def __init__(self, trace: Path) -> None:
         self.trace = trace

@@ -24,9 +24,10 @@ from vcran.sim.timing import INBOUND, at
 class ScriptedTransport(Transport):
     def __init__(self, script: Iterable[ScriptEntry], *, frames: bool = True) -> None:
         """``script`` must be in time order (``Scenario.messages()`` is); it is consumed lazily.
-        ``frames=False``: the fleet's ``current_motion`` is not kept (``last_frame`` stays None), so a
-        run that records only a trace does not sample the fleet every tick (:attr:`Transport.wants_frames`)."""
-        self.wants_frames = frames
+        ``frames=False``: the fleet's samples are not kept, OPIL's ``current_motion`` (``last_frame`` stays None)
+        or VDA 5050's ``visualization``, so a run that records only a trace does not sample the fleet every
+        tick (:attr:`Transport.wants_frames`, :attr:`Transport.wants_visualization`)."""
+        self.wants_frames = self.wants_visualization = frames
         self._runs = (script if isinstance(script, Script) else Script.of(script)).runs()
         self._exhausted = False
         self.latest: dict[tuple[str, str], Message] = {}

@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING, Any, TypeAlias
 from transports.scripted import ScriptedTransport
 from vcran.core.scenario import VDA5050, ManagerSpec, Scenario
 from vcran.core.validity import validate
-from vcran.core.wire import Frame, Transport
+from vcran.core.wire import Transport
 from vcran.io.scenario_file import ScenarioError, load
-from vcran.io.sinks import FolderSinks, MemorySinks
+from vcran.io.sinks import FolderSinks, Frames, LegRows, MemorySinks
 from vcran.io.trace import event_records, events_beside, long_table, telemetry_table, trace_in
 from vcran.runner import CLOSED_LOOP, check_protocol, execute
 from vcran.sim.model import Model
@@ -58,7 +58,8 @@ class Result:
     #: How many events the run wrote (``len(events)`` without reading them back).
     event_count: int
     _events: list[dict[str, Any]] | None = field(default=None, repr=False)
-    _frames: list[tuple[float, np.ndarray]] | None = field(default=None, repr=False)
+    #: An in-memory run's telemetry, as it kept it (:class:`vcran.io.sinks.MemorySinks`).
+    _trace: Frames | LegRows | None = field(default=None, repr=False)
     #: The scenario that ran: the loop properties judge a job's failure against its fleet and stations
     #: (:mod:`vcran.testing.loop`).
     scenario: Scenario | None = field(default=None, repr=False)
@@ -76,15 +77,10 @@ class Result:
         """Every robot's ``current_motion`` at every tick: a numpy structured array with the columns
         ``t``, ``robot``, ``x``, ``y``, ``theta``, ``v``, ``w``, one row per tick and robot (robots in
         fleet order). ``pandas.DataFrame(result.telemetry)`` makes it a table."""
-        import numpy as np
-
-        n = len(self.robots)
-        if self._frames is None:
+        if self._trace is None:
             assert self.out is not None
             return telemetry_table(self.out)
-        rows = np.array([[t, *columns.ravel()] for t, columns in self._frames], dtype="<f8").reshape(
-            -1, 1 + n * len(Frame.FIELDS))
-        return long_table(rows, self.robots)
+        return long_table(self._trace.samples(len(self.robots)), self.robots)
 
     def job(self, job_id: str) -> JobRecord:
         """The record of job ``job_id``."""
@@ -157,7 +153,7 @@ def run(
     if fleet_manager is not None and sc.settings.protocol == VDA5050:
         options["link_outside"] = False  # link_down cuts the vehicle's own link: a replay cuts it too (vcran.sim.vda5050.loop)
     folder = Path(out) if out is not None else None
-    sinks = FolderSinks(folder, sc, options) if folder is not None else MemorySinks()
+    sinks = FolderSinks(folder, sc, options) if folder is not None else MemorySinks(sc)
     transport: Transport
     loop: Loop | None = None
     if fleet_manager is None:
@@ -170,7 +166,7 @@ def run(
     return Result(ran.summary, loop.jobs.records() if loop is not None else (), folder, ran.wall_seconds,
                   tuple(r.id for r in sc.robots), ran.events,
                   memory.events.events if memory is not None else None,
-                  memory.trace.frames if memory is not None else None, scenario=sc)
+                  memory.trace if memory is not None else None, scenario=sc)
 
 
 def _loop(sc: Scenario, manager: Manager, log: Log) -> Loop:

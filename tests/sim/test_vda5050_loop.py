@@ -21,10 +21,11 @@ import vcran
 from vcran.cli import main
 from vcran.core.scenario import Job
 from vcran.core.vda5050.builder import OrderLine, Stop
+from vcran.core.vda5050.enums import Topic
 from vcran.core.vda5050.factsheet import Factsheet
 from vcran.core.vda5050.header import Header, timestamp
 from vcran.core.vda5050.master import Master
-from vcran.core.vda5050.state import State
+from vcran.core.vda5050.state import State, Visualization
 from vcran.io.scenario_file import parse
 from vcran.managers.vda5050 import MasterControl
 
@@ -123,6 +124,69 @@ def test_the_order_arrives_a_latency_after_the_job_and_each_state_a_latency_afte
     assert master.states()[-1] == (5.5, ("o1", "n1"))
     assert result.job("j1").lead_time == 4.5
     assert result.summary["jobs"]["completed"] == 1 and result.summary["robots"]["robot_1"]["completed"] == ["o1"]
+
+
+class Watching(OneJob):
+    """:class:`OneJob`, reading ``handle.position("agv1")`` at the times :attr:`LOOKS` (timers run after the
+    messages of their instant: docs/determinism.md)."""
+
+    LOOKS = (0.1, 1.4, 1.5, 2.3, 3.0, 5.4, 5.5)
+
+    def on_start(self) -> None:
+        self.looked: dict[float, tuple[float, float, float]] = {}
+        for t in self.LOOKS:
+            self.handle.call_at(t, lambda t=t: self.looked.__setitem__(t, self.handle.position("agv1")))
+
+
+def test_a_master_that_does_not_hear_visualization_receives_none_and_its_position_follows_the_states():
+    """docs/vda5050.md, "Your own master": a master hears what its ``topics`` list, as live. Without
+    ``visualization`` none reaches it, and ``position`` is the pose of the latest state that did: the states
+    of 0 (start, at home), 1.25 (order accepted, n0 where it stands: still home) and 5.25 (n1, (2, 0))
+    arrive at 0.25, 1.5 and 5.5. Before 0.25 no state: the start pose. Mid-leg (2.3, 3.0, 5.4) the vehicle
+    is under way (1.25 s in at 2.5, test above), but the master knows the pose at the last state: home.
+    A visualization (one a second) would have shown it moving."""
+    master = Watching()
+    vcran.simulate(scenario(JOB), manager=master)
+    assert not master.hears(Topic.VISUALIZATION)
+    assert not any(topic is Topic.VISUALIZATION for _, topic in master.handle._latest)  # none reached it
+    home, n1 = (0.0, 0.0, 0.0), (2.0, 0.0, 0.0)
+    assert master.looked == {0.1: home, 1.4: home, 1.5: home, 2.3: home, 3.0: home, 5.4: home, 5.5: n1}
+
+
+class WatchingAll(Watching):
+    """:class:`Watching` that hears ``visualization`` too, and records when each arrives and what it shows."""
+
+    topics = frozenset({"state", "factsheet", "visualization"})
+
+    def on_start(self) -> None:
+        super().on_start()
+        self.shown: list[tuple[float, str, float, float]] = []
+
+    def on_visualization(self, serial: str, visualization: Visualization) -> None:
+        p, v = visualization.agv_position, visualization.velocity
+        assert p is not None and v is not None
+        self.shown.append((self.handle.now, visualization.header.timestamp, p.x, v.vx))
+
+
+def test_a_master_that_hears_visualization_receives_one_every_telemetry_period_a_latency_after_it():
+    """With ``visualization`` in its ``topics`` the master receives the vehicle's every telemetry period (1 s,
+    the default), published at k = 0, 1, 2 ... and arriving at k + L. The 2 m leg from rest at 1.25 (test
+    above): 2 s at +0.5 m/s² to 1 m/s (1 m), then 2 s at -0.5 m/s² (1 m). At 2 (0.75 s in) x = 0.25 * 0.75² =
+    0.140625, vx = 0.375; at 3 (1.75 s in) x = 0.25 * 1.75² = 0.765625, vx = 0.875; at 4 (0.75 s slowing down)
+    x = 1 + 0.75 - 0.25 * 0.75² = 1.609375, vx = 0.625; at 5 (1.75 s slowing down) x = 1 + 1.75 - 0.25 * 1.75²
+    = 1.984375, vx = 0.125. The job is done at 5.5 (its last state) and the run ends at the next tick, 6, so the
+    visualization published there never arrives. ``position`` reads the newer of the state and the
+    visualization: at 2.3 and 3.0 the visualization published at 2 (x = 0.140625); at 5.4 the one of 5;
+    at 5.5 the state of 5.25 (n1)."""
+    master = WatchingAll()
+    result = vcran.simulate(scenario(JOB), manager=master)
+    assert result.summary["sim_time"] == 6.0
+    assert master.shown == [(k + L, f"1970-01-01T00:00:0{k}.00Z", x, vx) for k, x, vx in (
+        (0, 0.0, 0.0), (1, 0.0, 0.0), (2, 0.140625, 0.375), (3, 0.765625, 0.875), (4, 1.609375, 0.625),
+        (5, 1.984375, 0.125))]
+    home = (0.0, 0.0, 0.0)
+    assert master.looked == {0.1: home, 1.4: home, 1.5: home, 2.3: (0.140625, 0.0, 0.0), 3.0: (0.140625, 0.0, 0.0),
+                             5.4: (1.984375, 0.0, 0.0), 5.5: (2.0, 0.0, 0.0)}
 
 
 class CancelWhileDown(Heard):

@@ -4,10 +4,11 @@ master's resend, a replay of a lossy run, and the field's checks.
 
 The draws, by hand (vcran/sim/link.py): every message draws once from ``random.Random(f"link:{seed}")`` when it is
 sent, in the order sent, and is lost when the draw is below ``loss``; with no jitter nothing else draws. In the
-run below the master sends nothing before the job: at t = 0 the vehicle publishes its factsheet, its first state
-and the visualization of the tick at 0 (draws 1-3); the job arrives at 0.5, and its pick order is **draw 4**.
-The seed is chosen from the generator itself: its 4th draw is below ``loss`` and none other of its first 1000
-(the run sends fewer than 200 messages: a visualization a second and a state per event for some 30 s).
+run below the master sends nothing before the job: at t = 0 the vehicle publishes its factsheet and its first
+state (draws 1-2; no visualization: MasterControl does not hear it, so the vehicles build none for it,
+docs/vda5050.md "Your own master"); the job arrives at 0.5, and its pick order is **draw 3**. The seed is chosen
+from the generator itself: its 3rd draw is below ``loss`` and none other of its first 1000 (the run sends fewer
+than 200 messages: a state per event for some 30 s, and one at least every 30 s).
 
 Instants: the vehicle starts at (0, 0) facing +x and drives 1 m/s with 0.5 m/s² up and down (a leg of d >= 2 m
 from rest to rest: **d + 2 s**); the link takes **0.25 s** each way; a pick or drop takes **5 s**. Station ``a`` is
@@ -70,12 +71,12 @@ def test_without_loss_the_job_takes_its_hand_derived_time(tmp_path):
 
 
 def test_a_lost_order_is_sent_again_resend_after_later_and_the_job_ends_that_much_later(tmp_path):
-    """Draw 4, the pick order sent at 0.5, is lost (module docstring): it never reaches the vehicle, so the trace
+    """Draw 3, the pick order sent at 0.5, is lost (module docstring): it never reaches the vehicle, so the trace
     does not have it. At 0.5 + 5 (resend_after) the master's latest state of the vehicle shows no order: it sends
     the order again, which reaches the vehicle at 5.75; everything of the run without loss happens 5 s later,
     and the job is done at 26.5. Nothing else is lost. The run replays and verifies (docs/contract.md §6): the
     trace holds what reached the vehicle."""
-    seed = losing({4}, LOSS)
+    seed = losing({3}, LOSS)
     result = vcran.simulate(one_job(seed, LOSS), manager=MasterControl(resend_after=5.0), out=tmp_path / "run")
     assert seen(result, "order_accepted", "job_completed") == [
         (5.75, "order_accepted", "j1_pick1"), (15.25, "order_accepted", "j1_drop1"), (26.5, "job_completed", "j1")]
@@ -85,8 +86,8 @@ def test_a_lost_order_is_sent_again_resend_after_later_and_the_job_ends_that_muc
 
 def test_when_every_message_is_lost_nothing_reaches_either_side(tmp_path):
     """loss 0.999 and the first seed whose first 200 draws are all below it (some 82 % of seeds are): the run sends
-    fewer than 100 messages in its 60 s (61 visualizations, a few states, the order every 5 s, a stateRequest
-    every 5 s after 35 s of quiet). The vehicle never gets a message (no in record, no order accepted), the master
+    fewer than 100 messages in its 60 s (a few states, the order every 5 s, a stateRequest every 5 s after 35 s
+    of quiet; no visualization, which the master does not hear). The vehicle never gets a message (no in record, no order accepted), the master
     never hears a state, and the job stays open to the end."""
     seed = losing(set(range(1, 201)), 0.999, 200)
     master = MasterControl(resend_after=5.0)

@@ -13,8 +13,9 @@ place of the simulated link, as :class:`transports.orion.manage.OrionLoop` puts 
   is unreachable nothing is queued (a stale order sent on reconnect could do harm): the send is counted as
   not sent and reported once per vehicle, and the master, which retries what a vehicle's state does not
   show taken, decides what to send again.
-* **vehicle -> master.** Every ``state``, ``connection``, ``factsheet`` and ``visualization`` of a fleet
-  vehicle is decoded and validated against the official schema (:func:`vcran.core.vda5050.codec.decode`)
+* **vehicle -> master.** Every ``state``, ``connection`` and ``factsheet`` of a fleet vehicle, and its
+  ``visualization`` if the master hears it (subscribed to only then, as :class:`MasterLoop` hands it on only
+  then: the same master hears the same topics live and in simulated time), is decoded and validated against the official schema (:func:`vcran.core.vda5050.codec.decode`)
   on the network thread, then handed to the simulation with :meth:`LiveEnvironment.call_soon`: every hook
   runs in the simulation's one thread, ``handle._heard`` first, then the topic's hook, as in
   :meth:`MasterLoop.notified`. A message that does not validate is reported once per vehicle and topic
@@ -60,9 +61,11 @@ class MqttMasterLink:
     :class:`~vcran.core.wire.Publish` (robot id, topic, the decoded model)."""
 
     def __init__(self, env: LiveEnvironment, url: BrokerUrl, vehicles: Iterable[FleetVehicle],
-                 notify: Callable[[list[Outbound]], None], options: MqttOptions | None = None) -> None:
+                 notify: Callable[[list[Outbound]], None], options: MqttOptions | None = None, *,
+                 visualization: bool = False) -> None:
+        """``visualization``: subscribe to the vehicles' visualization too (a master that hears it)."""
         self.env, self.notify = env, notify
-        self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=True)
+        self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=visualization)
         self._lock = threading.Lock()
         self._heard = 0  # valid messages handed to the master (under _lock)
         self._waiting = 0  # non-periodic messages handed to the simulation, not heard yet (under _lock)
@@ -156,7 +159,8 @@ class MqttLoop(MasterLoop):
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> MqttMasterLink:
         if not isinstance(env, LiveEnvironment):
             raise TypeError("a master on an MQTT broker runs on a LiveEnvironment (real time)")
-        link = MqttMasterLink(env, self.url, fleet_of(self.scenario), self.notified, self.options)
+        link = MqttMasterLink(env, self.url, fleet_of(self.scenario), self.notified, self.options,
+                              visualization=self.wants_visualization)
         link.open(self.connect_timeout)
         return link
 

@@ -121,6 +121,7 @@ class MqttTransport(Transport):
     handing their messages to the simulation, :meth:`close` says OFFLINE and disconnects."""
 
     wants_frames = False  # VDA 5050 has no fleet telemetry frame; the glue publishes visualization itself
+    wants_visualization = True  # onto the broker, every telemetry period, for whoever subscribes (§6.13)
 
     def __init__(self, url: BrokerUrl, vehicles: Iterable[FleetVehicle], options: MqttOptions | None = None) -> None:
         self.url = url

@@ -76,6 +76,10 @@ class Transport:
     #: is a good part of a run's cost, so a transport that has no use for them says False and the RAN
     #: skips them (docs/contract.md §6: the trace's leg log, not the frames, determines the telemetry).
     wants_frames: bool = True
+    #: Whether :meth:`send` takes VDA 5050 vehicles' ``visualization`` (§6.13), each vehicle's every telemetry
+    #: period: most of what a fleet publishes, so a transport that has no use for them (a script, a replay, a
+    #: closed loop whose master does not hear them) says False and the vehicles build none (docs/vda5050.md).
+    wants_visualization: bool = True
 
     def attach(self, env: simpy.Environment, deliver: Deliver) -> None:
         """Start delivering inbound messages into ``env`` through ``deliver``."""

@@ -5,7 +5,9 @@ sweeps, fuzzing) hands its records to one of these, and only to these, so that a
 written and published the same way (:mod:`vcran.io.runfolder`): :class:`FolderSinks` writes
 ``events.jsonl.zst``, the trace (``trace.jsonl.zst`` + ``legs.npy``; ``vcran manage``, which runs no model,
 has none) and, at :meth:`FolderSinks.finish`, ``summary.json``, into ``<out>.incomplete``, renamed to
-``out`` then. :class:`MemorySinks` keeps the events and telemetry frames of a run without a folder.
+``out`` then. :class:`MemorySinks` keeps the events and telemetry of a run without a folder: OPIL's
+telemetry frames as they are published, or, for vehicles that publish none (VDA 5050), the leg log a folder's
+``legs.npy`` holds, from which the telemetry is evaluated as a folder run's is.
 """
 
 from __future__ import annotations
@@ -18,10 +20,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vcran.core.motion import Leg
-from vcran.core.scenario import Scenario
+from vcran.core.scenario import VDA5050, Scenario
 from vcran.core.wire import Frame, Inbound, Publish
 from vcran.io.runfolder import publish, staging
 from vcran.io.trace import EVENTS_FILE, SUMMARY_FILE, EventWriter, TraceWriter
+from vcran.io.trace.files import leg_dtype
+from vcran.io.trace.reconstruct import from_legs
+from vcran.io.trace.writers import HALT, abandon_columns, leg_columns
 
 if TYPE_CHECKING:
     import numpy as np
@@ -65,14 +70,17 @@ class FolderSinks:
 
 
 class MemorySinks:
-    """A run without a folder: its events as dicts, and of its trace only the telemetry frames."""
+    """A run without a folder: its events as dicts, and of its trace only what its telemetry needs: the
+    frames (:class:`Frames`), or with a VDA 5050 ``scenario``, whose vehicles publish no frame, the leg log
+    (:class:`LegRows`)."""
 
     out: Path | None = None
     after_frame: Callable[[], None] | None = None
 
-    def __init__(self) -> None:
+    def __init__(self, scenario: Scenario | None = None) -> None:
         self.events = EventList()
-        self.trace = Frames()
+        self.trace: Frames | LegRows = (LegRows(scenario.fleet_dict())
+                                        if scenario is not None and scenario.settings.protocol == VDA5050 else Frames())
 
     def finish(self, summary: dict[str, Any]) -> None:
         pass
@@ -128,14 +136,11 @@ class EventList:
         pass
 
 
-class Frames:
-    """The trace of an in-memory run: only the telemetry frames are kept (a trace without a file cannot
-    be replayed, and the summary and events hold the rest)."""
+class _MemoryTrace:
+    """The trace of an in-memory run: only what its telemetry needs is kept (a trace without a file cannot
+    be replayed, and the summary and events hold the rest); the rest of a trace's calls do nothing."""
 
-    wants_frames = True
-
-    def __init__(self) -> None:
-        self.frames: list[tuple[float, np.ndarray]] = []
+    wants_frames = False
 
     def inbound(self, t: float, inbound: Inbound) -> None:
         pass
@@ -144,7 +149,7 @@ class Frames:
         pass
 
     def frame(self, frame: Frame) -> None:
-        self.frames.append((frame.t, frame.columns))
+        pass
 
     def leg(self, robot: int, leg: Leg, t: float) -> None:
         pass
@@ -160,3 +165,53 @@ class Frames:
 
     def close(self) -> None:
         pass
+
+    def samples(self, robots: int) -> np.ndarray:
+        """The telemetry of the run of ``robots`` robots as :func:`vcran.io.trace.samples` gives a folder's."""
+        raise NotImplementedError
+
+
+class Frames(_MemoryTrace):
+    """The telemetry frames, as they are published (OPIL)."""
+
+    wants_frames = True
+
+    def __init__(self) -> None:
+        self.frames: list[tuple[float, np.ndarray]] = []
+
+    def frame(self, frame: Frame) -> None:
+        self.frames.append((frame.t, frame.columns))
+
+    def samples(self, robots: int) -> np.ndarray:
+        import numpy as np
+
+        return np.array([[t, *columns.ravel()] for t, columns in self.frames], dtype="<f8").reshape(
+            -1, 1 + robots * len(Frame.FIELDS))
+
+
+class LegRows(_MemoryTrace):
+    """The leg log, row for row as a folder's ``legs.npy`` holds it, and the run's end: the telemetry of
+    vehicles that publish no frame (VDA 5050), evaluated as a folder run's is (:func:`from_legs`), bit for bit.
+    ``fleet``: the fleet as a trace header holds it (:meth:`Scenario.fleet_dict`)."""
+
+    def __init__(self, fleet: dict[str, Any]) -> None:
+        self.fleet = fleet
+        self.rows: list[tuple[float, ...]] = []
+        self.ended = 0.0
+
+    def leg(self, robot: int, leg: Leg, t: float) -> None:
+        self.rows.append((t, robot, *leg_columns(leg)))
+
+    def halt(self, robot: int, t: float) -> None:
+        self.rows.append((t, robot, *HALT))
+
+    def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None:
+        self.rows.append((t, robot, *abandon_columns(pose)))
+
+    def end(self, t: float) -> None:
+        self.ended = t
+
+    def samples(self, robots: int) -> np.ndarray:
+        import numpy as np
+
+        return from_legs(self.fleet, np.array(self.rows, dtype=leg_dtype()), self.ended)

@@ -11,7 +11,7 @@ concerns one robot), and a robot's pose at ``t`` follows from its last row at or
   the halt (a halt of a robot at rest, or of a leg already over at a tie, leaves it where it was);
 * none: the robot's starting pose (theta wrapped, as :class:`FleetKinematics` keeps it).
 
-This is exactly what ``vcran.io.trace.reconstruct._evaluate`` computes at a tick (tests/view/test_view_model.py
+This is exactly what ``vcran.io.trace.reconstruct.from_legs`` computes at a tick (tests/view/test_view_model.py
 compares it with ``vcran.telemetry_table`` at every tick of the docs/contract.md §4 scenarios, the warehouse and a generated fleet).
 """
 

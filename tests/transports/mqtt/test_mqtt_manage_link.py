@@ -20,7 +20,7 @@ from vcran.core.vda5050.codec import decode, encode
 from vcran.core.vda5050.enums import Topic, Version
 from vcran.core.vda5050.factsheet import Factsheet
 from vcran.core.vda5050.master import Master
-from vcran.core.vda5050.state import Connection, State
+from vcran.core.vda5050.state import Connection, State, Visualization
 from vcran.io.scenario_file import load
 from vcran.sim.live import LiveEnvironment
 
@@ -131,6 +131,40 @@ def test_the_master_hears_each_vehicle_validated_in_its_thread_and_sends_in_the_
     assert tally["invalid messages"] == 2 and tally["foreign topics"] == 1
     invalid = [r.getMessage() for r in caplog.records if "invalid state" in r.getMessage()]
     assert len(invalid) == 1 and "required field missing" in invalid[0], invalid  # once, saying what is wrong
+
+
+class Watching(Listener):
+    """:class:`Listener` that hears ``visualization`` too."""
+
+    topics = frozenset({"state", "connection", "factsheet", "visualization"})
+
+    def on_visualization(self, serial: str, visualization: Visualization) -> None:
+        self._got("visualization", serial, visualization)
+
+
+@pytest.mark.parametrize("master", [Listener, Watching])
+def test_the_master_is_subscribed_to_visualization_only_if_it_hears_it(broker, tmp_path, master):
+    """docs/vda5050.md, "Your own master": a master hears what its ``topics`` list, live as in simulated time.
+    The vehicles publish a state and a visualization every period; a master that hears visualization gets
+    each vehicle's (its hook, and the handle's reading); one that does not (the default ``topics``) is not
+    subscribed to it, so none reaches it, however many states do."""
+    url = parse_url(broker.url)
+    driver = Driver(MqttTransport(url, Driver.fleet(CONFIGS)), CONFIGS, speed=20.0, period=1.0).start()
+    hearing = master()
+    loop = MqttLoop(two_vehicles(tmp_path), hearing, lambda *_: None, url)
+    try:
+        loop.attach(env := LiveEnvironment(speed=20.0), lambda _: None)
+        run_until(env, lambda: all(len(hearing.of("state", s)) >= 3 for s in ("S1", "S2")))
+    finally:
+        if loop.link is not None:
+            loop.link.close()
+        driver.stop()
+    heard = {serial for serial, topic in hearing.handle._latest if topic is Topic.VISUALIZATION}
+    if master is Watching:
+        assert {s for s in ("S1", "S2") if hearing.of("visualization", s)} == heard == {"S1", "S2"}
+    else:
+        assert heard == set() and not hearing.hears(Topic.VISUALIZATION)
+        assert all(len(hearing.of("state", s)) >= 3 for s in ("S1", "S2"))  # two periods and more went by
 
 
 def test_a_send_the_broker_did_not_take_is_counted_and_reported_once(brokers, tmp_path, caplog):

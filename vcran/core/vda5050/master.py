@@ -7,7 +7,8 @@ vcran calls them on a :class:`Master`:
 * :meth:`~Master.on_job` when a job of the scenario's workload reaches the master;
 * :meth:`~Master.on_state` for every ``state`` message a vehicle publishes that reaches the master, and
   :meth:`~Master.on_connection`, :meth:`~Master.on_factsheet` for ``connection`` and ``factsheet``;
-  :meth:`~Master.on_visualization` only for a master whose :attr:`~Master.topics` lists it.
+  :meth:`~Master.on_visualization` only for a master whose :attr:`~Master.topics` lists it (to any other
+  master no visualization comes at all, as live).
 
 The master acts through its :class:`MasterHandle`: it sends orders and instant actions (stamped with
 their headers, numbered by an :class:`~vcran.core.vda5050.builder.OrderLine` per vehicle), schedules
@@ -170,8 +171,11 @@ class MasterHandle(Handle):
         return found if isinstance(found, Factsheet) else None
 
     def position(self, serial: str) -> tuple[float, float, float]:
-        """``serial``'s latest known pose ``(x, y, theta)``: from its latest state or visualization, else
-        where it started."""
+        """``serial``'s latest known pose ``(x, y, theta)``: from the newer of its latest state and, for a master
+        that hears ``visualization``, its latest visualization; else where it started. A master that does not
+        hear visualization (the default) knows the pose its vehicles' states show: a state comes on every
+        event (an order accepted, each node traversed, an action's change ...) and at least every
+        ``state_interval``, so between two nodes the pose is the one at the last node."""
         latest = None
         for topic in (Topic.STATE, Topic.VISUALIZATION):
             message = self._latest.get((self._serial(serial), topic))
@@ -219,9 +223,11 @@ class Master(Manager):
     vcran sets :attr:`fleet` and :attr:`handle` before it calls :meth:`on_start`. Hooks run at simulated
     instants in a documented order (updates, then jobs, then timers, as for ``vcran.FleetManager``) and must
     not block: to wait, schedule a callback with ``self.handle.call_later``. :attr:`topics` says which
-    topics' messages call a hook; every message still refreshes what the handle reads. The default is all
-    but ``visualization``, which each vehicle publishes at a high rate: read positions with
-    ``self.handle.position(serial)`` when you need them.
+    topics' messages call a hook, and the master hears only those, as live (``vcran manage --mqtt`` subscribes
+    to ``visualization`` only for a master that lists it): every message that reaches it refreshes what the
+    handle reads, and without ``visualization`` in :attr:`topics` none of it reaches the master (the vehicles
+    build none for it). The default is all but ``visualization``, which each vehicle publishes every telemetry
+    period: ``self.handle.position(serial)`` then reads the pose of each vehicle's latest state.
     """
 
     #: The topics whose messages call a hook (``state``, ``connection``, ``factsheet``, ``visualization``).

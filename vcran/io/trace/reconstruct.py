@@ -31,18 +31,18 @@ def samples(trace: Path) -> np.ndarray:
     if header["version"] == 1:
         path = trace.parent / str(header.get("telemetry", {}).get("file", TELEMETRY_FILE))
         return telemetry(path, len(robots), cut_off=not complete)
-    return _evaluate(header, legs(trace.parent / str(header["legs"]["file"]), cut_off=not complete), end)
+    return from_legs(header["fleet"], legs(trace.parent / str(header["legs"]["file"]), cut_off=not complete), end)
 
 
-def _evaluate(header: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarray:
-    """Drive a :class:`FleetKinematics` through the logged legs and sample it at every tick, exactly as
-    the telemetry process did (:meth:`vcran.sim.opil.ran.Ran.telemetry`: tick k at ``k * period``, up to and
-    including the end)."""
+def from_legs(fleet_spec: dict[str, Any], rows: np.ndarray, end: float) -> np.ndarray:
+    """:func:`samples` of the leg log ``rows`` of a run of the fleet ``fleet_spec`` (a trace header's ``fleet``,
+    :meth:`vcran.core.scenario.Scenario.fleet_dict`) that ended at ``end``: drive a :class:`FleetKinematics`
+    through the logged legs and sample it at every tick, exactly as the telemetry process did
+    (:meth:`vcran.sim.opil.ran.Ran.telemetry`: tick k at ``k * period``, up to and including the end)."""
     import numpy as np
 
     from vcran.core.motion import FleetKinematics, Limits
 
-    fleet_spec = header["fleet"]
     poses = [tuple(float(c) for c in r["pose"]) for r in fleet_spec["robots"]]
     period = float(fleet_spec["simulation"].get("telemetry_period", 1.0))
     fleet = FleetKinematics(poses)  # type: ignore[arg-type]

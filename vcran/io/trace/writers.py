@@ -23,7 +23,21 @@ from vcran.io.trace.files import EVENT_KEYS, FORMAT, LEG_COLUMNS, LEGS_FILE, NPY
 from vcran.io.trace.streams import BATCH, open_output
 
 _LEG = struct.Struct("<dI" + "d" * 11)
-_HALT = (math.nan,) * 11
+#: A halt's row of the leg log after ``t`` and ``robot`` (:data:`~vcran.io.trace.files.LEG_COLUMNS`).
+HALT = (math.nan,) * 11
+
+
+def leg_columns(leg: Leg) -> tuple[float, ...]:
+    """A leg's row of the leg log after ``t`` and ``robot`` (:data:`~vcran.io.trace.files.LEG_COLUMNS`)."""
+    lim = leg.limits
+    goal = math.nan if leg.theta_goal is None else leg.theta_goal
+    return (leg.t0, leg.x0, leg.y0, leg.theta0, leg.x1, leg.y1, goal, lim.speed, lim.accel, lim.decel, lim.turn_rate)
+
+
+def abandon_columns(pose: tuple[float, float, float]) -> tuple[float, ...]:
+    """An abandon's row after ``t`` and ``robot``: a halt giving the pose the robot rests at (R14)."""
+    return (math.nan, *pose, *HALT[4:])
+
 
 _dumps = orjson.dumps
 #: orjson's option for a line: its newline appended.
@@ -165,18 +179,15 @@ class TraceWriter:
 
     def leg(self, robot: int, leg: Leg, t: float) -> None:
         """Robot ``robot`` (fleet index) starts ``leg`` at ``t``: one row of the leg log."""
-        lim = leg.limits
-        goal = math.nan if leg.theta_goal is None else leg.theta_goal
-        self._legs.write(t, robot, (leg.t0, leg.x0, leg.y0, leg.theta0, leg.x1, leg.y1, goal,
-                                    lim.speed, lim.accel, lim.decel, lim.turn_rate))
+        self._legs.write(t, robot, leg_columns(leg))
 
     def halt(self, robot: int, t: float) -> None:
         """Robot ``robot`` halts mid-leg at ``t``: a row of NaN leg columns."""
-        self._legs.write(t, robot, _HALT)
+        self._legs.write(t, robot, HALT)
 
     def abandon(self, robot: int, t: float, pose: tuple[float, float, float]) -> None:
         """Robot ``robot``'s leg is abandoned at ``t`` (R14): a halt row giving the pose it rests at."""
-        self._legs.write(t, robot, (math.nan, *pose, *_HALT[4:]))
+        self._legs.write(t, robot, abandon_columns(pose))
 
     def end(self, t: float) -> None:
         """The last line: when the run stopped, so a replay stops at the same instant (docs/contract.md §6)."""

@@ -5,7 +5,7 @@ protocol ``vda5050`` (:class:`~vcran.sim.protocols.Glue`). It routes the transpo
 ``instantActions`` to the vehicles by robot id (a scripted run's messages come decoded; a live or replayed
 one's raw, decoded and validated here against the vehicle's version, §6.6.4.1), publishes what the vehicles
 send (``state`` on every event and at least every 30 s, ``factsheet``; ``visualization`` every telemetry
-period, to a transport that samples the fleet), writes the vehicles' events to the log and keeps the model's
+period, to a transport that takes it: :attr:`~vcran.core.wire.Transport.wants_visualization`), writes the vehicles' events to the log and keeps the model's
 books from them: an order is the unit of work (``completed``: its orderId; ``cancelled``: orderId and how it
 ended), busy from the first order accepted to the order's end.
 
@@ -72,15 +72,15 @@ class Vda5050:
         self.env.process(self._ticks(telemetry_period, after_tick))
 
     def _ticks(self, period: float, stop_when_idle: Callable[[], bool]):  # type: ignore[no-untyped-def]
-        """Every ``period``: each vehicle's visualization (to a transport that samples the fleet), the
-        batteries' tick, and whether the run is over."""
+        """Every ``period``: each vehicle's visualization (to a transport that takes it), the batteries'
+        tick, and whether the run is over."""
         transport = self.transport
         assert transport is not None
         k = 0
         while True:
             t = k * period
             yield at(self.env, t, TELEMETRY)
-            if transport.wants_frames:
+            if transport.wants_visualization:
                 publish = self.publish
                 for node in self.nodes:
                     publish(node, "visualization", node.vehicle.visualization(t, _moving(node.body)))
@@ -209,7 +209,7 @@ class Vda5050:
 def _moving(body: Body) -> fx.Body:
     """The body as a visualization shows it (§6.13: position and velocity; ``vx`` along the heading, as
     :meth:`VehicleNode.shown`), without what only a state shows (odometer, charge, loads): a visualization per
-    vehicle per tick is most of what an in-memory or closed-loop fleet run publishes."""
+    vehicle per tick is most of what a fleet publishes live, or to a master that hears it."""
     x, y, theta, speed, omega = body.motion()
     return fx.Body(fx.Where(x, y, theta), vx=speed, omega=omega)
 

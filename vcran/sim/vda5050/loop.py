@@ -11,9 +11,13 @@ without SimPy, here around the simulation's vehicles (bodies, stations, batterie
   cannot carry at all raises in the master's hook, as a client library refuses to encode it). Every message
   takes the link's latency (+ seeded jitter), in order per vehicle, and arrives once: a broker holds no value
   and merges nothing, so the link does not either (``holds=False``, :class:`vcran.sim.link.Link`).
-- **vehicle -> master.** Each ``state``, ``factsheet`` and ``visualization`` a vehicle publishes reaches the
-  master with its instant's batch, the link's latency later: ``handle._heard`` first (what the handle
-  reads), then the topic's hook if the master :meth:`~vcran.core.vda5050.master.Master.hears` it. Vehicles
+- **vehicle -> master.** Each ``state`` and ``factsheet`` a vehicle publishes reaches the master with its
+  instant's batch, the link's latency later: ``handle._heard`` first (what the handle reads), then the
+  topic's hook if the master :meth:`~vcran.core.vda5050.master.Master.hears` it. ``visualization`` reaches
+  it the same way only if it hears it (``"visualization"`` in its ``topics``): a master hears what it
+  subscribes to, as live (``vcran manage --mqtt`` subscribes to it only then), and otherwise the vehicles
+  build none for the loop (:attr:`MasterLoop.wants_visualization`); ``handle.position`` then follows the
+  states. Vehicles
   are robot ids in the simulation, serial numbers to the master (:class:`~vcran.core.vda5050.fleet.MasterFleet`).
   A simulated run has no broker connection, so no ``connection`` message (docs/vda5050.md).
 - **link_down** (docs/contract.md §4) is the vehicle's, as in a scripted run (:meth:`vcran.sim.vda5050.glue.Vda5050.link_down`):
@@ -65,6 +69,11 @@ class MasterLoop(Loop):
 
     def make_handle(self, env: simpy.Environment, rng: random.Random) -> SimMasterHandle:
         return SimMasterHandle(env, self, rng)
+
+    @property
+    def wants_visualization(self) -> bool:  # type: ignore[override]
+        """Only a master that hears ``visualization`` is sent any (module docstring)."""
+        return self.manager.hears(Topic.VISUALIZATION)
 
     def notified(self, batch: list[Outbound]) -> None:
         """One batch of the vehicles' publications reaches the master, in the order they were published."""
