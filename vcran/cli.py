@@ -90,7 +90,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     ``vcran run`` of a small scenario takes well under a second."""
     parser = _Parser(
         prog="vcran",
-        description="Headless, deterministic fleet simulator for FIWARE/OPIL robot fleets (VC-RAN).",
+        description="Headless, deterministic fleet simulator for AGV fleet managers: OPIL/FIWARE robots (VC-RAN) and VDA 5050 vehicles.",
         epilog="Exit status: 0 done; 1 done, and it found what it looks for (a difference, a rule violation, "
                "a refused message, a fleet manager that raised); 2 bad input or usage; 70 a bug in vcran; "
                "130 interrupted (Ctrl-C); 143 terminated (SIGTERM).",
