@@ -223,12 +223,12 @@ def build_manager(manager: ManagerLike | None, scenario: Scenario) -> tuple[Mana
         assert scenario.manager is not None
         manager = scenario.manager.path
     if isinstance(manager, Manager):
-        _check_kind(manager, type(manager), scenario)
+        _check_kind(type(manager), scenario)
         _check_attributes(manager)
         return manager, _name(type(manager))
     cls = _import(manager) if isinstance(manager, str) else manager
     if not (isinstance(cls, type) and issubclass(cls, kind)):
-        _check_kind(manager, cls, scenario)
+        _check_kind(cls, scenario)
         raise ManagerError(f"fleet manager {manager!r} is not a {kind_name} subclass")
     options = manager_options(scenario.manager, cls)
     try:
@@ -251,7 +251,7 @@ def manager_kind(scenario: Scenario) -> tuple[type[Manager], str]:
     return FleetManager, "vcran.FleetManager"
 
 
-def _check_kind(manager: object, cls: object, scenario: Scenario) -> None:
+def _check_kind(cls: object, scenario: Scenario) -> None:
     """A manager of the other protocol's kind is a ManagerError naming both kinds: a FleetManager would write
     OPIL tasks to VDA 5050 vehicles, a Master orders to OPIL robots, and neither would hear what they publish."""
     from vcran.core.manager import Manager
