@@ -2,7 +2,7 @@
 (docs/contract.md §5), and its trace replayed without a difference (docs/contract.md §6).
 
 Shared by :func:`vcran.testing.checks.run_variant` (OPIL) and
-:func:`vcran.testing.vda5050.checks.run_variant` (VDA 5050), which first run the variant into ``work/a``
+:func:`vcran.testing.vda5050_runs.run_variant` (VDA 5050), which first run the variant into ``work/a``
 and check its own rules.
 """
 

@@ -1,6 +1,7 @@
 """A VDA 5050 scenario's fuzz variants as scenario files and runs (``vcran fuzz``, docs/fuzzing.md "VDA 5050
 scenarios"): the part of :mod:`vcran.testing.vda5050`'s fuzzing that goes through the shared files and runner,
-which still import OPIL's modules (until issue 30 moves them) and so may not be imported from that package.
+which import OPIL's modules (the scenario reader builds OPIL's script messages) and so may not be imported
+from that package (the import contract "VDA 5050 imports nothing of OPIL's").
 """
 
 from __future__ import annotations
