@@ -120,9 +120,10 @@ class AgvAction:
         outcome, station = attempt(kind, x, y, self.carrying, self.config.capacity, self.stations, self._capable)
         if outcome.ok and kind is ActionKind.CHARGE:
             self._charged()  # the energy went in during the action (its battery segment), whatever it reports
-        if outcome.ok and self.fail_next_action:
-            self.fail_next_action = False
-            return Outcome(False, "action_fault", f"{kind.value}: injected action failure (§4)")
+        if outcome.ok:
+            failed = self._injected_failure(kind.value)
+            if failed is not None:
+                return failed
         if station is not None:
             self.carrying = transfer(kind, station, self.carrying)
             if kind is ActionKind.UNLOAD:
@@ -237,10 +238,15 @@ class AgvAction:
 
     def _aligned(self, tag: Any) -> Outcome:
         """An action of no station ended: done, or failed by an armed action failure (docs/contract.md §4)."""
-        if self.fail_next_action:
-            self.fail_next_action = False
-            return Outcome(False, "action_fault", f"{tag}: injected action failure (§4)")
-        return Outcome(True)
+        return self._injected_failure(str(tag)) or Outcome(True)
+
+    def _injected_failure(self, what: str) -> Outcome | None:
+        """The armed action failure (docs/contract.md §4), used up by the action ``what`` that would have succeeded;
+        None when none is armed."""
+        if not self.fail_next_action:
+            return None
+        self.fail_next_action = False
+        return Outcome(False, "action_fault", f"{what}: injected action failure (§4)")
 
     def _beside_all(self, cause: object) -> None:
         """Pass a hold, release or halt on to every action performed beside the work."""
