@@ -93,12 +93,9 @@ class RunResult:
 
 #: The mode a run with a fleet manager is (:func:`check_protocol`): both protocols' closed loops are hosted.
 CLOSED_LOOP = "a closed loop"
-#: The modes besides a scripted run, a replay and the edges the simulation hosts VDA 5050 vehicles in.
-VDA5050_MODES = frozenset({CLOSED_LOOP})
-#: The edges to a real broker (``vcran live`` and ``vcran manage`` with --orion or --mqtt, the ``mode``
-#: :func:`check_protocol` is given) and the protocol each one hosts.
-EDGES = {"vcran live --orion": OPIL, "vcran live --mqtt": VDA5050,
-         "vcran manage --orion": OPIL, "vcran manage --mqtt": VDA5050}
+#: The edge to a real broker each protocol is hosted on: ``vcran live`` and ``vcran manage`` with this option
+#: (the ``mode`` :func:`check_protocol` is given: ``"vcran live --mqtt"`` ...).
+EDGES = {OPIL: "--orion", VDA5050: "--mqtt"}
 
 
 def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
@@ -109,15 +106,14 @@ def check_protocol(scenario: Scenario, mode: str | None = None) -> None:
     edge (:data:`EDGES`); else what the caller runs, which hosts OPIL only: VDA 5050 vehicles would be driven
     as OPIL robots, deaf to their orders."""
     protocol = scenario.settings.protocol
-    if mode in EDGES:  # docs/contract.md §11: each protocol's edge (--orion: OPIL, --mqtt: VDA 5050)
-        if protocol != EDGES[mode]:
-            command, given = mode.rsplit(" ", 1)
-            needed = next(edge for edge, hosted in EDGES.items() if hosted == protocol and edge.startswith(command))
+    command, _, given = (mode or "").rpartition(" ")
+    if command in ("vcran live", "vcran manage") and given in EDGES.values():  # docs/contract.md §11: each protocol's edge
+        if given != EDGES[protocol]:
             verb = "go live" if command == "vcran live" else "are managed"
             raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: its robots {verb} with "
-                                f"{needed.rsplit(' ', 1)[1]} URL, not {given}")
+                                f"{EDGES[protocol]} URL, not {given}")
         return
-    if protocol != OPIL and mode is not None and mode not in VDA5050_MODES:
+    if protocol != OPIL and mode not in (None, CLOSED_LOOP):
         raise ScenarioError(f"{scenario.source}: [simulation] protocol = {protocol!r}: the simulation does not host "
                             f"VDA 5050 vehicles yet in {mode} (it runs their script and their master in a closed "
                             "loop: vcran run, vcran.simulate, vcran replay; live: vcran live --mqtt, vcran manage --mqtt)")
