@@ -93,3 +93,12 @@ def test_a_live_vda5050_run_is_on_the_wall_clock_unless_its_scenario_has_a_calen
     assert on_wall_clock(demo, at) is demo
     now = on_wall_clock(vda).settings.epoch  # the wall clock itself: a real instant, not 1970's
     assert now is not None and abs(datetime.fromisoformat(now) - datetime.now(UTC)) < timedelta(hours=1)
+
+
+def test_the_commands_wait_for_the_broker_as_long_as_the_edge_does():
+    """vcran live --mqtt (and manage, which reads the same constant) waits the MQTT edge's own connect timeout;
+    the command keeps a copy only so that it imports paho when it connects (docs/contract.md §11)."""
+    from transports.mqtt.client import CONNECT_TIMEOUT
+    from vcran.commands import _live_mqtt
+
+    assert _live_mqtt.CONNECT_TIMEOUT == CONNECT_TIMEOUT

@@ -27,6 +27,10 @@ from vcran.core.wire import Inbound
 
 log = logging.getLogger("vcran.mqtt")
 
+#: Wall seconds a fleet's or a master's connections may take to come up before ``open`` gives up (and closes
+#: them again: nothing half-connected stays): the default of both, and what ``vcran live`` and ``vcran manage`` wait.
+CONNECT_TIMEOUT = 10.0
+
 
 @dataclass(frozen=True)
 class MqttOptions:

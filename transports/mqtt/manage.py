@@ -36,7 +36,7 @@ from functools import partial
 
 import simpy
 
-from transports.mqtt.client import MqttOptions
+from transports.mqtt.client import CONNECT_TIMEOUT, MqttOptions
 from transports.mqtt.master import MqttMaster
 from transports.mqtt.topics import BrokerUrl, FleetVehicle, fleet_of
 from vcran.core.jobs import Log
@@ -51,8 +51,6 @@ from vcran.sim.vda5050.loop import PERIODIC, MasterLoop, SimMasterHandle
 
 log = logging.getLogger("vcran.mqtt")
 
-#: Wall seconds the master may take to connect before the run is refused (nothing half-started).
-CONNECT_TIMEOUT = 10.0
 
 
 class MqttMasterLink:

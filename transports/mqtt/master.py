@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterable
 
 import paho.mqtt.client as mqtt
 
-from transports.mqtt.client import BrokerClient, MqttOptions, Tally, screened, start_all
+from transports.mqtt.client import CONNECT_TIMEOUT, BrokerClient, MqttOptions, Tally, screened, start_all
 from transports.mqtt.topics import DELIVERY, TO_VEHICLE, BrokerUrl, FleetVehicle, check_fleet, fleet_filter, parse_topic
 from vcran.core.vda5050.codec import encode
 from vcran.core.vda5050.enums import Topic
@@ -58,7 +58,7 @@ class MqttMaster:
         self.client = BrokerClient(url, client_id, self.options, subscriptions=subscriptions,
                                    on_message=self._received, on_up=on_up)
 
-    def open(self, timeout: float | None = 10.0) -> None:
+    def open(self, timeout: float | None = CONNECT_TIMEOUT) -> None:
         """Connect; with a ``timeout``, wait that long and raise :class:`MqttUnavailable` if still down."""
         start_all([self.client], self.url, timeout)
 

@@ -40,7 +40,7 @@ from time import monotonic
 import simpy
 
 from transports.base import Deliver, Transport
-from transports.mqtt.client import BrokerClient, MqttOptions, Tally, screened, start_all, stop_all
+from transports.mqtt.client import CONNECT_TIMEOUT, BrokerClient, MqttOptions, Tally, screened, start_all, stop_all
 from transports.mqtt.connection import ConnectionTopic
 from transports.mqtt.topics import DELIVERY, FROM_VEHICLE, TO_VEHICLE, BrokerUrl, FleetVehicle, check_fleet
 from vcran.core.vda5050.codec import encode
@@ -149,7 +149,7 @@ class MqttTransport(Transport):
 
     # --- Transport --------------------------------------------------------------------------------------
 
-    def open(self, timeout: float | None = 10.0) -> None:
+    def open(self, timeout: float | None = CONNECT_TIMEOUT) -> None:
         """Connect every vehicle; with a ``timeout``, wait up to that many seconds for all of them and raise
         :class:`~transports.mqtt.client.MqttUnavailable` (every connection closed again) if one is still down. None: return at once,
         the connections come up in the background."""

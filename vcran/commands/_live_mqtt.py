@@ -23,7 +23,9 @@ if TYPE_CHECKING:
 
 #: The options of ``--orion`` alone, as argparse names them.
 ORION_ONLY = ("service", "service_path", "token_file", "notify_url", "listen", "poll_interval")
-#: Wall seconds the vehicles may take to connect before the command gives up (nothing half-connected stays).
+#: Wall seconds the vehicles (and ``vcran manage --mqtt``'s master) may take to connect before the command gives up:
+#: transports.mqtt.client.CONNECT_TIMEOUT, the edge's default, written here because the commands import paho only
+#: when they connect (a test shortens it).
 CONNECT_TIMEOUT = 10.0
 
 
