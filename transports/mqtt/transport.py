@@ -30,7 +30,6 @@ it reconnects: nothing stale or duplicated reaches the master, and the run itsel
 from __future__ import annotations
 
 import logging
-import statistics
 import threading
 from collections import Counter, deque
 from collections.abc import Iterable
@@ -39,7 +38,7 @@ from time import monotonic
 
 import simpy
 
-from transports.base import Deliver, Transport
+from transports.base import Deliver, Transport, wall_stats
 from transports.mqtt.client import CONNECT_TIMEOUT, BrokerClient, MqttOptions, Tally, screened, start_all, stop_all
 from transports.mqtt.connection import ConnectionTopic
 from transports.mqtt.topics import DELIVERY, FROM_VEHICLE, TO_VEHICLE, BrokerUrl, FleetVehicle, check_fleet
@@ -242,11 +241,11 @@ class MqttTransport(Transport):
 
     def latency_stats(self) -> dict[str, float]:
         """Count, median and 99th percentile of the wall seconds from arrival to entering the simulation."""
-        return _stats(self.latencies)
+        return wall_stats(self.latencies)
 
     def answer_stats(self) -> dict[str, float]:
         """The same of the wall seconds from an order's (or instantActions') arrival to the state it caused."""
-        return _stats(self.answers)
+        return wall_stats(self.answers)
 
     # --- inbound ----------------------------------------------------------------------------------------
 
@@ -267,10 +266,3 @@ class MqttTransport(Transport):
         self._unanswered.setdefault(inbound.entity, arrived)
         self._deliver(inbound)
 
-
-def _stats(seconds: deque[float]) -> dict[str, float]:
-    if not seconds:
-        return {}
-    ordered = sorted(seconds)
-    return {"count": len(ordered), "median": statistics.median(ordered),
-            "p99": ordered[min(len(ordered) - 1, int(0.99 * len(ordered)))]}

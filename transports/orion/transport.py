@@ -14,14 +14,12 @@ notification listener, sender; docs/live.md) that reads the fleet's commands (``
 
 from __future__ import annotations
 
-import math
-import statistics
 from functools import partial
 from time import monotonic
 
 import simpy
 
-from transports.base import Deliver, Transport
+from transports.base import Deliver, Transport, wall_stats
 from transports.orion.client import OrionClient
 from transports.orion.link import Change, LinkOptions, OrionLink, Subscription
 from vcran.core.opil.messages import INBOUND
@@ -53,11 +51,7 @@ class OrionTransport(OrionLink, Transport):
             self.outbox.put(out.robot, out.attribute, out.message)
 
     def latency_stats(self) -> dict[str, float]:
-        if not self.latencies:
-            return {}
-        ordered = sorted(self.latencies)
-        p99 = ordered[min(len(ordered) - 1, math.ceil(0.99 * len(ordered)) - 1)]
-        return {"count": len(ordered), "median": statistics.median(ordered), "p99": p99}
+        return wall_stats(self.latencies)
 
     def _hand_on(self, changes: list[Change], arrived: float) -> None:
         env = self._env
