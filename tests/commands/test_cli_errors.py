@@ -132,6 +132,13 @@ value = '{{"type": "x", "value": {huge}}}'
         (["live", DEMO, *orion, "--out", out, "--factor", "nan"], "live", "--factor must be a finite number above 0, got nan"),
         (["live", DEMO, *orion, "--out", out, "--poll-interval", "inf"], "live",
          "--poll-interval must be a finite number above 0, got inf"),
+        # docs/live.md: an inbound option that would do nothing is refused by live --orion as by manage --orion
+        (["live", DEMO, *orion, "--out", out, "--listen", "0.0.0.0"], "live",
+         "--listen is where the notification listener binds: it needs --notify-url"),
+        (["live", DEMO, *orion, "--out", out, "--notify-url", "http://127.0.0.1:8765/n", "--poll-interval", "1"], "live",
+         "--poll-interval is the polling period: without --notify-url only"),
+        (["manage", "warehouse", *orion, "--listen", "0.0.0.0"], "manage",
+         "--listen is where the notification listener binds: it needs --notify-url"),
         (["manage", "warehouse", *orion, "--factor", "inf"], "manage", "--factor must be a finite number above 0, got inf"),
         (["manage", "warehouse", *orion, "--poll-interval", "inf"], "manage",
          "--poll-interval must be a finite number above 0, got inf"),

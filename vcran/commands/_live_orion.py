@@ -6,8 +6,8 @@ import argparse
 from collections import Counter
 from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, check_positive
-from vcran.commands._orion import check_notify_url, client_from_args
+from vcran.commands import CommandError
+from vcran.commands._orion import LISTEN, POLL_INTERVAL, check_inbound, client_from_args
 from vcran.io.progress import STATES
 
 if TYPE_CHECKING:
@@ -15,14 +15,7 @@ if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
     from vcran.sim.model import Model
 
-LISTEN, POLL_INTERVAL = "127.0.0.1", 0.25
-
-
-def check(args: argparse.Namespace) -> None:
-    if args.poll_interval is not None:
-        check_positive("--poll-interval", args.poll_interval)
-    if args.notify_url is not None:
-        check_notify_url(args.notify_url)
+check = check_inbound  # the edge's options, as vcran manage --orion checks them
 
 
 class OrionEdge:

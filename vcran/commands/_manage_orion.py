@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from vcran.commands import CommandError, check_positive
-from vcran.commands._orion import check_notify_url, client_from_args
+from vcran.commands import CommandError
+from vcran.commands._orion import LISTEN, POLL_INTERVAL, check_inbound, client_from_args
 
 if TYPE_CHECKING:
     from transports.orion.manage import OrionLoop, OrionManagerLink
@@ -19,21 +19,7 @@ if TYPE_CHECKING:
     from vcran.core.scenario import Scenario
     from vcran.sim.live import LiveEnvironment
 
-#: Default polling period (simulated seconds), as ``vcran live``'s.
-POLL_INTERVAL = 0.25
-LISTEN = "127.0.0.1"
-
-
-def check(args: argparse.Namespace) -> None:
-    """The notification URL, or the polling period: each option where it means something."""
-    if args.notify_url is not None:
-        check_notify_url(args.notify_url)
-        if args.poll_interval is not None:
-            raise CommandError("--poll-interval is the polling period: without --notify-url only")
-    elif args.listen is not None:
-        raise CommandError("--listen is where the notification listener binds: it needs --notify-url")
-    elif args.poll_interval is not None:
-        check_positive("--poll-interval", args.poll_interval)
+check = check_inbound  # the edge's options, as vcran live --orion checks them
 
 
 class OrionSide:

@@ -1,4 +1,4 @@
-"""Connection options shared by the commands that talk to Orion (live, send, orion)."""
+"""Connection options shared by the commands that talk to Orion (live, manage, send, orion)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,26 @@ import sys
 from pathlib import Path
 from urllib.parse import SplitResult, urlsplit
 
-from vcran.commands import CommandError
+from vcran.commands import CommandError, check_positive
 
 TOKEN_ENV = "VCRAN_ORION_TOKEN"
+#: Where ``vcran live`` and ``vcran manage`` bind their notification listener, and how often (simulated seconds) they
+#: poll Orion, unless told otherwise (``--listen``, ``--poll-interval``).
+LISTEN, POLL_INTERVAL = "127.0.0.1", 0.25
+
+
+def check_inbound(args: argparse.Namespace) -> None:
+    """How ``vcran live --orion`` and ``vcran manage --orion`` hear of Orion's changes: the notification URL (and
+    where its listener binds), or the polling period, each option where it means something: a flag that would do
+    nothing is a mistake (exit 2)."""
+    if args.notify_url is not None:
+        check_notify_url(args.notify_url)
+        if args.poll_interval is not None:
+            raise CommandError("--poll-interval is the polling period: without --notify-url only")
+    elif args.listen is not None:
+        raise CommandError("--listen is where the notification listener binds: it needs --notify-url")
+    elif args.poll_interval is not None:
+        check_positive("--poll-interval", args.poll_interval)
 
 
 def add_connection_arguments(parser: argparse.ArgumentParser, group: argparse._MutuallyExclusiveGroup | None = None) -> None:

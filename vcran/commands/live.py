@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from vcran.commands import CommandError, add_scenario_argument, check_out, check_positive, load_scenario
-from vcran.commands._orion import add_connection_arguments, setup_logging
+from vcran.commands._orion import LISTEN, POLL_INTERVAL, add_connection_arguments, setup_logging
 from vcran.commands._signals import StopSignals
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
@@ -86,9 +86,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--orion: subscribe, with notifications to this URL (vcran listens there); "
                              "default: polling")
     parser.add_argument("--listen", metavar="HOST",
-                        help="--orion: address the notification listener binds to (default 127.0.0.1)")
+                        help=f"--orion: address the notification listener binds to (default {LISTEN})")
     parser.add_argument("--poll-interval", type=float, metavar="S",
-                        help="--orion: polling period in simulated seconds (default 0.25)")
+                        help=f"--orion: polling period in simulated seconds (default {POLL_INTERVAL:g})")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
     add_live_argument(parser)
 

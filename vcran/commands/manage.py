@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_positive, load_scenario
-from vcran.commands._orion import add_connection_arguments, setup_logging
+from vcran.commands._orion import LISTEN, POLL_INTERVAL, add_connection_arguments, setup_logging
 from vcran.commands._signals import StopSignals
 from vcran.commands.live import on_wall_clock
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
@@ -64,9 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--orion: subscribe, Orion notifies the manager of the robots' updates at this URL (vcran "
                              "listens there); default: poll Orion, for a manager Orion cannot reach")
     parser.add_argument("--listen", metavar="HOST",
-                        help="--orion: address the notification listener binds to (default 127.0.0.1); with --notify-url")
+                        help=f"--orion: address the notification listener binds to (default {LISTEN}); with --notify-url")
     parser.add_argument("--poll-interval", type=float, metavar="S",
-                        help="--orion: polling period in simulated seconds (default 0.25); without --notify-url")
+                        help=f"--orion: polling period in simulated seconds (default {POLL_INTERVAL:g}); without --notify-url")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
     parser.add_argument("--jobs", type=int, metavar="N", help="only the first N jobs of the workload")
     parser.add_argument("--out", type=Path, metavar="DIR", help="write the job events (events.jsonl.zst) and summary.json into DIR, as a run folder")
