@@ -15,11 +15,14 @@ place of the simulated link, as :class:`transports.orion.manage.OrionLoop` puts 
   show taken, decides what to send again.
 * **vehicle -> master.** Every ``state``, ``connection`` and ``factsheet`` of a fleet vehicle, and its
   ``visualization`` if the master hears it (subscribed to only then, as :class:`MasterLoop` hands it on only
-  then: the same master hears the same topics live and in simulated time), is decoded and validated against the official schema (:func:`vcran.core.vda5050.codec.decode`)
-  on the network thread, then handed to the simulation with :meth:`LiveEnvironment.call_soon`: every hook
-  runs in the simulation's one thread, ``handle._heard`` first, then the topic's hook, as in
-  :meth:`MasterLoop.notified`. A message that does not validate is reported once per vehicle and topic
-  and counted, never a crash; one of a vehicle outside the fleet is :class:`MqttMaster`'s to report.
+  then: the same master hears the same topics live and in simulated time), is parsed once, by the edge's
+  screen (:func:`transports.mqtt.client.screened`), then validated against the official schema and decoded
+  (:func:`vcran.core.vda5050.codec.decode_parsed`) on the network thread, and handed to the simulation with
+  :meth:`LiveEnvironment.call_soon`: every hook runs in the simulation's one thread, ``handle._heard`` first,
+  then the topic's hook, as in :meth:`MasterLoop.notified`. A payload that is not JSON is counted once, as a
+  bad payload (the screen's); a message that does not validate is reported once per vehicle and topic and
+  counted as an invalid message; never a crash. One of a vehicle outside the fleet is :class:`MqttMaster`'s
+  to report.
 * **until_idle**: what the master sent is on its way until paho has written it to the broker connection
   (:attr:`MqttMasterLink.inbound_idle`); what a vehicle published is on its way while it waits for the
   simulation thread (:attr:`MqttMasterLink.outbound_idle`; ``visualization``, periodic telemetry, never
@@ -63,7 +66,8 @@ class MqttMasterLink:
                  visualization: bool = False) -> None:
         """``visualization``: subscribe to the vehicles' visualization too (a master that hears it)."""
         self.env, self.notify = env, notify
-        self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=visualization)
+        self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=visualization,
+                                 parsed=True)  # each payload parsed once, by the screen; one not JSON counted there
         self._lock = threading.Lock()
         self._heard = 0  # valid messages handed to the master (under _lock)
         self._waiting = 0  # non-periodic messages handed to the simulation, not heard yet (under _lock)
@@ -121,7 +125,7 @@ class MqttMasterLink:
     def _received(self, inbound: Inbound) -> None:
         topic = Topic(inbound.attribute)
         vehicle = self.master.vehicles[inbound.entity]
-        message = codec.decode(topic, inbound.raw if inbound.raw is not None else "", vehicle.version)
+        message = codec.decode_parsed(topic, inbound.raw, vehicle.version)  # the screen parsed it (module docstring)
         if isinstance(message, codec.Invalid):  # counted by the tally, as foreign topics and bad payloads are
             self.master.tally.report("invalid messages", (inbound.entity, topic),
                                      f"{vehicle.address.topic(topic)}: an invalid {topic.value} ignored, "
