@@ -23,6 +23,11 @@ place of the simulated link, as :class:`transports.orion.manage.OrionLoop` puts 
   bad payload (the screen's); a message that does not validate is reported once per vehicle and topic and
   counted as an invalid message; never a crash. One of a vehicle outside the fleet is :class:`MqttMaster`'s
   to report.
+* **what the master heard** (``log``, beside the ``job_*`` events): the vehicles' orders as their states
+  show them, ``order_accepted`` and ``order_ended`` (:class:`vcran.core.vda5050.heard.HeardOrders`), logged
+  when each state reaches the simulation thread, before the master's hooks see it, as
+  :class:`transports.orion.manage.OrionLoop` logs the robots' states for OPIL: ``vcran report`` of the run
+  folder draws the vehicles' busy time from them.
 * **until_idle**: what the master sent is on its way until paho has written it to the broker connection
   (:attr:`MqttMasterLink.inbound_idle`); what a vehicle published is on its way while it waits for the
   simulation thread (:attr:`MqttMasterLink.outbound_idle`; ``visualization``, periodic telemetry, never
@@ -46,8 +51,10 @@ from vcran.core.jobs import Log
 from vcran.core.scenario import Scenario
 from vcran.core.vda5050 import codec
 from vcran.core.vda5050.enums import Topic
+from vcran.core.vda5050.heard import HeardOrders
 from vcran.core.vda5050.master import Master
 from vcran.core.vda5050.order import InstantActions, Order
+from vcran.core.vda5050.state import State
 from vcran.core.wire import Deliver, Inbound, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
 from vcran.sim.vda5050.loop import PERIODIC, MasterLoop, SimMasterHandle
@@ -157,6 +164,17 @@ class MqttLoop(MasterLoop):
                  options: MqttOptions | None = None, connect_timeout: float | None = CONNECT_TIMEOUT) -> None:
         super().__init__(scenario, master, log)
         self.url, self.options, self.connect_timeout = url, options, connect_timeout
+        self._log = log
+        #: The vehicles' orders as the master hears them (module docstring, "what the master heard").
+        self.orders = HeardOrders()
+
+    def notified(self, batch: list[Outbound]) -> None:
+        assert self.handle is not None
+        for out in batch:
+            if isinstance(out, Publish) and isinstance(out.message, State):
+                for event, fields in self.orders.heard(out.robot, out.message):
+                    self._log(self.handle.now, out.robot, event, fields)
+        super().notified(batch)
 
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> MqttMasterLink:
         if not isinstance(env, LiveEnvironment):
@@ -175,6 +193,8 @@ class LiveMasterHandle(SimMasterHandle):
     sends straight to the broker."""
 
     def _publish(self, serial: str, topic: Topic, message: Order | InstantActions) -> None:
-        link = self._loop.link
-        assert isinstance(link, MqttMasterLink)
-        link.write(self.fleet.vehicle(serial).robot.id, topic.value, message)
+        loop = self._loop
+        assert isinstance(loop, MqttLoop) and isinstance(loop.link, MqttMasterLink)
+        robot = self.fleet.vehicle(serial).robot.id
+        loop.orders.sent(robot, message)
+        loop.link.write(robot, topic.value, message)
