@@ -93,3 +93,35 @@ def test_the_first_status_heard_is_a_baseline(tmp_path):
         (3.0, "robot_1", "task_completed", {"task": "new"}),
         (3.0, "robot_1", "task_cancelled", {"task": "gone", "reason": "timeout"}),
     ]
+
+
+def test_a_vda5050_managed_folder_reports_the_busy_time_the_master_heard(tmp_path):
+    """A ``vcran manage --mqtt`` folder (summary ``"protocol": "vda5050"``) holds the vehicles' orders as the
+    master heard them (``order_accepted``, ``order_ended``: docs/outputs.md); a vehicle is busy from an order
+    heard accepted to its heard end, or to the run's end while it is open (docs/report.md). By hand: two
+    vehicles over 100 s; v1 holds o1 from 10 to 40 (30 s) and o2 from 60 to the end (40 s); v2 none. Busy
+    70 s of 2 x 100 robot-seconds: fleet utilisation 35.0 %. The same events in a folder whose summary names
+    no protocol (written before VDA 5050 masters logged them) are read as OPIL's, as before: 0.0 %."""
+    from tests.conftest import write_lines
+    from vcran.core.jobs import JobBook
+    from vcran.report.managed import read_managed
+
+    events = [{"t": 10.0, "robot": "v1", "event": "order_accepted", "order_id": "o1", "order_update_id": 0, "update": False},
+              {"t": 40.0, "robot": "v1", "event": "order_ended", "order_id": "o1", "how": "completed"},
+              {"t": 60.0, "robot": "v1", "event": "order_accepted", "order_id": "o2", "order_update_id": 0, "update": False}]
+    summary = {"scenario": "two", "protocol": "vda5050", "manager": "m:M", "seed": 1, "sim_time": 100.0,
+               "fleet": ["v1", "v2"], "jobs": JobBook(lambda *_: None).summary(100.0)}
+    for name, protocol in (("mqtt", "vda5050"), ("older", None)):
+        folder = tmp_path / name
+        folder.mkdir()
+        write_lines(folder / EVENTS_FILE, [json.dumps(e) for e in events])
+        (folder / "summary.json").write_text(json.dumps({k: v for k, v in summary.items() if protocol or k != "protocol"}))
+        run = read_managed(folder)
+        assert run.protocol == (protocol or "opil")
+        report = tmp_path / f"report-{name}"
+        assert main(["report", str(folder), "--out", str(report)]) == 0
+        kpi = (report / "kpi.md").read_text()
+        rows = dict(tuple(c.strip() for c in row.strip("|").split("|")) for row in kpi.splitlines()
+                    if row.startswith("| ") and "job KPI" not in row)
+        assert rows["fleet utilisation"] == ("35.0%" if protocol else "0.0%")
+        assert ("VDA 5050 master m:M against an MQTT broker's vehicles" in kpi) == bool(protocol)

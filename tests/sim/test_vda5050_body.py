@@ -71,6 +71,24 @@ def test_stop_charging_ends_the_bodys_charge_and_the_charge_lifts_battery_low(tm
     assert [e["errorType"] for e in at[2.5]["errors"]] == ["batteryLow"] and at[14.5]["errors"] == []
 
 
+def test_start_and_stop_charging_in_one_message_leave_the_vehicle_not_charging(tmp_path):
+    """One instantActions message carrying startCharging then stopCharging: its actions are performed in
+    order (§6.9, the message's ``actions`` array; §6.8.2), so the charge is started, then stopped. Both are
+    FINISHED and the vehicle does not charge (``batteryState.charging`` false, §6.8.2 stopCharging); no time
+    passes between them, so the battery keeps its 1 Ah (10 %): the stateRequest at 30 shows 10 %, not the
+    1 + 0.125 * 27.5 = 4.4375 Ah (44.375 %) of a charge left running, nor the full battery it would reach."""
+    both = instant(2.5, "startCharging", "charge").replace(
+        '"blockingType": "NONE"}]', '"blockingType": "NONE"}, {"actionType": "stopCharging", "actionId": "stop", '
+        '"blockingType": "NONE"}]')
+    assert both.count("stopCharging") == 1
+    _, states = run(tmp_path, CHARGING + both + instant(30.0, "stateRequest", "ask"))
+    at = dict(states)
+    assert action_states(at[30.0]) == {"charge": "FINISHED", "stop": "FINISHED", "ask": "FINISHED"}
+    assert at[30.0]["batteryState"] == {"batteryCharge": pytest.approx(10.0), "charging": False}
+    assert all(s["batteryState"]["charging"] is False for t, s in states if t > 2.5), \
+        [(t, s["batteryState"]) for t, s in states]
+
+
 def test_a_charge_stopped_below_the_low_level_keeps_battery_low(tmp_path):
     """Stopped at 6.5 after 4 s of charging, the battery holds 1 + 0.125 * 4 = 1.5 Ah (15 %), still below the
     low level: ``batteryLow`` stays; the run ends idle without charging on (the final state says 15 %)."""

@@ -86,20 +86,28 @@ class MqttUnavailable(ConnectionError):
     """The broker could not be reached, or refused, when the edge connected."""
 
 
-def screened(tally: Tally, options: MqttOptions, robot: str, kind: Topic, topic: str, payload: bytes) -> Inbound | None:
+def screened(tally: Tally, options: MqttOptions, robot: str, kind: Topic, topic: str, payload: bytes, *,
+             parsed: bool = False) -> Inbound | None:
     """A received message as the edge hands it on: ``raw`` is the payload as text (bytes that are not UTF-8
     become lone surrogates, which no JSON parser accepts); None for a payload over ``max_payload``. A
     payload that is not JSON is handed on (its receiver refuses it, and a vehicle tells the master so) and
-    reported once per vehicle and topic."""
+    reported once per vehicle and topic.
+
+    ``parsed``: ``raw`` is the JSON value the payload parses to, parsed here once for a receiver that
+    decodes it (:func:`vcran.core.vda5050.codec.decode_parsed`), and a payload that is not JSON, reported
+    here, is not handed on: it is counted once, as a bad payload, not again as whatever its receiver
+    would make of it."""
     if len(payload) > options.max_payload:
         tally.report("oversized payloads", (robot, kind), f"{topic}: a payload of {len(payload)} bytes, over "
                      f"the limit of {options.max_payload}, dropped")
         return None
     try:
-        orjson.loads(payload)
+        doc = orjson.loads(payload)
     except orjson.JSONDecodeError:
         tally.report("bad payloads", (robot, kind), f"{topic}: a payload that is not JSON")
-    return Inbound(robot, kind.value, raw=payload.decode("utf-8", "surrogateescape"))
+        if parsed:
+            return None
+    return Inbound(robot, kind.value, raw=doc if parsed else payload.decode("utf-8", "surrogateescape"))
 
 
 Will = Callable[[], tuple[str, bytes]]

@@ -15,11 +15,19 @@ place of the simulated link, as :class:`transports.orion.manage.OrionLoop` puts 
   show taken, decides what to send again.
 * **vehicle -> master.** Every ``state``, ``connection`` and ``factsheet`` of a fleet vehicle, and its
   ``visualization`` if the master hears it (subscribed to only then, as :class:`MasterLoop` hands it on only
-  then: the same master hears the same topics live and in simulated time), is decoded and validated against the official schema (:func:`vcran.core.vda5050.codec.decode`)
-  on the network thread, then handed to the simulation with :meth:`LiveEnvironment.call_soon`: every hook
-  runs in the simulation's one thread, ``handle._heard`` first, then the topic's hook, as in
-  :meth:`MasterLoop.notified`. A message that does not validate is reported once per vehicle and topic
-  and counted, never a crash; one of a vehicle outside the fleet is :class:`MqttMaster`'s to report.
+  then: the same master hears the same topics live and in simulated time), is parsed once, by the edge's
+  screen (:func:`transports.mqtt.client.screened`), then validated against the official schema and decoded
+  (:func:`vcran.core.vda5050.codec.decode_parsed`) on the network thread, and handed to the simulation with
+  :meth:`LiveEnvironment.call_soon`: every hook runs in the simulation's one thread, ``handle._heard`` first,
+  then the topic's hook, as in :meth:`MasterLoop.notified`. A payload that is not JSON is counted once, as a
+  bad payload (the screen's); a message that does not validate is reported once per vehicle and topic and
+  counted as an invalid message; never a crash. One of a vehicle outside the fleet is :class:`MqttMaster`'s
+  to report.
+* **what the master heard** (``log``, beside the ``job_*`` events): the vehicles' orders as their states
+  show them, ``order_accepted`` and ``order_ended`` (:class:`vcran.core.vda5050.heard.HeardOrders`), logged
+  when each state reaches the simulation thread, before the master's hooks see it, as
+  :class:`transports.orion.manage.OrionLoop` logs the robots' states for OPIL: ``vcran report`` of the run
+  folder draws the vehicles' busy time from them.
 * **until_idle**: what the master sent is on its way until paho has written it to the broker connection
   (:attr:`MqttMasterLink.inbound_idle`); what a vehicle published is on its way while it waits for the
   simulation thread (:attr:`MqttMasterLink.outbound_idle`; ``visualization``, periodic telemetry, never
@@ -43,8 +51,10 @@ from vcran.core.jobs import Log
 from vcran.core.scenario import Scenario
 from vcran.core.vda5050 import codec
 from vcran.core.vda5050.enums import Topic
+from vcran.core.vda5050.heard import HeardOrders
 from vcran.core.vda5050.master import Master
 from vcran.core.vda5050.order import InstantActions, Order
+from vcran.core.vda5050.state import State
 from vcran.core.wire import Deliver, Inbound, Outbound, Publish
 from vcran.sim.live import LiveEnvironment
 from vcran.sim.vda5050.loop import PERIODIC, MasterLoop, SimMasterHandle
@@ -63,7 +73,8 @@ class MqttMasterLink:
                  visualization: bool = False) -> None:
         """``visualization``: subscribe to the vehicles' visualization too (a master that hears it)."""
         self.env, self.notify = env, notify
-        self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=visualization)
+        self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=visualization,
+                                 parsed=True)  # each payload parsed once, by the screen; one not JSON counted there
         self._lock = threading.Lock()
         self._heard = 0  # valid messages handed to the master (under _lock)
         self._waiting = 0  # non-periodic messages handed to the simulation, not heard yet (under _lock)
@@ -121,7 +132,7 @@ class MqttMasterLink:
     def _received(self, inbound: Inbound) -> None:
         topic = Topic(inbound.attribute)
         vehicle = self.master.vehicles[inbound.entity]
-        message = codec.decode(topic, inbound.raw if inbound.raw is not None else "", vehicle.version)
+        message = codec.decode_parsed(topic, inbound.raw, vehicle.version)  # the screen parsed it (module docstring)
         if isinstance(message, codec.Invalid):  # counted by the tally, as foreign topics and bad payloads are
             self.master.tally.report("invalid messages", (inbound.entity, topic),
                                      f"{vehicle.address.topic(topic)}: an invalid {topic.value} ignored, "
@@ -153,6 +164,17 @@ class MqttLoop(MasterLoop):
                  options: MqttOptions | None = None, connect_timeout: float | None = CONNECT_TIMEOUT) -> None:
         super().__init__(scenario, master, log)
         self.url, self.options, self.connect_timeout = url, options, connect_timeout
+        self._log = log
+        #: The vehicles' orders as the master hears them (module docstring, "what the master heard").
+        self.orders = HeardOrders()
+
+    def notified(self, batch: list[Outbound]) -> None:
+        assert self.handle is not None
+        for out in batch:
+            if isinstance(out, Publish) and isinstance(out.message, State):
+                for event, fields in self.orders.heard(out.robot, out.message):
+                    self._log(self.handle.now, out.robot, event, fields)
+        super().notified(batch)
 
     def make_link(self, env: simpy.Environment, deliver: Deliver) -> MqttMasterLink:
         if not isinstance(env, LiveEnvironment):
@@ -171,6 +193,8 @@ class LiveMasterHandle(SimMasterHandle):
     sends straight to the broker."""
 
     def _publish(self, serial: str, topic: Topic, message: Order | InstantActions) -> None:
-        link = self._loop.link
-        assert isinstance(link, MqttMasterLink)
-        link.write(self.fleet.vehicle(serial).robot.id, topic.value, message)
+        loop = self._loop
+        assert isinstance(loop, MqttLoop) and isinstance(loop.link, MqttMasterLink)
+        robot = self.fleet.vehicle(serial).robot.id
+        loop.orders.sent(robot, message)
+        loop.link.write(robot, topic.value, message)

@@ -6,7 +6,10 @@ One connection (a master has no last will in VDA 5050), subscribed with wildcard
 asked. Messages of vehicles outside the fleet (another fleet on the same broker) are reported once per
 topic and ignored. Each message of a fleet vehicle is handed to ``on_message`` on the network thread as
 ``Inbound(entity=<robot id>, attribute=<topic>, raw=<the payload as text>)``, as the vehicles' transport
-hands theirs; decoding (:func:`vcran.core.vda5050.codec.decode`) is the receiver's business.
+hands theirs; decoding (:func:`vcran.core.vda5050.codec.decode`) is the receiver's business. With
+``parsed=True``, ``raw`` is the JSON value the payload parses to, and a payload that is not JSON is only
+counted (:func:`transports.mqtt.client.screened`): ``vcran manage --mqtt``'s link decodes what it gets
+without parsing it again.
 
 :meth:`MqttMaster.send` publishes an ``order`` or ``instantActions`` message (QoS 0, not retained, §6.2),
 encoded for the vehicle's version, and says whether the broker connection took it: while the broker is
@@ -40,8 +43,10 @@ class MqttMaster:
 
     def __init__(self, url: BrokerUrl, vehicles: Iterable[FleetVehicle], on_message: Callable[[Inbound], None], *,
                  options: MqttOptions | None = None, visualization: bool = False,
-                 on_up: Callable[[], None] | None = None) -> None:
+                 on_up: Callable[[], None] | None = None, parsed: bool = False) -> None:
+        """``parsed``: hand on each payload parsed, not as text (module docstring)."""
         self.url = url
+        self._parsed = parsed
         self.options = options or MqttOptions()
         self.vehicles = check_fleet(vehicles)
         self.tally = Tally()
@@ -106,7 +111,7 @@ class MqttMaster:
             what = "a vehicle outside the fleet" if parsed is not None else "not a VDA 5050 topic"
             self.tally.report("foreign topics", topic, f"a message on {topic!r} ({what}) ignored")
             return
-        inbound = screened(self.tally, self.options, *found, topic, payload)
+        inbound = screened(self.tally, self.options, *found, topic, payload, parsed=self._parsed)
         if inbound is not None:
             self.counts["received"] += 1
             self._on_message(inbound)

@@ -161,8 +161,8 @@ def run(args: argparse.Namespace) -> int:
             view.close()
     t = env.now
     jobs = loop.jobs.summary(t)
-    sinks.finish({"scenario": scenario.settings.name, "manager": name, "seed": scenario.settings.seed,
-                  "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
+    sinks.finish({"scenario": scenario.settings.name, "protocol": scenario.settings.protocol, "manager": name,
+                  "seed": scenario.settings.seed, "sim_time": t, "fleet": [r.id for r in scenario.robots], "jobs": jobs})
     end_live(view)
     if not args.quiet:
         print(f"manage ended at {t:.1f} s: {jobs['arrived']} job(s) arrived, {jobs['completed']} completed, "

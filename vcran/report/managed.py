@@ -6,6 +6,12 @@ task ends as the manager heard them through Orion (``state``, ``task_completed``
 logged by :class:`transports.orion.manage.OrionLoop` when each ``ran_status`` reached it), and a summary
 with the ``jobs`` KPIs, the fleet's robot ids, the manager and the seed. No trace, no telemetry.
 
+A ``vcran manage --mqtt`` folder (a VDA 5050 master; its summary says ``"protocol": "vda5050"``) holds, besides
+the ``job_*`` events, the vehicles' orders as the master heard them in their states (``order_accepted``,
+``order_ended``, logged by :class:`transports.mqtt.manage.MqttLoop`, :mod:`vcran.core.vda5050.heard`): a
+vehicle is busy from an order heard accepted to its heard end, as a simulated VDA 5050 run's vehicle is
+from its order's acceptance to its end (:mod:`vcran.report.vda5050`).
+
 From it a report draws what it can: the fleet figure (jobs waiting for a robot, jobs done and failed,
 robots busy as heard: :mod:`vcran.report.fleet`, the same curves as a simulated closed loop's) and
 ``kpi.md`` with the jobs table, whose utilisation is the heard busy time's share. The layout, the
@@ -37,6 +43,9 @@ class ManagedRun:
 
     path: Path
     scenario: str
+    #: The scenario's protocol: ``opil`` (``--orion``) or ``vda5050`` (``--mqtt``); ``opil`` for a folder that
+    #: does not say (written before VDA 5050 masters ran live).
+    protocol: str
     manager: str
     seed: int
     sim_time: float
@@ -65,16 +74,18 @@ def read_managed(path: Path) -> ManagedRun:
                               "written before vcran reported managed runs: run `vcran manage --out` again")
         robots = tuple(str(r) for r in summary["fleet"])
         sim_time = float(summary["sim_time"])
+        protocol = str(summary.get("protocol", "opil"))
         events = list(checked_events(path / EVENTS_FILE))
-        busy = sum(h.busy for h in histories(_Heard(robots, events, sim_time)).values())
+        busy = sum(h.busy for h in histories(_Heard(protocol, robots, events, sim_time)).values())
         share = busy / (sim_time * len(robots)) if sim_time > 0 and robots else 0.0
         jobs = job_figures({"jobs": summary["jobs"], "utilisation": {"fleet": share}})
-        return ManagedRun(path, str(summary.get("scenario", "")), str(summary["manager"]), int(summary.get("seed", 0)),
-                          sim_time, robots, events, jobs)
+        return ManagedRun(path, str(summary.get("scenario", "")), protocol, str(summary["manager"]),
+                          int(summary.get("seed", 0)), sim_time, robots, events, jobs)
 
 
 @dataclass(frozen=True)
 class _Heard:
+    protocol: str
     robot_ids: tuple[str, ...]
     events: list[dict[str, Any]]
     sim_time: float
@@ -88,10 +99,15 @@ def write_managed(run: ManagedRun, out: Path, fmt: str) -> tuple[list[Path], str
     out.mkdir(parents=True, exist_ok=True)
     files = [out / f"fleet.{fmt}", out / "kpi.md"]
     draw_fleet(run, fleet_series(run, histories(run)), files[0])
+    heard = (("VDA 5050 master", "an MQTT broker's vehicles (`vcran manage --mqtt`)",
+              "The vehicles' orders are as the master heard them in their states", "the link's latency")
+             if run.protocol == "vda5050" else
+             ("fleet manager", "Orion (`vcran manage`)", "Robot states and task ends are as the manager heard "
+              "them through Orion", "the notification delay"))
     files[1].write_text(
-        f"# KPIs: {run.scenario}\n\nThe fleet manager {run.manager} against Orion (`vcran manage`), {run.sim_time:g} s, "
-        f"{len(run.robot_ids)} robot(s), seed {run.seed}. Robot states and task ends are as the manager heard "
-        "them through Orion, so busy time and utilisation lag the robots by the notification delay. Columns are "
-        f"defined in vcran's docs/report.md.\n\n## Jobs\n\n{jobs_markdown(run.jobs)}\n{NOT_HERE[0].upper()}{NOT_HERE[1:]}.\n",
+        f"# KPIs: {run.scenario}\n\nThe {heard[0]} {run.manager} against {heard[1]}, {run.sim_time:g} s, "
+        f"{len(run.robot_ids)} robot(s), seed {run.seed}. {heard[2]}, so busy time and utilisation lag the robots "
+        f"by {heard[3]}. Columns are defined in vcran's docs/report.md.\n\n## Jobs\n\n{jobs_markdown(run.jobs)}\n"
+        f"{NOT_HERE[0].upper()}{NOT_HERE[1:]}.\n",
         encoding="utf-8")
     return files, NOT_HERE

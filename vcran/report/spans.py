@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from vcran.core.opil.effects import Reason, State
-from vcran.report.folder import Run
 
 WAITING = State.WAITING.value
 STATES = tuple(s.value for s in State)
@@ -74,6 +73,8 @@ class Happenings(Protocol):
     ``vcran manage`` folder's, whose robots' events are what the manager heard (:mod:`vcran.report.managed`)."""
 
     @property
+    def protocol(self) -> str: ...  # the scenario's: ``opil`` or ``vda5050``
+    @property
     def robot_ids(self) -> tuple[str, ...]: ...
     @property
     def events(self) -> list[dict[str, Any]]: ...
@@ -83,8 +84,9 @@ class Happenings(Protocol):
 
 def histories(run: Happenings) -> dict[str, History]:
     """Every robot's history, robots in fleet order; events of entities outside the fleet are ignored. A
-    VDA 5050 run's are its vehicles' orders (:mod:`vcran.report.vda5050`), read from its events and trace."""
-    if isinstance(run, Run) and run.vda is not None:
+    VDA 5050 run's are its vehicles' orders (:mod:`vcran.report.vda5050`), read from its events and trace
+    (a ``vcran manage --mqtt`` folder: its events only)."""
+    if run.protocol == "vda5050":
         from vcran.report.vda5050 import order_histories
 
         return order_histories(run)

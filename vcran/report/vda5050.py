@@ -25,7 +25,7 @@ from vcran.io.trace import records
 from vcran.report.spans import Band, History, TaskSpan
 
 if TYPE_CHECKING:
-    from vcran.report.folder import Run
+    from vcran.report.spans import Happenings
 
 PROTOCOL = "vda5050"
 IDLE, ORDER, DRIVING, ACTION = "IDLE", "ORDER", "DRIVING", "ACTION"
@@ -63,9 +63,10 @@ def read_trace(path: Path, with_battery: set[str]) -> VdaTrace:
     return out
 
 
-def order_histories(run: Run) -> dict[str, History]:
-    """Every vehicle's state bands and orders (module docstring), robots in fleet order."""
-    assert run.vda is not None
+def order_histories(run: Happenings) -> dict[str, History]:
+    """Every vehicle's state bands and orders (module docstring), robots in fleet order. Without a trace (a
+    ``vcran manage --mqtt`` folder: the orders the master heard, :mod:`vcran.report.managed`) a vehicle with
+    an order is in ORDER, neither DRIVING nor ACTION: its busy time is the same."""
     builders = {rid: _Orders(rid) for rid in run.robot_ids}
     for t, robot, kind, item in _merged(run):
         builder = builders.get(robot)
@@ -74,13 +75,13 @@ def order_histories(run: Run) -> dict[str, History]:
     return {rid: b.finish(run.sim_time) for rid, b in builders.items()}
 
 
-def _merged(run: Run) -> Iterator[tuple[float, str, str, Any]]:
+def _merged(run: Happenings) -> Iterator[tuple[float, str, str, Any]]:
     """The events and the published states' (driving, acting), in time order, events first at a tie."""
-    assert run.vda is not None
+    vda: VdaTrace | None = getattr(run, "vda", None)  # a run folder's; a managed folder has no trace
     items: list[tuple[float, int, str, str, Any]] = [
         (float(e["t"]), 0, e["robot"], e["event"], e) for e in run.events]
     items += [(t, 1, robot, "state", (driving, acting))
-              for robot, seen in run.vda.motion.items() for t, driving, acting in seen]
+              for robot, seen in (vda.motion if vda is not None else {}).items() for t, driving, acting in seen]
     items.sort(key=lambda item: (item[0], item[1]))
     for t, _, robot, kind, item in items:
         yield t, robot, kind, item

@@ -146,6 +146,48 @@ def test_charging_starts_standing_and_stops_on_request() -> None:
     assert bench.seen()["order"] == ("o", 0)
 
 
+def test_stop_charging_after_start_charging_in_one_message_stops_the_charge_it_started() -> None:
+    """The actions of one instantActions message are performed in order (§6.9): a stopCharging behind a
+    startCharging still starting the charge (RUNNING, §6.8.2) waits for it, WAITING, and is not taken for a
+    stopCharging while not charging (FINISHED at once, §6.8.1): once the charge runs, the body is told to stop
+    it, and the vehicle reports charging false when it has."""
+    bench = Bench()
+    bench.battery = 40.0
+    effects = bench.instant(instant(action("startCharging", "c1", "NONE"), action("stopCharging", "c2", "NONE")))
+    assert [e for e in effects if isinstance(e, Act)] == [Act("startCharging", "c1")]
+    assert {k: bench.seen()["actions"][k] for k in ("c1", "c2")} == {"c1": "RUNNING", "c2": "WAITING"}
+    assert [e for e in bench.finish("c1") if isinstance(e, Act)] == [Act("stopCharging", "c2")]  # the charge runs: stop it
+    assert bench.last.battery_state.charging and bench.seen()["actions"]["c2"] == "RUNNING"
+    bench.finish("c2")
+    assert not bench.last.battery_state.charging
+    assert {k: bench.seen()["actions"][k] for k in ("c1", "c2")} == {"c1": "FINISHED", "c2": "FINISHED"}
+
+
+def test_a_body_action_behind_a_waiting_stop_charging_waits_with_it() -> None:
+    """start, stop, start in one message: the second startCharging is not started before the stopCharging
+    ahead of it (§6.9, in order), so the body is told start, stop, start, and the vehicle ends charging."""
+    bench = Bench()
+    bench.instant(instant(action("startCharging", "c1", "NONE"), action("stopCharging", "c2", "NONE"),
+                          action("startCharging", "c3", "NONE")))
+    assert {k: bench.seen()["actions"][k] for k in ("c1", "c2", "c3")} == {"c1": "RUNNING", "c2": "WAITING", "c3": "WAITING"}
+    assert [e for e in bench.finish("c1") if isinstance(e, Act)] == [Act("stopCharging", "c2"), Act("startCharging", "c3")]
+    bench.finish("c2")
+    bench.finish("c3")
+    assert bench.last.battery_state.charging
+    assert {k: bench.seen()["actions"][k] for k in ("c1", "c2", "c3")} == {"c1": "FINISHED", "c2": "FINISHED", "c3": "FINISHED"}
+
+
+def test_stop_charging_behind_a_failed_start_charging_is_finished() -> None:
+    """The startCharging before it FAILED (no charger in reach): nothing charges, so the stopCharging is
+    FINISHED as any stopCharging while not charging (§6.8.1), with nothing for the body to do."""
+    bench = Bench()
+    bench.instant(instant(action("startCharging", "c1", "NONE"), action("stopCharging", "c2", "NONE")))
+    effects = bench.finish("c1", ok=False, message="no charger in reach")
+    assert not [e for e in effects if isinstance(e, Act)]
+    assert {k: bench.seen()["actions"][k] for k in ("c1", "c2")} == {"c1": "FAILED", "c2": "FINISHED"}
+    assert not bench.last.battery_state.charging
+
+
 def test_charging_is_reported_as_the_vehicle_decides_it_with_or_without_a_battery_model() -> None:
     """The state says what the acceptance rules use: a master that sees charging false must not get an
     orderError for charging (found by the fuzzing machine: a robot without a battery model reported false)."""

@@ -106,6 +106,54 @@ def test_the_warehouse_master_completes_its_jobs_against_vcran_live_mqtt_and_the
     assert verified.returncode == 0, verified.stdout + verified.stderr
     assert "verify: every outbound record, leg (telemetry) and event matches the recording" in verified.stdout
 
+    heard_busy_time_is_reported(out_b, live.out, assigned)
+
+
+def heard_busy_time_is_reported(out_b: Path, live_out: Path, assigned: set[tuple[str, str]]) -> None:
+    """``vcran report`` of B's folder: fleet utilisation is the busy time B heard in the vehicles' states (it
+    logs ``order_accepted`` and ``order_ended`` as it hears them, docs/vda5050.md "Live over MQTT"), no longer
+    0 %. Derived from A's own record, not from the report's code: every order B gave for a job is heard
+    accepted and completed on its vehicle, and each order B heard end lasted, as heard, as long as A's vehicle
+    held it (accepted to ended, in A's events), give or take the link's latency both ways; the two processes'
+    clocks start apart, so durations are compared, not instants."""
+    from vcran.cli import main
+    from vcran.core.vda5050.outcomes import Ended, Opened, OrderLog
+    from vcran.report.managed import read_managed
+    from vcran.report.spans import histories
+
+    def spans(events: list[dict]) -> dict[tuple[str, str], tuple[float, float, str]]:
+        """(robot, order) -> (accepted, ended, how), each robot's orders fed in order (its OrderLog)."""
+        logs: dict[str, OrderLog] = {}
+        opened: dict[str, float] = {}
+        out = {}
+        for e in events:
+            change = logs.setdefault(e["robot"], OrderLog()).feed(e)
+            if isinstance(change, Opened):
+                opened[e["robot"]] = change.t
+            elif isinstance(change, Ended):
+                out[(e["robot"], change.order_id)] = (opened.pop(e["robot"]), change.t, change.outcome)
+        return out
+
+    heard = spans(event_records(out_b / EVENTS_FILE))
+    own = spans(event_records(live_out / EVENTS_FILE))
+    assert assigned <= set(heard) and all(heard[k][2] == "completed" for k in assigned), (assigned, heard)
+    assert set(heard) <= set(own)
+    latency = 2.0  # simulated seconds: 0.2 wall seconds at FACTOR 10, at each end of an order
+    for key, (start, end, how) in heard.items():
+        assert how == own[key][2]
+        assert abs((end - start) - (own[key][1] - own[key][0])) <= latency, (key, heard[key], own[key])
+
+    run = read_managed(out_b)
+    busy = sum(h.busy for h in histories(run).values())
+    assert busy >= sum(end - start for start, end, _ in heard.values()) > 0  # orders still open at the end count too
+    report = out_b.parent / "report"
+    assert main(["report", str(out_b), "--out", str(report)]) == 0
+    kpi = (report / "kpi.md").read_text()
+    rows = dict(tuple(c.strip() for c in row.strip("|").split("|")) for row in kpi.splitlines()
+                if row.startswith("| ") and "job KPI" not in row)
+    share = busy / (run.sim_time * len(run.robot_ids))
+    assert rows["fleet utilisation"] == f"{share:.1%}" and share > 0.0, rows
+
 
 def test_sigterm_ends_manage_normally_with_its_folder(broker, tmp_path):
     """No vehicle answers (nothing serves the fleet): the jobs arrive and stay open, the master's orders go

@@ -200,3 +200,31 @@ def test_an_unreachable_broker_is_an_error_before_any_hook_runs(tmp_path):
     with pytest.raises(MqttUnavailable):
         loop.attach(LiveEnvironment(), lambda _: None)
     assert not hasattr(master, "got")
+
+
+def test_a_payload_is_parsed_once_and_one_that_is_not_json_is_counted_once(monkeypatch):
+    """The link hears each payload parsed once: the edge's screen parses it and hands the JSON value on to
+    decoding (codec.decode_parsed), which does not parse it again. A payload that is not JSON is counted
+    once, as a bad payload, not also as an invalid message; JSON that is no connection message (a list) is
+    an invalid message. Three payloads arrive as paho hands them over (MqttMaster's callback, no broker
+    needed): three parses, one message heard, one bad payload, one invalid message."""
+    from transports.mqtt.client import MqttOptions
+
+    env = LiveEnvironment(speed=1.0)
+    link = MqttMasterLink(env, parse_url("mqtt://127.0.0.1:1"), Driver.fleet(CONFIGS), lambda _: None,
+                          MqttOptions())
+    online = orjson.dumps({"headerId": 0, "timestamp": "2026-01-01T00:00:00.00Z", "version": "2.1.0",
+                           "manufacturer": "vcran", "serialNumber": "S1", "connectionState": "ONLINE"})
+    parsed: list[bytes] = []
+    loads = orjson.loads
+    monkeypatch.setattr(orjson, "loads", lambda data: parsed.append(data) or loads(data))
+    topic = "uagv/v2/vcran/S1/connection"
+    try:
+        for payload in (online, b"not json", b"[1]"):
+            link.master._received(topic, payload)  # paho's on_message, as on the network thread
+    finally:
+        monkeypatch.undo()
+        link.close()
+    assert parsed == [online, b"not json", b"[1]"]
+    assert dict(link.master.tally.counts) == {"bad payloads": 1, "invalid messages": 1}
+    assert link.describe() == "0 message(s) sent, 0 not sent (broker down); 1 heard (1 bad payloads, 1 invalid messages)"

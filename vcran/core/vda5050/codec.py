@@ -324,6 +324,13 @@ def decode(topic: Topic, raw: bytes | str | dict[str, Any], version: Version) ->
             doc = orjson.loads(raw)
         except orjson.JSONDecodeError as exc:
             return Invalid(topic, "$", f"not JSON: {exc}")
+    return decode_parsed(topic, doc, version)
+
+
+def decode_parsed(topic: Topic, doc: Any, version: Version) -> Any:
+    """:func:`decode` of a message already parsed: ``doc`` is whatever its JSON text parsed to (an object,
+    or any other JSON value, which the schema refuses), for an edge that parsed the payload itself (the
+    master's MQTT link: :mod:`transports.mqtt.manage`). Never raises for bad input."""
     found = validation.first_problem(validation.inbound(topic, version), doc)
     if found is not None:
         return _invalid(topic, doc, *found)

@@ -3,7 +3,9 @@
 Each instant action gets an actionState when it arrives. The vehicle does some itself, at once:
 cancelOrder (§6.6.3), startPause/stopPause (FINISHED when the pause mode is on/off, §6.8.2),
 initPosition, stateRequest, factsheetRequest; the body does the others (startCharging, stopCharging,
-finePositioning, waitForTrigger, and action types the configuration adds), RUNNING until it reports.
+finePositioning, waitForTrigger, and action types the configuration adds), RUNNING until it reports. One
+message's actions run in order: a stopCharging behind a startCharging still starting the charge waits for it
+(:meth:`InstantActionsMixin.start_deferred`; docs/vda5050.md).
 
 An instant action the vehicle cannot perform (an unknown type, one not usable as an instant action, a
 blocking type or a parameter it does not accept, an actionId already in use) is FAILED (or, for a used
@@ -16,7 +18,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from vcran.core.vda5050 import errors
-from vcran.core.vda5050.actions import FAILED, FINISHED, WAITING, Run
+from vcran.core.vda5050.actions import FAILED, FINISHED, RUNNING, WAITING, Run
 from vcran.core.vda5050.codec import Invalid
 from vcran.core.vda5050.config import ActionSpec
 from vcran.core.vda5050.effects import Place, PublishFactsheet, Where
@@ -83,21 +85,38 @@ class InstantActionsMixin:
         elif kind == "factsheetRequest":
             self.actions.set(run, FINISHED)
             self.publish_factsheet()
+        elif kind == "stopCharging" and self._charge_starting():
+            self._deferred.append(run)  # stops the charge once started: the actions in their order (§6.9)
         elif (kind == "startCharging" and self.charging) or (kind == "stopCharging" and not self.charging):
             self.actions.set(run, FINISHED)  # idempotent (§6.8.1)
         elif kind == "startCharging" and self.route:
             self._fail(run, "the vehicle charges standing, not while driving", refs)
         elif spec is not None and not spec.body:
             self._fail(run, f"{kind!r} is not an action vcran performs", refs)
-        elif self.paused or self.broken:
-            self._deferred.append(run)  # WAITING until the vehicle goes on (§6.8.2: all actions paused)
+        elif self.paused or self.broken or self._deferred:
+            self._deferred.append(run)  # WAITING until the vehicle goes on (§6.8.2: all actions paused), in order
         else:
             self.actions.start(run)
 
     def start_deferred(self) -> None:
+        """Start the instant actions that wait, in their order, up to a stopCharging whose startCharging is
+        still starting the charge: it waits on, and those after it with it. Once the charge has started, the
+        stopCharging stops it; if none started (the startCharging FAILED), it is FINISHED as any stopCharging
+        while not charging (§6.8.1)."""
         waiting, self._deferred[:] = [r for r in self._deferred if r.status is WAITING], []
-        for run in waiting:
+        for i, run in enumerate(waiting):
+            if run.action.action_type == "stopCharging":
+                if self._charge_starting():
+                    self._deferred[:] = waiting[i:]
+                    return
+                if not self.charging:
+                    self.actions.set(run, FINISHED)
+                    continue
             self.actions.start(run)
+
+    def _charge_starting(self) -> bool:
+        """A startCharging runs: the body is starting the charge (FINISHED once it charges, §6.8.2)."""
+        return any(r.status is RUNNING and r.action.action_type == "startCharging" for r in self.actions.runs.values())
 
     def invalid_error(self, invalid: Invalid) -> Error:
         """§6.6.4.1 ``validationError``, with the references of §7.1 that were readable."""

@@ -87,7 +87,7 @@ class Vehicle(InstantActionsMixin, ConditionsMixin, ReportingMixin):
         self._leg_began = float("-inf")
         self._odometer_at_node: float | None = None
         self._cancel: Run | None = None  # the cancelOrder in progress
-        self._deferred: list[Run] = []  # instant actions waiting for a pause or breakdown to end
+        self._deferred: list[Run] = []  # instant actions waiting for a pause or breakdown to end, or for a charge to start
         self._active = False  # an accepted order that has not ended
         self._now = float("-inf")
         self._forced = False
