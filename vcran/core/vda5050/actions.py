@@ -19,7 +19,7 @@ the edge, the action will stop"): running ones are stopped and reported FINISHED
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from vcran.core.vda5050.effects import Act, ActionChanged, Effect, Interrupt
 from vcran.core.vda5050.enums import ActionScope, ActionStatus, BlockingType
@@ -43,18 +43,14 @@ class Run:
     status: ActionStatus = WAITING
     held: bool = False  # running, but the vehicle is paused or broken down
     result: str | None = None
+    #: The action's id and blocking type, and whether it is the order's (not instant): asked of every action at
+    #: every step of the vehicle, plain attributes rather than properties (a Python call each).
+    id: str = field(init=False)
+    blocking: BlockingType = field(init=False)
+    of_order: bool = field(init=False)
 
-    @property
-    def id(self) -> str:
-        return self.action.action_id
-
-    @property
-    def blocking(self) -> BlockingType:
-        return self.action.blocking_type
-
-    @property
-    def of_order(self) -> bool:
-        return self.scope is not INSTANT
+    def __post_init__(self) -> None:
+        self.id, self.blocking, self.of_order = self.action.action_id, self.action.blocking_type, self.scope is not INSTANT
 
 
 class ActionBook:
