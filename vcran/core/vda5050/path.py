@@ -25,6 +25,8 @@ class Path:
         self.edges: list[Edge] = []
         #: Bumped at every change (the state message's nodeStates and edgeStates are built again then).
         self.version = 0
+        #: (version, :meth:`short_of_base` then): asked before and after every input of the vehicle.
+        self._short = (0, False)
 
     def load(self, order: Order) -> None:
         """A new order whose first node the vehicle has just traversed (it stands on it)."""
@@ -66,6 +68,14 @@ class Path:
 
     def released_edges(self) -> int:
         return sum(1 for e in self.edges if e.released)
+
+    def short_of_base(self) -> bool:
+        """§6.10.3's ``newBaseRequest`` of an active order: a horizon, and at most one released edge left to
+        drive. Worked out once per :attr:`version` (every change of the nodes and edges bumps it)."""
+        short = self._short
+        if short[0] != self.version:
+            short = self._short = (self.version, self.horizon() and self.released_edges() <= 1)
+        return short[1]
 
     def segment(self, commanded: int, entered: set[int]) -> list[tuple[Edge, Node]]:
         """The edges and nodes to drive after the ``commanded`` nodes already on the route: released ones,
