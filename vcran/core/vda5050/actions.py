@@ -108,8 +108,9 @@ class ActionBook:
     def start_ready(self) -> None:
         """Start what Figure 17 lets start now (module docstring)."""
         running = [r for r in self.runs.values() if r.of_order and r.status is RUNNING]
-        if any(r.blocking is HARD for r in running):
-            return
+        for r in running:
+            if r.blocking is HARD:
+                return
         while self._queue:
             run = self._queue[0]
             if run.blocking is HARD:
@@ -124,12 +125,21 @@ class ActionBook:
 
     def blocks_driving(self) -> bool:
         """A SOFT or HARD action of the order is queued or running (Figure 17: "stop driving")."""
-        return any(r.blocking is not NONE for r in self._queue) or any(
-            r.of_order and r.status is RUNNING and r.blocking is not NONE for r in self.runs.values())
+        # loops, not any() over generators: asked at every step of the vehicle (issue 31's 100-vehicle hour)
+        for r in self._queue:
+            if r.blocking is not NONE:
+                return True
+        for r in self.runs.values():
+            if r.of_order and r.status is RUNNING and r.blocking is not NONE:
+                return True
+        return False
 
     def order_open(self) -> bool:
         """An action of the order is neither FINISHED nor FAILED (Figure 8 (3))."""
-        return any(r.of_order and not r.status.final for r in self.runs.values())
+        for r in self.runs.values():
+            if r.of_order and r.status is not FINISHED and r.status is not FAILED:
+                return True
+        return False
 
     def order_running(self) -> bool:
         return any(r.of_order and r.status is RUNNING for r in self.runs.values())
@@ -177,8 +187,11 @@ class ActionBook:
         """A SOFT or HARD instant action runs: the vehicle must not drive meanwhile. Not a cancelOrder, whatever
         its blocking type: Figure 9 says how the vehicle stops (to the next node, or at once), and holding it
         short of its node would keep the cancel from ever finishing (docs/vda5050.md)."""
-        return any(not r.of_order and r.status is RUNNING and r.blocking is not NONE
-                   and r.action.action_type != "cancelOrder" for r in self.runs.values())
+        for r in self.runs.values():
+            if not r.of_order and r.status is RUNNING and r.blocking is not NONE \
+                    and r.action.action_type != "cancelOrder":
+                return True
+        return False
 
     def set(self, run: Run, status: ActionStatus, result: str | None = None) -> None:
         if status.final:

@@ -16,7 +16,13 @@ from vcran.core.vda5050.order import Action, Edge, Node, Order
 
 def blocking(actions: tuple[Action, ...]) -> bool:
     """Whether these actions stop the vehicle (a SOFT or HARD one among them, §6.12)."""
-    return any(a.blocking_type is not BlockingType.NONE for a in actions)
+    for a in actions:  # a loop, not any() over a generator: asked for every node and edge at every step
+        if a.blocking_type is not _NONE:
+            return True
+    return False
+
+
+_NONE = BlockingType.NONE
 
 
 class Path:
