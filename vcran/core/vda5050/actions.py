@@ -90,20 +90,22 @@ class ActionBook:
 
     def states(self) -> tuple[ActionState, ...]:
         if self._states is None:
-            self._states = tuple(
+            self._states = tuple([
                 ActionState(action_id=r.id, action_type=r.action.action_type,
                             action_description=r.action.action_description,
                             action_status=PAUSED if r.held and self._report_paused else r.status,
                             result_description=r.result)
-                for r in self.runs.values())
+                for r in self.runs.values()])
         return self._states
 
     # --- the order's actions ----------------------------------------------------------------------------
 
     def trigger(self, scope: ActionScope, place: int) -> None:
         """The vehicle reached the node (entered the edge) at ``place``: its waiting actions queue up."""
-        self._queue.extend(r for r in self.runs.values()
-                           if r.scope is scope and r.place == place and r.status is WAITING and r not in self._queue)
+        queue = self._queue
+        for r in self.runs.values():
+            if r.scope is scope and r.place == place and r.status is WAITING and r not in queue:
+                queue.append(r)
 
     def start_ready(self) -> None:
         """Start what Figure 17 lets start now (module docstring)."""

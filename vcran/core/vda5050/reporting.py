@@ -81,10 +81,10 @@ class ReportingMixin:
         if graph is None or graph[0] != self.path.version:
             graph = self._graph = (
                 self.path.version,
-                tuple(NodeState(node_id=n.node_id, sequence_id=n.sequence_id, node_description=n.node_description,
-                                released=n.released) for n in self.path.nodes),
-                tuple(EdgeState(edge_id=e.edge_id, sequence_id=e.sequence_id, edge_description=e.edge_description,
-                                released=e.released) for e in self.path.edges),
+                tuple([NodeState(node_id=n.node_id, sequence_id=n.sequence_id, node_description=n.node_description,
+                                 released=n.released) for n in self.path.nodes]),
+                tuple([EdgeState(edge_id=e.edge_id, sequence_id=e.sequence_id, edge_description=e.edge_description,
+                                 released=e.released) for e in self.path.edges]),
             )
         at = self._odometer_at_node
         since = max(0.0, body.where.odometer - at) if at is not None and self.last_node_id else None
