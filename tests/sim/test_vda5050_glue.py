@@ -110,6 +110,37 @@ def test_a_vda5050_run_is_deterministic_and_its_replay_verifies(run, tmp_path, c
     assert main(["replay", str(run), "--verify", "--quiet"]) == 0
 
 
+def test_a_scripted_order_is_recorded_as_the_script_wrote_it(tmp_path):
+    """docs/vda5050.md, "What a VDA 5050 run records": a script's order is in the trace as its master sends it,
+    the header vcran stamped and then the message's keys in the file's order, numbers as written (``x = 2``
+    an integer, ``mapId`` before ``y``), not re-encoded from the decoded order in the model's order; the
+    replay decodes that text as it would a broker's and verifies."""
+    path = tmp_path / "odd.toml"
+    path.write_text(ONE_VEHICLE + """
+[[script]]
+t = 1.0
+robot = "agv"
+kind = "order"
+message = '{"orderUpdateId": 0, "orderId": "o1", "edges": [{"edgeId": "a-b", "sequenceId": 1, "released": true, "startNodeId": "a", "endNodeId": "b", "actions": []}], "nodes": [{"nodeId": "a", "sequenceId": 0, "released": true, "nodePosition": {"x": 0, "mapId": "map", "y": 0.0}, "actions": []}, {"sequenceId": 2, "nodeId": "b", "released": true, "nodePosition": {"mapId": "map", "x": 2, "y": 0.0}, "actions": []}]}'
+""")
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "--quiet"]) == 0
+    with trace_in(out).open("rb") as f:
+        import zstandard
+
+        lines = zstandard.ZstdDecompressor().stream_reader(f).read().decode().splitlines()
+    (line,) = [x for x in lines if '"dir":"in"' in x]
+    assert line == (
+        '{"t":1.0,"dir":"in","robot":"agv","attr":"order","raw":{"headerId":0,"timestamp":"1970-01-01T00:00:01.00Z",'
+        '"version":"2.1.0","manufacturer":"acme","serialNumber":"7","orderUpdateId":0,"orderId":"o1","edges":[{"edgeId":'
+        '"a-b","sequenceId":1,"released":true,"startNodeId":"a","endNodeId":"b","actions":[]}],"nodes":[{"nodeId":"a",'
+        '"sequenceId":0,"released":true,"nodePosition":{"x":0,"mapId":"map","y":0.0},"actions":[]},{"sequenceId":2,'
+        '"nodeId":"b","released":true,"nodePosition":{"mapId":"map","x":2,"y":0.0},"actions":[]}]}}')
+    ended = [(e["order_id"], e["how"]) for e in event_records(out / "events.jsonl.zst") if e["event"] == "order_ended"]
+    assert ended == [("o1", "completed")]
+    assert main(["replay", str(out), "--verify", "--quiet"]) == 0
+
+
 def order(t: float, robot: str, order_id: str, nodes: list[tuple[str, float]]) -> str:
     """A script entry: an order along the x axis through ``nodes`` ((nodeId, x)), all released."""
     node_rows = ",\n".join(

@@ -155,6 +155,9 @@ class ScriptEntry:
     message: Message | VdaMessage | None = None
     #: An NGSI attribute as JSON, decoded by the RAN like a live one: how scripts exercise R12.
     raw: Any = None
+    #: The JSON text ``message`` was decoded from (a VDA 5050 script's stamped message), which its trace
+    #: record is (:class:`~vcran.core.wire.Inbound`'s ``wire``); None: encoded from ``message`` when written.
+    wire: bytes | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -234,13 +237,13 @@ class Script(Iterator[ScriptEntry]):
 
     def __init__(self, runs: Iterator[tuple[float, Iterable[Inbound]]]) -> None:
         self._runs = runs
-        self._entries = (_entry(t, i.entity, i.attribute, i.message, i.raw) for t, run in runs for i in run)
+        self._entries = (_entry(t, i.entity, i.attribute, i.message, i.raw, i.wire) for t, run in runs for i in run)
 
     @classmethod
     def of(cls, entries: Iterable[ScriptEntry]) -> Script:
         """Any entries in time order as a script; an entry is pulled from ``entries`` once the one before
         it was delivered, as a transport consumes a script lazily."""
-        return cls((t, (_inbound(e.robot, e.attribute, e.message, e.raw) for e in run))
+        return cls((t, (_inbound(e.robot, e.attribute, e.message, e.raw, e.wire) for e in run))
                    for t, run in groupby(entries, key=_time))
 
     def __next__(self) -> ScriptEntry:
@@ -490,7 +493,7 @@ def _merged(script: tuple[ScriptEntry, ...], cycles: tuple[Cycle, ...]) -> Itera
         following: float | None
         if n == 0:
             assert run is not None
-            yield t, [_inbound(e.robot, e.attribute, e.message, e.raw) for e in run[1]]
+            yield t, [_inbound(e.robot, e.attribute, e.message, e.raw, e.wire) for e in run[1]]
             run = next(runs, None)
             following = None if run is None else run[0]
         else:

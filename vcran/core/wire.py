@@ -9,7 +9,7 @@ at one telemetry tick as columns. The time is always the simulated time of the e
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from vcran.core.slots import slot_init
@@ -24,12 +24,16 @@ if TYPE_CHECKING:  # a protocol's decoded message; typed as OPIL's, which every 
 @slot_init
 @dataclass(frozen=True, slots=True)
 class Inbound:
-    """``attribute`` of entity ``entity`` was written with ``message`` (decoded) or ``raw`` (NGSI JSON)."""
+    """``attribute`` of entity ``entity`` was written with ``message`` (decoded) or ``raw`` (NGSI JSON).
+
+    ``wire``: the JSON text ``message`` was decoded from, where the script kept it (a VDA 5050 script's stamped
+    messages): the trace writes it as it is rather than encoding the message again."""
 
     entity: str
     attribute: str
     message: Message | None = None
     raw: Any = None
+    wire: bytes | None = field(default=None, compare=False, repr=False)
 
 
 @slot_init

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
+import orjson
+
 from vcran.core.scenario import VDA5050, RobotConfig, ScriptEntry, Settings
 from vcran.core.vda5050.enums import Topic, Version
 from vcran.core.vda5050.header import DEFAULT_EPOCH, epoch_of, timestamp
@@ -88,6 +90,16 @@ def header(robot: RobotConfig, n: int, t: float, epoch: datetime = DEFAULT_EPOCH
             "serialNumber": serial}
 
 
+def _wire(doc: dict[str, Any]) -> bytes | None:
+    """The stamped message as the master sends it, which its trace record is (docs/outputs.md): the text of the
+    document it was decoded from, keys as the script wrote them. None where orjson cannot write it (an integer
+    beyond 64 bits, a lone surrogate): the trace then encodes the decoded message."""
+    try:
+        return orjson.dumps(doc)
+    except orjson.JSONEncodeError:
+        return None
+
+
 def stamped(drafts: Sequence[Draft], robots: Mapping[str, RobotConfig], settings: Settings) -> list[ScriptEntry]:
     """The drafts as script entries, in the same order: each message with its header, checked against its
     vehicle's version's schema. Headers count in time order (equal times in the drafts' order, the file's),
@@ -111,8 +123,9 @@ def stamped(drafts: Sequence[Draft], robots: Mapping[str, RobotConfig], settings
         n = counts.get((d.robot, d.topic), 0)
         counts[(d.robot, d.topic)] = n + 1
         version = robot.vda5050_identity[3]
-        message = codec.decode(Topic(d.topic), {**header(robot, n, d.t, epoch), **d.body}, Version(version))
+        doc = {**header(robot, n, d.t, epoch), **d.body}
+        message = codec.decode(Topic(d.topic), doc, Version(version))
         if isinstance(message, codec.Invalid):
             d.table.fail("message", f"{message.path}: {message.problem} (VDA 5050 {version}'s schema)")
-        out[i] = ScriptEntry(d.t, d.robot, d.topic, message)
+        out[i] = ScriptEntry(d.t, d.robot, d.topic, message, wire=_wire(doc))
     return out  # type: ignore[return-value]  # every index was filled

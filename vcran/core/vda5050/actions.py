@@ -19,7 +19,7 @@ the edge, the action will stop"): running ones are stopped and reported FINISHED
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from vcran.core.vda5050.effects import Act, ActionChanged, Effect, Interrupt
 from vcran.core.vda5050.enums import ActionScope, ActionStatus, BlockingType
@@ -43,18 +43,14 @@ class Run:
     status: ActionStatus = WAITING
     held: bool = False  # running, but the vehicle is paused or broken down
     result: str | None = None
+    #: The action's id and blocking type, and whether it is the order's (not instant): asked of every action at
+    #: every step of the vehicle, plain attributes rather than properties (a Python call each).
+    id: str = field(init=False)
+    blocking: BlockingType = field(init=False)
+    of_order: bool = field(init=False)
 
-    @property
-    def id(self) -> str:
-        return self.action.action_id
-
-    @property
-    def blocking(self) -> BlockingType:
-        return self.action.blocking_type
-
-    @property
-    def of_order(self) -> bool:
-        return self.scope is not INSTANT
+    def __post_init__(self) -> None:
+        self.id, self.blocking, self.of_order = self.action.action_id, self.action.blocking_type, self.scope is not INSTANT
 
 
 class ActionBook:
@@ -94,26 +90,29 @@ class ActionBook:
 
     def states(self) -> tuple[ActionState, ...]:
         if self._states is None:
-            self._states = tuple(
+            self._states = tuple([
                 ActionState(action_id=r.id, action_type=r.action.action_type,
                             action_description=r.action.action_description,
                             action_status=PAUSED if r.held and self._report_paused else r.status,
                             result_description=r.result)
-                for r in self.runs.values())
+                for r in self.runs.values()])
         return self._states
 
     # --- the order's actions ----------------------------------------------------------------------------
 
     def trigger(self, scope: ActionScope, place: int) -> None:
         """The vehicle reached the node (entered the edge) at ``place``: its waiting actions queue up."""
-        self._queue.extend(r for r in self.runs.values()
-                           if r.scope is scope and r.place == place and r.status is WAITING and r not in self._queue)
+        queue = self._queue
+        for r in self.runs.values():
+            if r.scope is scope and r.place == place and r.status is WAITING and r not in queue:
+                queue.append(r)
 
     def start_ready(self) -> None:
         """Start what Figure 17 lets start now (module docstring)."""
         running = [r for r in self.runs.values() if r.of_order and r.status is RUNNING]
-        if any(r.blocking is HARD for r in running):
-            return
+        for r in running:
+            if r.blocking is HARD:
+                return
         while self._queue:
             run = self._queue[0]
             if run.blocking is HARD:
@@ -128,12 +127,21 @@ class ActionBook:
 
     def blocks_driving(self) -> bool:
         """A SOFT or HARD action of the order is queued or running (Figure 17: "stop driving")."""
-        return any(r.blocking is not NONE for r in self._queue) or any(
-            r.of_order and r.status is RUNNING and r.blocking is not NONE for r in self.runs.values())
+        # loops, not any() over generators: asked at every step of the vehicle (issue 31's 100-vehicle hour)
+        for r in self._queue:
+            if r.blocking is not NONE:
+                return True
+        for r in self.runs.values():
+            if r.of_order and r.status is RUNNING and r.blocking is not NONE:
+                return True
+        return False
 
     def order_open(self) -> bool:
         """An action of the order is neither FINISHED nor FAILED (Figure 8 (3))."""
-        return any(r.of_order and not r.status.final for r in self.runs.values())
+        for r in self.runs.values():
+            if r.of_order and r.status is not FINISHED and r.status is not FAILED:
+                return True
+        return False
 
     def order_running(self) -> bool:
         return any(r.of_order and r.status is RUNNING for r in self.runs.values())
@@ -181,8 +189,11 @@ class ActionBook:
         """A SOFT or HARD instant action runs: the vehicle must not drive meanwhile. Not a cancelOrder, whatever
         its blocking type: Figure 9 says how the vehicle stops (to the next node, or at once), and holding it
         short of its node would keep the cancel from ever finishing (docs/vda5050.md)."""
-        return any(not r.of_order and r.status is RUNNING and r.blocking is not NONE
-                   and r.action.action_type != "cancelOrder" for r in self.runs.values())
+        for r in self.runs.values():
+            if not r.of_order and r.status is RUNNING and r.blocking is not NONE \
+                    and r.action.action_type != "cancelOrder":
+                return True
+        return False
 
     def set(self, run: Run, status: ActionStatus, result: str | None = None) -> None:
         if status.final:

@@ -241,7 +241,7 @@ def _expression(f: WireField, n: int, value: str) -> str:
 
 def _kind_expression(kind: str, value: str, depth: int) -> str:
     if kind == "enum":
-        return f"{value}.value"
+        return f"{value}._value_"  # the member's own attribute: .value is a property (a Python call per enum)
     if kind == "model":
         return f"_model({value}, _version)"
     if kind.startswith("tuple:"):

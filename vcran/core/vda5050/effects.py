@@ -68,6 +68,7 @@ class Body:
 # --- commands ---------------------------------------------------------------------------------------------
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class NodeTag:
     """A waypoint's tag: the node of the order it stands for. Sequence ids are unique within an order."""
@@ -77,6 +78,7 @@ class NodeTag:
     sequence_id: int
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Waypoint:
     """Drive to ``(x, y)`` along a straight leg at no more than ``max_speed`` (the edge's ``maxSpeed``;
@@ -90,26 +92,31 @@ class Waypoint:
     edge_id: str
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Drive:
     route: tuple[Waypoint, ...]
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class StopAfterLeg:
     pass
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class StopNow:
     pass
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Abandon:
     pass
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Act:
     """Perform action ``action_id`` of type ``action_type`` (pick, drop, startCharging, stopCharging,
@@ -127,11 +134,13 @@ class Act:
         return default
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Interrupt:
     action_id: str
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Hold:
     """``kind``: ``pause`` (startPause) or ``instant`` (a SOFT or HARD instant action is running)."""
@@ -139,11 +148,13 @@ class Hold:
     kind: str
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Release:
     kind: str
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class Place:
     x: float
@@ -152,16 +163,19 @@ class Place:
     map_id: str
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class PublishState:
     pass
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class PublishFactsheet:
     pass
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class StartTimer:
     key: str
@@ -171,6 +185,7 @@ class StartTimer:
 # --- events -----------------------------------------------------------------------------------------------
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class OrderAccepted:
     order_id: str
@@ -178,6 +193,7 @@ class OrderAccepted:
     update: bool
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class OrderRejected:
     """Nothing of the order was taken over; ``error`` is what ``state.errors`` shows for it."""
@@ -187,6 +203,7 @@ class OrderRejected:
     error: Error
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class OrderDiscarded:
     """§6.6.4.3: the same orderId and orderUpdateId again; ignored."""
@@ -195,6 +212,7 @@ class OrderDiscarded:
     order_update_id: int
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class OrderEnded:
     """``how``: ``completed``, ``cancelled``, or why the vehicle gave it up (``battery_empty``,
@@ -204,12 +222,14 @@ class OrderEnded:
     how: str
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class NodeTraversed:
     node_id: str
     sequence_id: int
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class ActionChanged:
     action_id: str
@@ -217,11 +237,13 @@ class ActionChanged:
     status: ActionStatus
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class ErrorRaised:
     error: Error
 
 
+@slot_init
 @dataclass(frozen=True, slots=True)
 class ErrorCleared:
     error: Error

@@ -56,6 +56,9 @@ def problem(order: Order) -> tuple[str, str] | None:
 
 
 def _duplicate_action(order: Order) -> tuple[str, str] | None:
+    ids = [a.action_id for n in order.nodes for a in n.actions] + [a.action_id for e in order.edges for a in e.actions]
+    if len(set(ids)) == len(ids):
+        return None  # every order a vehicle accepts: no need to find the first repeat in sequence order
     seen: set[str] = set()
     places = [("nodes", i, n.actions) for i, n in enumerate(order.nodes)]
     places += [("edges", i, e.actions) for i, e in enumerate(order.edges)]

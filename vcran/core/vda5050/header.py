@@ -96,4 +96,4 @@ class Stamper:
         """The header of the next message on ``topic``; call once per message sent."""
         n = self._next.get(topic, 0)
         self._next[topic] = n + 1
-        return Header(n, timestamp(now, self.epoch), self.version.value, self.manufacturer, self.serial_number)
+        return Header(n, timestamp(now, self.epoch), self.version._value_, self.manufacturer, self.serial_number)

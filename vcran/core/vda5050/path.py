@@ -16,7 +16,13 @@ from vcran.core.vda5050.order import Action, Edge, Node, Order
 
 def blocking(actions: tuple[Action, ...]) -> bool:
     """Whether these actions stop the vehicle (a SOFT or HARD one among them, §6.12)."""
-    return any(a.blocking_type is not BlockingType.NONE for a in actions)
+    for a in actions:  # a loop, not any() over a generator: asked for every node and edge at every step
+        if a.blocking_type is not _NONE:
+            return True
+    return False
+
+
+_NONE = BlockingType.NONE
 
 
 class Path:
@@ -25,6 +31,8 @@ class Path:
         self.edges: list[Edge] = []
         #: Bumped at every change (the state message's nodeStates and edgeStates are built again then).
         self.version = 0
+        #: (version, :meth:`short_of_base` then): asked before and after every input of the vehicle.
+        self._short = (0, False)
 
     def load(self, order: Order) -> None:
         """A new order whose first node the vehicle has just traversed (it stands on it)."""
@@ -66,6 +74,14 @@ class Path:
 
     def released_edges(self) -> int:
         return sum(1 for e in self.edges if e.released)
+
+    def short_of_base(self) -> bool:
+        """§6.10.3's ``newBaseRequest`` of an active order: a horizon, and at most one released edge left to
+        drive. Worked out once per :attr:`version` (every change of the nodes and edges bumps it)."""
+        short = self._short
+        if short[0] != self.version:
+            short = self._short = (self.version, self.horizon() and self.released_edges() <= 1)
+        return short[1]
 
     def segment(self, commanded: int, entered: set[int]) -> list[tuple[Edge, Node]]:
         """The edges and nodes to drive after the ``commanded`` nodes already on the route: released ones,

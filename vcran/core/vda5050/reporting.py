@@ -60,6 +60,10 @@ class ReportingMixin:
     _active: bool
     _odometer_at_node: float | None
     _graph: tuple[int, tuple[NodeState, ...], tuple[EdgeState, ...]] | None = None
+    #: The last batteryState sent, sent again while the charge and charging stay (most states of a run).
+    _battery: BatteryState | None = None
+    #: (the configuration, the maps a state lists under it): :meth:`_maps`.
+    _map_list: tuple[VehicleConfig, tuple[Map, ...] | None] | None = None
 
     if TYPE_CHECKING:
         @property
@@ -69,7 +73,7 @@ class ReportingMixin:
     def new_base_request(self) -> bool:
         """§6.10.3: the order has a horizon and at most one released edge is left to drive: on the last edge
         of the base, or at its end (docs/vda5050.md)."""
-        return self._active and self.path.horizon() and self.path.released_edges() <= 1
+        return self._active and self.path.short_of_base()
 
     def state(self, now: float, body: Body) -> State:
         """The ``state`` message now (§6.10.6), ``body`` giving position, velocity, battery and loads."""
@@ -77,14 +81,19 @@ class ReportingMixin:
         if graph is None or graph[0] != self.path.version:
             graph = self._graph = (
                 self.path.version,
-                tuple(NodeState(node_id=n.node_id, sequence_id=n.sequence_id, node_description=n.node_description,
-                                released=n.released) for n in self.path.nodes),
-                tuple(EdgeState(edge_id=e.edge_id, sequence_id=e.sequence_id, edge_description=e.edge_description,
-                                released=e.released) for e in self.path.edges),
+                tuple([NodeState(node_id=n.node_id, sequence_id=n.sequence_id, node_description=n.node_description,
+                                 released=n.released) for n in self.path.nodes]),
+                tuple([EdgeState(edge_id=e.edge_id, sequence_id=e.sequence_id, edge_description=e.edge_description,
+                                 released=e.released) for e in self.path.edges]),
             )
         at = self._odometer_at_node
         since = max(0.0, body.where.odometer - at) if at is not None and self.last_node_id else None
         charge = 100.0 if body.battery is None else min(100.0, max(0.0, body.battery))
+        battery = self._battery
+        # equal floats are written alike here (max() above never gives -0.0); an int charge is built anew
+        if battery is None or battery.battery_charge != charge or battery.charging is not self.charging \
+                or charge.__class__ is not float:
+            battery = self._battery = BatteryState(battery_charge=charge, charging=self.charging)
         return State(
             header=self.stamper.stamp("state", now),
             maps=self._maps(),
@@ -103,7 +112,7 @@ class ReportingMixin:
             new_base_request=self.new_base_request,
             distance_since_last_node=since,
             action_states=self.actions.states(),
-            battery_state=BatteryState(battery_charge=charge, charging=self.charging),
+            battery_state=battery,
             operating_mode=OperatingMode.AUTOMATIC,
             errors=self.errors.listed(),
             safety_state=_FIELD if self.field_violation else _NO_FIELD,
@@ -127,10 +136,13 @@ class ReportingMixin:
                            position_initialized=True)
 
     def _maps(self) -> tuple[Map, ...] | None:
-        """§6.7.2 (2.1.0 only): the vehicle's one map, enabled."""
-        if not self.config.version.at_least(Version.V2_1_0):
-            return None
-        return _enabled(self.config.map_id, self.config.map_version)
+        """§6.7.2 (2.1.0 only): the vehicle's one map, enabled; worked out once per configuration."""
+        config = self.config
+        known = self._map_list
+        if known is None or known[0] is not config:
+            maps = _enabled(config.map_id, config.map_version) if config.version.at_least(Version.V2_1_0) else None
+            known = self._map_list = (config, maps)
+        return known[1]
 
 
 @cache

@@ -106,6 +106,10 @@ class TraceWriter:
             head = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
             self._jsonl.write(json_line(head)[:-2] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
             return
+        if inbound.wire is not None:  # a VDA 5050 script's message as its master sends it (docs/vda5050.md)
+            head = _dumps({"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute})
+            self._jsonl.write(b"".join((head[:-1], b',"raw":', inbound.wire, b"}\n")))
+            return
         key = ("in", inbound.entity, inbound.attribute)
         last = self._last.get(key)
         if last is not None and type(last[0]) is type(message):

@@ -103,6 +103,8 @@ class VehicleNode:
         self._timers: dict[str, simpy.events.Event] = {}
         #: The waitForTrigger actions the body waits in, in the order they started.
         self._waiting: list[str] = []
+        #: The ``loads`` a state lists by the number of parts carried (:meth:`shown`).
+        self._loads: dict[int, tuple[Load, ...]] = {}
         body.tell = self.inbox.put
         body.plan = self.leg_to
         body.log = self._incident
@@ -144,7 +146,10 @@ class VehicleNode:
         charge = body.charge()
         battery = body.config.battery
         percent = None if charge is None or battery is None else 100.0 * charge / battery.capacity
-        loads = tuple(Load(load_id=f"{self.id}_part_{i + 1}") for i in range(body.carrying))
+        carrying = body.carrying
+        loads = self._loads.get(carrying)
+        if loads is None:  # the same tuple for every state while the count stays: built once per count
+            loads = self._loads[carrying] = tuple(Load(load_id=f"{self.id}_part_{i + 1}") for i in range(carrying))
         return fx.Body(fx.Where(x, y, theta, body.odometer()), vx=speed, vy=0.0, omega=omega, battery=percent,
                        loads=loads)
 
