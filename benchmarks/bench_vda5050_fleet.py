@@ -3,6 +3,7 @@
     python benchmarks/bench_vda5050_fleet.py                  # 100 robots, one simulated hour, 3 rounds
     python benchmarks/bench_vda5050_fleet.py --robots 20 --hours 0.25 --rounds 2
     python benchmarks/bench_vda5050_fleet.py --only scripted  # or: loop
+    python benchmarks/bench_vda5050_fleet.py --instructions --robots 20 --hours 0.25 --only scripted --sinks folder
 
 **Scripted.** The OPIL side is ``vcran gen --robots N --hours H --seed 1`` (what ``bench_fleet.py`` runs):
 each robot a cycle of two tasks, a pickup (two motions, ``load``) and a drop (two motions, ``unload``),
@@ -35,17 +36,26 @@ sides alternate, the order swapped every round, and each side's least CPU time o
 system of the child's run: on a shared machine less disturbed than wall time, also shown). The figure is the
 ratio VDA 5050 / OPIL within this one invocation; issue 31 asks at most 1.5x. Events are the lines of the
 run's event log, per CPU second of its run. The figures and what was done about them: benchmarks/README.md.
+
+``--instructions`` counts instead of timing: each side's run once under valgrind's callgrind, counting only
+inside the run (the child calls it through ``functools.reduce``, the C function callgrind is told to count
+in), ``PYTHONHASHSEED=0``. The count does not move with the machine's load (the same code twice agrees to about
+0.1%), so it shows what a change did where CPU seconds on a shared machine cannot; it runs some 50 times
+slower, hence a smaller fleet, whose ratio is above the hour's (fixed costs weigh more).
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
+import functools
 import importlib
 import json
 import math
 import os
 import platform
+import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -62,6 +72,10 @@ FLOOR = 30.0
 #: The closed loop's collision detection (docs/contract.md §4): off, since 100 robots crossing at shared stations
 #: make its refinement most of both runs (``bench_s4.py --scenario`` measures that), hiding the protocols' cost.
 COLLISIONS = "off"
+#: Set in a child run under callgrind (``--instructions``): the run is called through ``functools.reduce``, the C
+#: function callgrind is told to count inside (``--toggle-collect``), so that imports and the scenario's building
+#: are left out.
+COUNTED = "VCRAN_BENCH_COUNTED"
 
 
 # --- the scripted pair ------------------------------------------------------------------------------------------
@@ -209,7 +223,11 @@ def child(case: str, side: str, sinks: str, robots: int, hours: float, out: str)
         for module in ("vcran.managers", "vcran.managers.vda5050", "vcran.sim.opil.loop", "vcran.sim.vda5050.loop"):
             importlib.import_module(module)
     wall, cpu = time.perf_counter(), time.process_time()
-    result = vcran.api.run(scenario, out=out if sinks == "folder" else None)
+    if os.environ.get(COUNTED):  # under callgrind, which counts inside functools.reduce alone (--instructions)
+        result = functools.reduce(lambda _, __: vcran.api.run(scenario, out=out if sinks == "folder" else None),
+                                  (None, None))
+    else:
+        result = vcran.api.run(scenario, out=out if sinks == "folder" else None)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     summary = result.summary
     done = summary["robots"]
@@ -234,6 +252,35 @@ def run_child(case: str, side: str, sinks: str, robots: int, hours: float, work:
     if done.returncode != 0:
         raise SystemExit(f"{case} {side} failed:\n{done.stderr}")
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def run_counted(case: str, side: str, sinks: str, robots: int, hours: float, work: Path) -> tuple[int, dict[str, Any]]:
+    """The instructions the child's run executes (callgrind's count inside ``functools.reduce``), and its figures."""
+    out = work / f"{case}-{side}-counted"
+    env = {**os.environ, "PYTHONHASHSEED": "0", COUNTED: "1"}
+    command = ["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=functools_reduce",
+               "--callgrind-out-file=/dev/null", sys.executable, __file__, "--child", case, side, sinks, str(robots),
+               str(hours), str(out)]
+    done = subprocess.run(command, capture_output=True, text=True, cwd=ROOT, env=env)
+    if done.returncode != 0:
+        raise SystemExit(f"{case} {side} under callgrind failed:\n{done.stderr[-2000:]}")
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if found is None or int(found.group(1)) == 0:
+        raise SystemExit("callgrind counted nothing inside functools_reduce: this Python's binary has no symbol of "
+                         "that name (stripped?); --instructions needs one that has")
+    return int(found.group(1)), json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def count(case: str, sinks: str, robots: int, hours: float, work: Path) -> None:
+    """``--instructions``: each side once under callgrind; the counts do not depend on the machine's load."""
+    counted = {side: run_counted(case, side, sinks, robots, hours, work) for side in ("opil", "vda5050")}
+    print(f"\n## {case}, {robots} robots x {hours:g} h, {sinks} sinks; instructions inside vcran.api.run (callgrind)\n")
+    if case == "scripted" and (problems := same_work(counted["opil"][1], counted["vda5050"][1])):
+        raise SystemExit("the two runs did not do the same work: " + "; ".join(problems))
+    print("| side | instructions | ratio to OPIL |\n|---|---|---|")
+    base = counted["opil"][0]
+    for side, (n, _) in counted.items():
+        print(f"| {side} | {n:,} | {n / base:.2f}x |")
 
 
 def same_work(opil: dict[str, Any], vda: dict[str, Any]) -> list[str]:
@@ -305,7 +352,12 @@ def main() -> None:
     parser.add_argument("--sinks", choices=("memory", "folder"), nargs="+", default=["memory", "folder"],
                         help="in memory (vcran.simulate) and/or a run folder (vcran run); default both")
     parser.add_argument("--only", choices=("scripted", "loop"), help="one case (default both)")
+    parser.add_argument("--instructions", action="store_true",
+                        help="count each side's instructions once under valgrind's callgrind instead of timing "
+                             "rounds: the same on a loaded machine, about 50 times slower (use a smaller fleet)")
     args = parser.parse_args()
+    if args.instructions and shutil.which("valgrind") is None:
+        parser.error("--instructions needs valgrind on PATH (Debian: apt-get install valgrind)")
     sys.path.insert(0, str(ROOT))
     print(f"# VDA 5050 against OPIL: Python {platform.python_version()} on {platform.machine()}, "
           f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}")
@@ -316,7 +368,10 @@ def main() -> None:
                 print(f"\n## loop: skipped, the simulation does not run a VDA 5050 master yet ({why})")
                 continue
             for sinks in args.sinks:
-                compare(case, sinks, args.robots, args.hours, args.rounds, Path(tmp))
+                if args.instructions:
+                    count(case, sinks, args.robots, args.hours, Path(tmp))
+                else:
+                    compare(case, sinks, args.robots, args.hours, args.rounds, Path(tmp))
     print(f"\n(load average at the end {os.getloadavg()[0]:.1f})")
 
 
