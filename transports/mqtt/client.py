@@ -58,7 +58,8 @@ class MqttOptions:
 
 class Tally:
     """Problems a peer caused, counted by kind, each distinct (kind, key) logged once: a master that sends
-    garbage ten times a second gets one log line and a count, never a flood or a crash (docs/contract.md §11)."""
+    garbage ten times a second gets one log line and a count, never a flood or a crash (docs/contract.md §11).
+    :meth:`first` is the log-once alone, for a problem counted elsewhere."""
 
     #: How many distinct keys are remembered; past it, problems are counted without a log line.
     LIMIT = 1000
@@ -71,11 +72,21 @@ class Tally:
     def report(self, kind: str, key: object, message: str) -> None:
         with self._lock:
             self.counts[kind] += 1
-            first = (kind, key) not in self._seen and len(self._seen) < self.LIMIT
-            if first:
-                self._seen.add((kind, key))
+            first = self._first(kind, key)
         if first:
             log.warning("%s (reported once; later ones are counted)", message)
+
+    def first(self, kind: str, key: object) -> bool:
+        """Whether ``(kind, key)`` comes for the first time (then the caller logs it), counting nothing: for a
+        problem with a count of its own, such as a send the broker did not take (``MqttMaster.counts``)."""
+        with self._lock:
+            return self._first(kind, key)
+
+    def _first(self, kind: str, key: object) -> bool:  # under _lock
+        first = (kind, key) not in self._seen and len(self._seen) < self.LIMIT
+        if first:
+            self._seen.add((kind, key))
+        return first
 
     def describe(self) -> str:
         with self._lock:

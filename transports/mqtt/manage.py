@@ -45,7 +45,7 @@ from functools import partial
 import simpy
 
 from transports.mqtt.client import CONNECT_TIMEOUT, MqttOptions
-from transports.mqtt.master import MqttMaster
+from transports.mqtt.master import INVALID, MqttMaster
 from transports.mqtt.topics import BrokerUrl, FleetVehicle, fleet_of
 from vcran.core.jobs import Log
 from vcran.core.scenario import Scenario
@@ -76,9 +76,9 @@ class MqttMasterLink:
         self.master = MqttMaster(url, vehicles, self._received, options=options, visualization=visualization,
                                  parsed=True)  # each payload parsed once, by the screen; one not JSON counted there
         self._lock = threading.Lock()
-        self._heard = 0  # valid messages handed to the master (under _lock)
-        self._waiting = 0  # non-periodic messages handed to the simulation, not heard yet (under _lock)
-        self._unsent_reported: set[str] = set()
+        # Non-periodic messages handed to the simulation, not heard yet (under _lock: the network thread adds,
+        # the simulation thread takes away), for until_idle: only the link sees both ends, the master neither.
+        self._waiting = 0
 
     def open(self, timeout: float | None = CONNECT_TIMEOUT) -> None:
         """Connect; :class:`~transports.mqtt.client.MqttUnavailable` if the broker is not reached in ``timeout``."""
@@ -93,8 +93,7 @@ class MqttMasterLink:
         """Send ``message`` (the model: ``attribute`` is its topic) to ``robot`` now."""
         if self.master.send(robot, message):
             return
-        if robot not in self._unsent_reported:  # counted in master.counts["unsent"] each time
-            self._unsent_reported.add(robot)
+        if self.master.tally.first("not sent", robot):  # counted in master.counts["unsent"] each time
             log.warning("%s to %s not sent: the broker connection is down (the master decides what to send again; "
                         "reported once per vehicle, later ones are counted)", attribute, robot)
 
@@ -120,12 +119,8 @@ class MqttMasterLink:
         return self.master.counts["unsent"]
 
     def describe(self) -> str:
-        """The end-of-run figure of the broker traffic."""
-        with self._lock:
-            heard = self._heard
-        problems = self.master.tally.describe()
-        return (f"{self.sent} message(s) sent, {self.unsent} not sent (broker down); {heard} heard"
-                + ("" if problems == "no problems" else f" ({problems})"))
+        """The end-of-run figure of the broker traffic (:meth:`MqttMaster.traffic`; after :meth:`close`)."""
+        return self.master.traffic()
 
     # --- inbound, on the network thread --------------------------------------------------------------------
 
@@ -134,14 +129,14 @@ class MqttMasterLink:
         vehicle = self.master.vehicles[inbound.entity]
         message = codec.decode_parsed(topic, inbound.raw, vehicle.version)  # the screen parsed it (module docstring)
         if isinstance(message, codec.Invalid):  # counted by the tally, as foreign topics and bad payloads are
-            self.master.tally.report("invalid messages", (inbound.entity, topic),
+            self.master.tally.report(INVALID, (inbound.entity, topic),
                                      f"{vehicle.address.topic(topic)}: an invalid {topic.value} ignored, "
                                      f"{message.path}: {message.problem}")
             return
         periodic = topic.value in PERIODIC
-        with self._lock:
-            self._heard += 1
-            self._waiting += not periodic
+        if not periodic:
+            with self._lock:
+                self._waiting += 1
         self.env.call_soon(partial(self._hand_on, Publish(0.0, inbound.entity, topic.value, message), periodic))
 
     def _hand_on(self, publish: Publish, periodic: bool) -> None:

@@ -9,7 +9,8 @@ topic and ignored. Each message of a fleet vehicle is handed to ``on_message`` o
 hands theirs; decoding (:func:`vcran.core.vda5050.codec.decode`) is the receiver's business. With
 ``parsed=True``, ``raw`` is the JSON value the payload parses to, and a payload that is not JSON is only
 counted (:func:`transports.mqtt.client.screened`): ``vcran manage --mqtt``'s link decodes what it gets
-without parsing it again.
+without parsing it again. A receiver that finds a message invalid reports it to :attr:`MqttMaster.tally` as
+:data:`INVALID`: what was handed on less those is what the master heard (:meth:`MqttMaster.traffic`).
 
 :meth:`MqttMaster.send` publishes an ``order`` or ``instantActions`` message (QoS 0, not retained, §6.2),
 encoded for the vehicle's version, and says whether the broker connection took it: while the broker is
@@ -36,6 +37,8 @@ from vcran.core.wire import Inbound
 _MASTERS = itertools.count(1)
 _QUEUED = (mqtt.MQTT_ERR_SUCCESS, mqtt.MQTT_ERR_AGAIN)  # a publish paho holds to write
 _TOPICS = {Order: Topic.ORDER, InstantActions: Topic.INSTANT_ACTIONS}
+#: The tally's kind of a message handed on that its receiver found invalid (module docstring): not heard.
+INVALID = "invalid messages"
 
 
 class MqttMaster:
@@ -98,11 +101,22 @@ class MqttMaster:
     def close(self) -> None:
         self.client.stop()
 
-    def status(self) -> str:
+    @property
+    def heard(self) -> int:
+        """Messages handed on to ``on_message`` that their receiver did not report as :data:`INVALID`."""
+        return self.counts["received"] - self.tally.counts[INVALID]
+
+    def traffic(self) -> str:
+        """What crossed the connection, and the problems of the tally: ``vcran manage --mqtt``'s end-of-run
+        figure. The counts are the network thread's: read it once :meth:`close` has returned for a final one."""
         c = self.counts
+        problems = self.tally.describe()
+        return (f"{c['sent']} message(s) sent, {c['unsent']} not sent (broker down); {self.heard} heard"
+                + ("" if problems == "no problems" else f" ({problems})"))
+
+    def status(self) -> str:
         state = "connected" if self.client.up else self.client.last_error
-        return (f"MQTT {self.url}: master {state}, {max(0, self.client.connects - 1)} reconnects; "
-                f"out {c['sent']} sent, {c['unsent']} not sent; in {c['received']}, {self.tally.describe()}")
+        return f"MQTT {self.url}: master {state}, {max(0, self.client.connects - 1)} reconnects; {self.traffic()}"
 
     def _received(self, topic: str, payload: bytes) -> None:
         found = self._by_topic.get(topic)

@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 from vcran.commands import CommandError, _live_mqtt
 from vcran.commands._live_mqtt import broker_url
 from vcran.commands._live_mqtt import check as check  # the same options as vcran live --mqtt: none of --orion's
+from vcran.core.scenario import VDA5050
+from vcran.runner import EDGES
 
 if TYPE_CHECKING:
     from transports.mqtt.manage import MqttLoop, MqttMasterLink
@@ -18,6 +20,9 @@ if TYPE_CHECKING:
     from vcran.core.manager import Manager
     from vcran.core.scenario import Scenario
     from vcran.sim.live import LiveEnvironment
+
+#: The option of this edge (VDA 5050's): vcran manage checks the scenario's protocol against it.
+OPTION = EDGES[VDA5050]
 
 
 class MqttSide:
@@ -64,3 +69,6 @@ class MqttSide:
     def close(self) -> None:
         if self.loop is not None and self.loop.link is not None:
             self.link.close()
+
+
+side = MqttSide  # what vcran manage builds with the edge's options, before any folder is made (its Side)

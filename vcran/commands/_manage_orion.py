@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError
 from vcran.commands._orion import LISTEN, POLL_INTERVAL, check_inbound, client_from_args
+from vcran.core.scenario import OPIL
+from vcran.runner import EDGES
 
 if TYPE_CHECKING:
     from transports.orion.manage import OrionLoop, OrionManagerLink
@@ -20,6 +22,8 @@ if TYPE_CHECKING:
     from vcran.sim.live import LiveEnvironment
 
 check = check_inbound  # the edge's options, as vcran live --orion checks them
+#: The option of this edge (OPIL's): vcran manage checks the scenario's protocol against it.
+OPTION = EDGES[OPIL]
 
 
 class OrionSide:
@@ -74,3 +78,6 @@ class OrionSide:
         if self.loop is not None and self.loop.link is not None:
             self.link.close()
         self.client.close()
+
+
+side = OrionSide  # what vcran manage builds with the edge's options, before any folder is made (its Side)

@@ -10,8 +10,10 @@ open, no timer is pending and nothing is on its way between manager and fleet.
 
 What both edges share is here: the options, the checks made before anything is connected or any folder
 made, the LiveEnvironment, the end of the run, the run folder (job events, summary) and the end-of-run
-line. What differs is the edge, one module per protocol: :mod:`vcran.commands._manage_orion` (docs/live.md,
-"A fleet manager, live") and :mod:`vcran.commands._manage_mqtt` (docs/vda5050.md, "Live over MQTT").
+line. What differs is the edge, one module per protocol, chosen once from the option given and then asked for
+its ``check`` of the options, its ``OPTION`` (the scenario's protocol is checked against it) and its ``side``:
+:mod:`vcran.commands._manage_orion` (docs/live.md, "A fleet manager, live") and :mod:`vcran.commands._manage_mqtt`
+(docs/vda5050.md, "Live over MQTT").
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ CHECK_EVERY = 0.25
 
 
 class Side(Protocol):
-    """One protocol's side of ``vcran manage`` (built by the edge module's ``*Side(args, scenario)``, before
+    """One protocol's side of ``vcran manage`` (built by the edge module's ``side(args, scenario)``, before
     any folder is made): :meth:`attach` connects and starts the manager's loop (a CommandError if it cannot)."""
 
     def attach(self, manager: Manager, log: Log, env: LiveEnvironment) -> Loop: ...
@@ -88,11 +90,11 @@ def run(args: argparse.Namespace) -> int:
     check_positive("--factor", args.factor)
     if args.jobs is not None and args.jobs < 0:
         raise CommandError("--jobs must not be negative")
-    edge = _manage_mqtt if args.mqtt is not None else _manage_orion
+    edge = _manage_mqtt if args.mqtt is not None else _manage_orion  # chosen once: the rest asks the edge
     edge.check(args)  # the edge's options, before the scenario is read
     check_view(args.view, args.out)
     # a scenario of the other protocol, or a manager of the other kind: refused before anything connects
-    scenario = load_scenario(args.scenario, f"vcran manage --{'mqtt' if edge is _manage_mqtt else 'orion'}")
+    scenario = load_scenario(args.scenario, f"vcran manage {edge.OPTION}")
     if args.jobs is not None:
         scenario = replace(scenario, jobs=tuple(islice(scenario.workload(), args.jobs)), job_stream=None)
     scenario = on_wall_clock(scenario)  # a VDA 5050 master stamps its headers in real time, as vcran live's vehicles do
@@ -103,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     if manager is None:
         raise CommandError(f"{args.scenario}: names no fleet manager: give one with --manager module:Class")
 
-    side: Side = _manage_mqtt.MqttSide(args, scenario) if edge is _manage_mqtt else _manage_orion.OrionSide(args, scenario)
+    side: Side = edge.side(args, scenario)
     try:
         view = serve_live(args.view, args.out, args.quiet)  # a port in use: refused before anything runs
     except CommandError:

@@ -188,6 +188,9 @@ def test_a_send_the_broker_did_not_take_is_counted_and_reported_once(brokers, tm
     assert (link.sent, link.unsent) == (0, 3) and link.inbound_idle
     reported = [r.getMessage() for r in caplog.records if "not sent" in r.getMessage()]
     assert len(reported) == 1 and "to r1" in reported[0]
+    # the end-of-run figure counts them once, as not sent, and not again among the problems a peer caused (no
+    # vehicle published anything: nothing heard, no problem)
+    assert link.describe() == "0 message(s) sent, 3 not sent (broker down); 0 heard"
 
 
 def test_an_unreachable_broker_is_an_error_before_any_hook_runs(tmp_path):
