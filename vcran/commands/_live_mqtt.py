@@ -15,6 +15,8 @@ from collections import Counter
 from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError
+from vcran.core.scenario import VDA5050
+from vcran.runner import EDGES
 
 if TYPE_CHECKING:
     from transports.mqtt import BrokerUrl, MqttTransport
@@ -22,6 +24,8 @@ if TYPE_CHECKING:
     from vcran.sim.model import Model
 
 #: The options of ``--orion`` alone, as argparse names them.
+#: The option of this edge (VDA 5050's): vcran live checks the scenario's protocol against it.
+OPTION = EDGES[VDA5050]
 ORION_ONLY = ("service", "service_path", "token_file", "notify_url", "listen", "poll_interval")
 #: Wall seconds the vehicles (and ``vcran manage --mqtt``'s master) may take to connect before the command gives up:
 #: transports.mqtt.client.CONNECT_TIMEOUT, the edge's default, written here because the commands import paho only

@@ -8,7 +8,9 @@ from typing import TYPE_CHECKING
 
 from vcran.commands import CommandError
 from vcran.commands._orion import LISTEN, POLL_INTERVAL, check_inbound, client_from_args
+from vcran.core.scenario import OPIL
 from vcran.io.progress import STATES
+from vcran.runner import EDGES
 
 if TYPE_CHECKING:
     from transports.orion.transport import OrionTransport
@@ -16,6 +18,8 @@ if TYPE_CHECKING:
     from vcran.sim.model import Model
 
 check = check_inbound  # the edge's options, as vcran manage --orion checks them
+#: The option of this edge (OPIL's): vcran live checks the scenario's protocol against it.
+OPTION = EDGES[OPIL]
 
 
 class OrionEdge:

@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     check_positive("--factor", args.factor)
     side = _live_mqtt if args.mqtt is not None else _live_orion
     side.check(args)  # the edge's options, before the scenario is read
-    scenario = load_scenario(args.scenario, f"vcran live --{'mqtt' if side is _live_mqtt else 'orion'}")
+    scenario = load_scenario(args.scenario, f"vcran live {side.OPTION}")
     check_out(args.out)
     check_view(args.view, args.out)
     # Live mode runs until the duration or a signal: robots wait for the fleet manager, never "idle out".
