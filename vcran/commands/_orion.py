@@ -45,6 +45,16 @@ def add_connection_arguments(parser: argparse.ArgumentParser, group: argparse._M
                         help=f"{what}file holding the X-Auth-Token (or set {TOKEN_ENV}); never given on the command line")
 
 
+def add_inbound_arguments(parser: argparse.ArgumentParser, notify_help: str) -> None:
+    """How an OPIL edge hears Orion (``--notify-url``, ``--listen``, ``--poll-interval``), as :func:`check_inbound`
+    checks them for ``vcran live --orion`` and ``vcran manage --orion`` alike; ``notify_help`` says who is notified."""
+    parser.add_argument("--notify-url", metavar="URL", help=f"--orion: {notify_help}")
+    parser.add_argument("--listen", metavar="HOST",
+                        help=f"--orion: address the notification listener binds to (default {LISTEN}); with --notify-url")
+    parser.add_argument("--poll-interval", type=float, metavar="S",
+                        help=f"--orion: polling period in simulated seconds (default {POLL_INTERVAL:g}); without --notify-url")
+
+
 def client_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     """An OrionClient; the token comes from a file or the environment, never from argv (it shows in ps).
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from vcran.commands import CommandError, add_scenario_argument, check_out, check_positive, load_scenario
-from vcran.commands._orion import LISTEN, POLL_INTERVAL, add_connection_arguments, setup_logging
+from vcran.commands._orion import add_connection_arguments, add_inbound_arguments, setup_logging
 from vcran.commands._signals import StopSignals
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
 
@@ -82,13 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_connection_arguments(parser, to)
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (trace, events, summary)")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
-    parser.add_argument("--notify-url", metavar="URL",
-                        help="--orion: subscribe, with notifications to this URL (vcran listens there); "
-                             "default: polling")
-    parser.add_argument("--listen", metavar="HOST",
-                        help=f"--orion: address the notification listener binds to (default {LISTEN})")
-    parser.add_argument("--poll-interval", type=float, metavar="S",
-                        help=f"--orion: polling period in simulated seconds (default {POLL_INTERVAL:g})")
+    add_inbound_arguments(parser, "subscribe, with notifications to this URL (vcran listens there); default: polling")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
     add_live_argument(parser)
 

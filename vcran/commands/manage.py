@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from vcran.commands import MANAGER_OPTIONS, CommandError, add_scenario_argument, check_positive, load_scenario
-from vcran.commands._orion import LISTEN, POLL_INTERVAL, add_connection_arguments, setup_logging
+from vcran.commands._orion import add_connection_arguments, add_inbound_arguments, setup_logging
 from vcran.commands._signals import StopSignals
 from vcran.commands.live import on_wall_clock
 from vcran.commands.view import add_live_argument, check_view, end_live, serve_live
@@ -62,13 +62,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--manager", metavar="MODULE:CLASS",
                         help="the fleet manager (default: the scenario's [manager]): a vcran.FleetManager for an OPIL "
                              "scenario, a vcran.core.vda5050.master.Master for a VDA 5050 one" + MANAGER_OPTIONS)
-    parser.add_argument("--notify-url", metavar="URL",
-                        help="--orion: subscribe, Orion notifies the manager of the robots' updates at this URL (vcran "
-                             "listens there); default: poll Orion, for a manager Orion cannot reach")
-    parser.add_argument("--listen", metavar="HOST",
-                        help=f"--orion: address the notification listener binds to (default {LISTEN}); with --notify-url")
-    parser.add_argument("--poll-interval", type=float, metavar="S",
-                        help=f"--orion: polling period in simulated seconds (default {POLL_INTERVAL:g}); without --notify-url")
+    add_inbound_arguments(parser, "subscribe, Orion notifies the manager of the robots' updates at this URL (vcran "
+                                  "listens there); default: poll Orion, for a manager Orion cannot reach")
     parser.add_argument("--factor", type=float, default=1.0, help="simulated seconds per wall second (default 1)")
     parser.add_argument("--jobs", type=int, metavar="N", help="only the first N jobs of the workload")
     parser.add_argument("--out", type=Path, metavar="DIR", help="write the job events (events.jsonl.zst) and summary.json into DIR, as a run folder")
