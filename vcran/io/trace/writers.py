@@ -101,14 +101,12 @@ class TraceWriter:
     # record in a plain Python run (issue 30).
 
     def inbound(self, t: float, inbound: Inbound) -> None:
-        message = inbound.message
-        if message is None:  # undecoded input is whatever a peer sent: written by the standard library (see raw_json)
+        message, wire = inbound.message, inbound.wire
+        if message is None or wire is not None:  # written as it came: undecoded input is whatever a peer sent (by
+            # the standard library, see raw_json); a VDA 5050 script's message the text its master sends
+            raw = raw_json(inbound.raw) if wire is None else wire
             head = {"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute}
-            self._jsonl.write(json_line(head)[:-2] + b',"raw":' + raw_json(inbound.raw) + b"}\n")
-            return
-        if inbound.wire is not None:  # a VDA 5050 script's message as its master sends it (docs/vda5050.md)
-            head = _dumps({"t": t, "dir": "in", "robot": inbound.entity, "attr": inbound.attribute})
-            self._jsonl.write(b"".join((head[:-1], b',"raw":', inbound.wire, b"}\n")))
+            self._jsonl.write(json_line(head)[:-2] + b',"raw":' + raw + b"}\n")
             return
         key = ("in", inbound.entity, inbound.attribute)
         last = self._last.get(key)
