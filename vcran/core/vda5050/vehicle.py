@@ -383,9 +383,6 @@ class Vehicle(InstantActionsMixin, ConditionsMixin, ReportingMixin):
     def seen(self) -> tuple[object, ...]:
         """What a state message shows of the vehicle's logic, cheaply comparable (the body's telemetry, which
         changes all the time, is not an event)."""
-        # driving and newBaseRequest spelled out: asked twice per input, a property call each was a tenth of it
-        paused, path = self.paused, self.path
         return (self.order_id, self.order_update_id, self.zone_set_id, self.last_node_id, self.last_node_sequence_id,
-                path.version, self.actions.states(), self.errors.listed(),
-                bool(self.route) and not (paused or self.broken or self.field_violation or self._instant_hold), paused,
-                self.charging, self.field_violation, self._active and path.short_of_base())
+                self.path.version, self.actions.states(), self.errors.listed(), self.driving, self.paused,
+                self.charging, self.field_violation, self.new_base_request)
